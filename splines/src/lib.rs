@@ -1,0 +1,15 @@
+//! Trajectory bases linear in their coefficients: B-splines and wavelets.
+#![warn(missing_docs)]
+
+pub mod basis;
+pub mod bspline;
+pub mod error;
+pub mod fit;
+#[cfg(feature = "proptest")]
+pub mod strategies;
+pub mod wavelet;
+
+pub use basis::TrajectoryBasis;
+pub use bspline::BSplineBasis;
+pub use error::{Result, SplineError};
+pub use fit::{FitSettings, Trajectory, fit_channel, fit_matrix};
