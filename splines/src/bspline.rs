@@ -181,30 +181,62 @@ impl BSplineBasis {
         s
     }
 
+    /// [`span`](Self::span), starting from the span of the previous time:
+    /// for sorted times it steps forward a few knots instead of searching.
+    #[inline]
+    fn span_from(&self, t: f64, prev: Option<(f64, usize)>) -> usize {
+        if let Some((t_prev, mut s)) = prev
+            && t >= t_prev
+        {
+            let last = self.knots.len() - self.degree - 2;
+            for _ in 0..4 {
+                if t < self.knots[s + 1] {
+                    return s;
+                }
+                if s == last {
+                    break;
+                }
+                s += 1;
+            }
+        }
+        self.span(t)
+    }
+
     /// Values of the `order`-th derivative of the $p + 1$ functions
     /// $N_{s-p}, \dots, N_s$ nonzero on span `s`, written to `out[..=p]`.
     /// `scratch` holds at least `2 (p + 1)` values.
     fn nonzero_funs(&self, s: usize, t: f64, order: usize, out: &mut [f64], scratch: &mut [f64]) {
         let p = self.degree;
         let knots = &self.knots;
-        out[..=p].fill(0.0);
         if order > p {
+            out[..=p].fill(0.0);
             return;
         }
         let q = p - order;
-        // Cox-de Boor for degree q (Piegl & Tiller A2.2), values in out[..=q]
-        let (left, right) = scratch.split_at_mut(p + 1);
-        out[0] = 1.0;
-        for j in 1..=q {
-            left[j] = t - knots[s + 1 - j];
-            right[j] = knots[s + j] - t;
-            let mut saved = 0.0;
-            for r in 0..j {
-                let temp = out[r] / (right[r + 1] + left[j - r]);
-                out[r] = saved + right[r + 1] * temp;
-                saved = left[j - r] * temp;
+        // Cox-de Boor for degree q (Piegl & Tiller A2.2), values in out[..=q];
+        // unrolled for the common low degrees
+        match q {
+            0 => out[0] = 1.0,
+            1 => cox_de_boor_fixed::<1>(knots, s, t, out),
+            2 => cox_de_boor_fixed::<2>(knots, s, t, out),
+            3 => cox_de_boor_fixed::<3>(knots, s, t, out),
+            4 => cox_de_boor_fixed::<4>(knots, s, t, out),
+            5 => cox_de_boor_fixed::<5>(knots, s, t, out),
+            _ => {
+                let (left, right) = scratch.split_at_mut(p + 1);
+                out[0] = 1.0;
+                for j in 1..=q {
+                    left[j] = t - knots[s + 1 - j];
+                    right[j] = knots[s + j] - t;
+                    let mut saved = 0.0;
+                    for r in 0..j {
+                        let temp = out[r] / (right[r + 1] + left[j - r]);
+                        out[r] = saved + right[r + 1] * temp;
+                        saved = left[j - r] * temp;
+                    }
+                    out[j] = saved;
+                }
             }
-            out[j] = saved;
         }
         // raise degree d-1 -> d by the derivative rule, in place from the top
         for d in q + 1..=p {
@@ -343,11 +375,7 @@ impl TrajectoryBasis for BSplineBasis {
         let mut prev: Option<(f64, usize)> = None;
         for (k, &t) in times.iter().enumerate() {
             check_time(t, domain)?;
-            let s = match prev {
-                // sorted input: walk forward from the previous span
-                Some((t_prev, s_prev)) if t >= t_prev && t < self.knots[s_prev + 1] => s_prev,
-                _ => self.span(t),
-            };
+            let s = self.span_from(t, prev);
             prev = Some((t, s));
             let row = k * w..(k + 1) * w;
             self.nonzero_funs(s, t, order, &mut val[row.clone()], &mut scratch);
@@ -367,16 +395,40 @@ impl TrajectoryBasis for BSplineBasis {
         let p = self.degree;
         let mut vals = vec![0.0; 3 * (p + 1)];
         let (out, scratch) = vals.split_at_mut(p + 1);
+        let mut prev = None;
         times
             .iter()
             .map(|&t| {
                 check_time(t, domain)?;
-                let s = self.span(t);
+                let s = self.span_from(t, prev);
+                prev = Some((t, s));
                 self.nonzero_funs(s, t, order, out, scratch);
                 Ok(out.iter().zip(&coeffs[s - p..=s]).map(|(v, c)| v * c).sum())
             })
             .collect()
     }
+}
+
+/// Cox-de Boor for a degree `Q` known at compile time (loops unrolled).
+#[inline(always)]
+fn cox_de_boor_fixed<const Q: usize>(knots: &[f64], s: usize, t: f64, out: &mut [f64]) {
+    let mut left = [0.0; 6];
+    let mut right = [0.0; 6];
+    let mut n = [0.0; 6];
+    let lo = &knots[s + 1 - Q..=s + Q];
+    n[0] = 1.0;
+    for j in 1..=Q {
+        left[j] = t - lo[Q - j];
+        right[j] = lo[Q + j - 1] - t;
+        let mut saved = 0.0;
+        for r in 0..j {
+            let temp = n[r] / (right[r + 1] + left[j - r]);
+            n[r] = saved + right[r + 1] * temp;
+            saved = left[j - r] * temp;
+        }
+        n[j] = saved;
+    }
+    out[..=Q].copy_from_slice(&n[..=Q]);
 }
 
 fn check_interval(lo: f64, hi: f64) -> Result<()> {
