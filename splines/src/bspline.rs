@@ -369,19 +369,18 @@ impl TrajectoryBasis for BSplineBasis {
         let p = self.degree;
         let w = p + 1;
         let n = self.n_coeffs();
-        let mut col_idx = vec![0usize; times.len() * w];
-        let mut val = vec![0.0; times.len() * w];
-        let mut scratch = vec![0.0; 2 * w];
+        let mut col_idx = Vec::with_capacity(times.len() * w);
+        let mut val = Vec::with_capacity(times.len() * w);
+        let mut buf = vec![0.0; 3 * w];
+        let (row, scratch) = buf.split_at_mut(w);
         let mut prev: Option<(f64, usize)> = None;
-        for (k, &t) in times.iter().enumerate() {
+        for &t in times {
             check_time(t, domain)?;
             let s = self.span_from(t, prev);
             prev = Some((t, s));
-            let row = k * w..(k + 1) * w;
-            self.nonzero_funs(s, t, order, &mut val[row.clone()], &mut scratch);
-            for (i, c) in col_idx[row].iter_mut().enumerate() {
-                *c = s - p + i;
-            }
+            self.nonzero_funs(s, t, order, row, scratch);
+            val.extend_from_slice(row);
+            col_idx.extend(s - p..=s);
         }
         let row_ptr = (0..=times.len()).map(|k| k * w).collect();
         let symbolic = SymbolicSparseRowMat::new_checked(times.len(), n, row_ptr, None, col_idx);
