@@ -5,6 +5,7 @@
 //! wavelet analysis and synthesis (db4, symmetric and periodization modes).
 
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use splines::wavelet::{Boundary, Wavelet, WaveletBasis, WaveletTransform, wavedec};
 use splines::{BSplineBasis, FitSettings, TrajectoryBasis, fit_channel};
 use std::hint::black_box;
 
@@ -52,5 +53,38 @@ fn bspline(c: &mut Criterion) {
     }
 }
 
-criterion_group!(benches, bspline);
+fn wavelets(c: &mut Criterion) {
+    for boundary in [Boundary::Symmetric, Boundary::Periodization] {
+        let mut group = c.benchmark_group(format!("wavelet_db4_{}", boundary.name()));
+        for n in SIZES {
+            let x = signal(&times(n));
+            let dec = wavedec(&x, Wavelet::Db4, boundary, None).expect("valid");
+            let flat = dec.to_flat();
+            let mut plan = WaveletTransform::new(Wavelet::Db4, boundary, n, Some(dec.level())).expect("valid");
+            let mut coeffs = vec![0.0; plan.n_coeffs()];
+            let mut out = vec![0.0; n];
+            group.throughput(Throughput::Elements(n as u64));
+            group.bench_with_input(BenchmarkId::new("wavedec", n), &x, |bench, x| {
+                bench.iter(|| wavedec(black_box(x), Wavelet::Db4, boundary, None).expect("valid"))
+            });
+            group.bench_with_input(BenchmarkId::new("reconstruct", n), &dec, |bench, dec| {
+                bench.iter(|| dec.reconstruct().expect("valid"))
+            });
+            group.bench_with_input(BenchmarkId::new("analyse_into", n), &x, |bench, x| {
+                bench.iter(|| plan.analyse_into(black_box(x), &mut coeffs).expect("valid"))
+            });
+            group.bench_with_input(BenchmarkId::new("synthesise_into", n), &flat, |bench, flat| {
+                bench.iter(|| plan.synthesise_into(black_box(flat), &mut out).expect("valid"))
+            });
+            if n <= 10_000 {
+                group.bench_with_input(BenchmarkId::new("basis_new", n), &n, |bench, &n| {
+                    bench.iter(|| WaveletBasis::new(Wavelet::Db4, boundary, n, None, 0.0, 1.0).expect("valid"))
+                });
+            }
+        }
+        group.finish();
+    }
+}
+
+criterion_group!(benches, bspline, wavelets);
 criterion_main!(benches);

@@ -13,6 +13,7 @@
 use std::hint::black_box;
 use std::time::Instant;
 
+use splines::wavelet::{Boundary, Wavelet, WaveletTransform, wavedec};
 use splines::{BSplineBasis, TrajectoryBasis};
 
 /// Median seconds per call over 7 batches of at least ~20 ms each.
@@ -41,6 +42,10 @@ fn median_time<R>(mut f: impl FnMut() -> R) -> f64 {
     samples[3]
 }
 
+fn print_line(kind: &str, n: usize, seconds: f64, checksum: f64) {
+    println!("{{\"kind\": \"{kind}\", \"n\": {n}, \"seconds\": {seconds:e}, \"checksum\": {checksum:e}}}");
+}
+
 fn main() -> anyhow::Result<()> {
     let sizes: Vec<usize> = std::env::args().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
     let sizes = if sizes.is_empty() {
@@ -61,9 +66,28 @@ fn main() -> anyhow::Result<()> {
                 design_checksum += v * (j + 1) as f64 * (k % 7 + 1) as f64;
             }
         }
-        println!(
-            "{{\"kind\": \"bspline_design_matrix\", \"n\": {n}, \"seconds\": {design_s:e}, \"checksum\": {design_checksum:e}}}"
-        );
+        print_line("bspline_design_matrix", n, design_s, design_checksum);
+
+        // wavelets: db4, symmetric mode, PyWavelets' default (maximal) level
+        let signal: Vec<f64> = (0..n)
+            .map(|k| (0.37 * k as f64).sin() + 0.1 * (1.7 * k as f64).cos())
+            .collect();
+        let (w, b) = (Wavelet::Db4, Boundary::Symmetric);
+        let dec = wavedec(&signal, w, b, None)?;
+        let flat = dec.to_flat();
+        let weigh = |v: &[f64]| -> f64 { v.iter().enumerate().map(|(i, x)| x * (i % 5 + 1) as f64).sum() };
+        print_line("wavedec", n, median_time(|| wavedec(&signal, w, b, None)), weigh(&flat));
+        let rec = dec.reconstruct()?;
+        print_line("waverec", n, median_time(|| dec.reconstruct()), weigh(&rec));
+
+        // the planned, allocation-free transform
+        let mut plan = WaveletTransform::new(w, b, n, Some(dec.level()))?;
+        let mut coeffs = vec![0.0; plan.n_coeffs()];
+        let analyse_s = median_time(|| plan.analyse_into(&signal, &mut coeffs));
+        print_line("wavedec:planned", n, analyse_s, weigh(&coeffs));
+        let mut out = vec![0.0; n];
+        let synth_s = median_time(|| plan.synthesise_into(&flat, &mut out));
+        print_line("waverec:planned", n, synth_s, weigh(&out));
     }
     Ok(())
 }
