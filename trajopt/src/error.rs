@@ -1,0 +1,65 @@
+//! The crate's error type.
+
+/// Invalid input, invalid settings, or a failure that leaves no usable
+/// answer. A solver that stops without converging is not an error: it
+/// returns its best point with a status.
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum TrajoptError {
+    /// An error from the trajectory bases.
+    #[error(transparent)]
+    Basis(#[from] splines::SplineError),
+    /// Two sizes that must agree do not.
+    #[error("{what}: expected {expected}, got {actual}")]
+    DimensionMismatch {
+        /// What was measured.
+        what: &'static str,
+        /// Expected size.
+        expected: usize,
+        /// Actual size.
+        actual: usize,
+    },
+    /// A NaN or infinite value in the input.
+    #[error("{what}[{index}] is not finite ({value})")]
+    NotFinite {
+        /// Which input.
+        what: &'static str,
+        /// Position of the value.
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A setting or parameter outside its valid range.
+    #[error("invalid {name}: {reason}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Why it is invalid.
+        reason: String,
+    },
+    /// The objective (or the model inside it) returned a non-finite value
+    /// at the starting point, so there is nothing to improve on.
+    #[error("the objective is not finite at the starting point ({value})")]
+    NonFiniteStart {
+        /// The value returned.
+        value: f64,
+    },
+    /// A user-supplied model or cost failed.
+    #[error("the model failed: {0}")]
+    Model(String),
+}
+
+/// The crate's result type.
+pub type Result<T, E = TrajoptError> = std::result::Result<T, E>;
+
+/// Checks that every value is finite.
+pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(TrajoptError::NotFinite {
+            what,
+            index,
+            value: values[index],
+        }),
+        None => Ok(()),
+    }
+}

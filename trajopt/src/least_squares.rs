@@ -1,0 +1,106 @@
+//! Nonlinear least-squares problems with a sparse Jacobian of fixed pattern.
+
+use faer::sparse::SymbolicSparseRowMat;
+
+use crate::error::Result;
+
+/// A problem $\min_\theta F(\theta) = \lVert r(\theta) \rVert^2$ whose Jacobian
+/// $J = \partial r / \partial \theta$ is sparse with a pattern that does not
+/// depend on $\theta$ (the structural nonzeros; some may be zero at a point).
+///
+/// This is what [`GaussNewton`](crate::GaussNewton) solves. The paper's Eq. 3
+/// with a least-squares stage cost is one ([`Eq3Problem`](crate::Eq3Problem)).
+pub trait LeastSquaresProblem {
+    /// Number of parameters $\dim \theta$.
+    fn n_params(&self) -> usize;
+
+    /// Number of residuals $\dim r$.
+    fn n_residuals(&self) -> usize;
+
+    /// Writes $r(\theta)$ into `r` (length [`n_residuals`](Self::n_residuals)).
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()>;
+
+    /// The sparsity pattern of $J$: compressed rows, sorted unique columns.
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize>;
+
+    /// Writes the values of $J(\theta)$ in the order of
+    /// [`jacobian_pattern`](Self::jacobian_pattern).
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()>;
+}
+
+/// The linear least-squares problem $\min_\theta \lVert A \theta - b \rVert^2$
+/// with a sparse $A$: the simplest [`LeastSquaresProblem`], whose solution
+/// the normal equations give in closed form (Gauss-Newton solves it in one
+/// step). Useful to test solvers.
+#[derive(Debug, Clone)]
+pub struct LinearLeastSquares {
+    a: faer::sparse::SparseRowMat<usize, f64>,
+    b: Vec<f64>,
+}
+
+impl LinearLeastSquares {
+    /// The problem for `a` ($m \times n$, compressed rows with sorted
+    /// columns) and `b` (length $m$).
+    pub fn new(a: faer::sparse::SparseRowMat<usize, f64>, b: Vec<f64>) -> Result<Self> {
+        if a.nrows() != b.len() {
+            return Err(crate::TrajoptError::DimensionMismatch {
+                what: "right-hand side",
+                expected: a.nrows(),
+                actual: b.len(),
+            });
+        }
+        crate::error::check_finite("A", a.val())?;
+        crate::error::check_finite("b", &b)?;
+        Ok(Self { a, b })
+    }
+
+    /// The matrix $A$.
+    pub fn a(&self) -> &faer::sparse::SparseRowMat<usize, f64> {
+        &self.a
+    }
+
+    /// The right-hand side $b$.
+    pub fn b(&self) -> &[f64] {
+        &self.b
+    }
+}
+
+impl LeastSquaresProblem for LinearLeastSquares {
+    fn n_params(&self) -> usize {
+        self.a.ncols()
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.a.nrows()
+    }
+
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        for (i, ri) in r.iter_mut().enumerate() {
+            let cols = self.a.symbolic().col_idx_of_row_raw(i);
+            *ri = cols
+                .iter()
+                .zip(self.a.val_of_row(i))
+                .map(|(&c, &v)| v * theta[c])
+                .sum::<f64>()
+                - self.b[i];
+        }
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        self.a.symbolic().to_owned().unwrap_or_else(|_| {
+            SymbolicSparseRowMat::new_checked(
+                self.a.nrows(),
+                self.a.ncols(),
+                vec![0; self.a.nrows() + 1],
+                None,
+                vec![],
+            )
+        })
+    }
+
+    fn jacobian_values(&self, _theta: &[f64], values: &mut [f64]) -> Result<()> {
+        values.copy_from_slice(self.a.val());
+        Ok(())
+    }
+}

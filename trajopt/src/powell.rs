@@ -1,0 +1,1 @@
+//! Powell's method (being written; see the issue tracker).

@@ -1,0 +1,706 @@
+//! The paper's Eq. 3 over basis coefficients.
+//!
+//! States $x_k \in \mathbb{R}^n$ at the sample times $t_0, \dots, t_N$ and
+//! controls $u_k \in \mathbb{R}^m$ at $t_0, \dots, t_{N-1}$ are represented
+//! separately, each by a basis from [`splines`]:
+//! $x_k = (\Phi_x C_x)_k$, $u_k = (\Phi_u C_u)_k$. The criterion is
+//! $$C(C_x, C_u) = \sum_{k=0}^{N} \lVert r^c_k(x_k, u_k) \rVert^2 +
+//!   \sum_{k=0}^{N-1} \lambda_k s^2 \lVert x_{k+1} - f(x_k, u_k) \rVert^2 \;[+\;
+//!   w_0 \lVert x_0 - \bar x_0 \rVert^2],$$
+//! the first sum the task cost (a [`StageCost`] in residual form, the
+//! terminal stage $k = N$ without control), the second the paper's soft
+//! dynamics constraint with the per-step consistency weight $\lambda_k$
+//! ([`Lambda`]) and a scale $s$ (1 by default; $1/\Delta t$ measures the
+//! mismatch in rate units, so that per-step errors do not shrink with the
+//! step), the last an optional penalty fixing the initial state.
+//!
+//! The parameter vector is $\theta = [\operatorname{vec} C_x, \operatorname{vec} C_u]$,
+//! each coefficient matrix column by column (channel by channel).
+
+use faer::Mat;
+use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
+use splines::TrajectoryBasis;
+
+use crate::error::{Result, TrajoptError, check_finite};
+use crate::least_squares::LeastSquaresProblem;
+
+/// A discrete-time dynamics model $x_{k+1} = f(x_k, u_k)$.
+pub trait Model {
+    /// State dimension $n$.
+    fn state_dim(&self) -> usize;
+
+    /// Control dimension $m$.
+    fn control_dim(&self) -> usize;
+
+    /// Writes $f(x, u)$ into `next`.
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()>;
+
+    /// Writes $\partial f / \partial x$ ($n \times n$) and $\partial f / \partial u$
+    /// ($n \times m$), row-major, and returns `true`; or returns `false`
+    /// (the default) to have them computed by central differences.
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        let _ = (x, u, fx, fu);
+        Ok(false)
+    }
+
+    /// The model's confidence at $(x, u)$, if it has one (a learned model's
+    /// support or inverse variance); used by [`Lambda::from_confidence`].
+    fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
+        let _ = (x, u);
+        None
+    }
+}
+
+/// A stage cost in residual form, $c_k(x, u) = \lVert r^c_k(x, u) \rVert^2$.
+pub trait StageCost {
+    /// Number of residuals per stage (the same for every stage).
+    fn n_residuals(&self) -> usize;
+
+    /// Writes $r^c_k(x_k, u_k)$; `u` is `None` at the terminal stage $k = N$.
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<()>;
+
+    /// Writes $\partial r^c_k / \partial x$ (`n_residuals` $\times n$) and
+    /// $\partial r^c_k / \partial u$ (`n_residuals` $\times m$), row-major;
+    /// at the terminal stage `ju` is ignored.
+    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()>;
+}
+
+/// The paper's Eq. 5 as a built-in stage cost: quadratic tracking of a state
+/// reference $x^d$ and a control reference $u^d$ with diagonal weights,
+/// $$c_k = \sum_i q_i (x_{k,i} - x^d_{k,i})^2 + \sum_j r_j (u_{k,j} - u^d_{k,j})^2,
+/// \qquad c_N = \sum_i q^f_i (x_{N,i} - x^d_{N,i})^2.$$
+/// With a zero control reference this is the paper's $u^\top R u$; with the
+/// demonstration's controls, $\lambda = 0$ plans the demonstration itself.
+#[derive(Debug, Clone)]
+pub struct TrackingCost {
+    state_ref: Mat<f64>,
+    control_ref: Mat<f64>,
+    sqrt_q: Vec<f64>,
+    sqrt_r: Vec<f64>,
+    sqrt_qf: Vec<f64>,
+}
+
+impl TrackingCost {
+    /// A tracking cost: `state_ref` is $(N+1) \times n$, `control_ref` is
+    /// $N \times m$; `q`, `r`, `q_final` are the nonnegative diagonal weights.
+    pub fn new(state_ref: Mat<f64>, control_ref: Mat<f64>, q: &[f64], r: &[f64], q_final: &[f64]) -> Result<Self> {
+        let (n, m) = (state_ref.ncols(), control_ref.ncols());
+        expect_len("q", n, q.len())?;
+        expect_len("q_final", n, q_final.len())?;
+        expect_len("r", m, r.len())?;
+        expect_len(
+            "control reference rows",
+            state_ref.nrows().saturating_sub(1),
+            control_ref.nrows(),
+        )?;
+        for (what, w) in [("q", q), ("r", r), ("q_final", q_final)] {
+            check_finite(what, w)?;
+            if let Some(i) = w.iter().position(|&v| v < 0.0) {
+                return Err(TrajoptError::InvalidParameter {
+                    name: what,
+                    reason: format!("weight {i} is negative ({})", w[i]),
+                });
+            }
+        }
+        for (what, mat) in [("state reference", &state_ref), ("control reference", &control_ref)] {
+            for j in 0..mat.ncols() {
+                if let Some((i, &v)) = mat.col(j).iter().enumerate().find(|(_, v)| !v.is_finite()) {
+                    return Err(TrajoptError::NotFinite {
+                        what,
+                        index: i * mat.ncols() + j,
+                        value: v,
+                    });
+                }
+            }
+        }
+        Ok(Self {
+            state_ref,
+            control_ref,
+            sqrt_q: q.iter().map(|v| v.sqrt()).collect(),
+            sqrt_r: r.iter().map(|v| v.sqrt()).collect(),
+            sqrt_qf: q_final.iter().map(|v| v.sqrt()).collect(),
+        })
+    }
+
+    /// The horizon $N$ implied by the references.
+    pub fn horizon(&self) -> usize {
+        self.control_ref.nrows()
+    }
+}
+
+impl StageCost for TrackingCost {
+    fn n_residuals(&self) -> usize {
+        self.sqrt_q.len() + self.sqrt_r.len()
+    }
+
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<()> {
+        let n = self.sqrt_q.len();
+        let w = if u.is_some() { &self.sqrt_q } else { &self.sqrt_qf };
+        for i in 0..n {
+            r[i] = w[i] * (x[i] - self.state_ref[(k, i)]);
+        }
+        for (j, rj) in r[n..].iter_mut().enumerate() {
+            *rj = match u {
+                Some(u) => self.sqrt_r[j] * (u[j] - self.control_ref[(k, j)]),
+                None => 0.0,
+            };
+        }
+        Ok(())
+    }
+
+    fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()> {
+        let (n, m) = (self.sqrt_q.len(), self.sqrt_r.len());
+        let w = if u.is_some() { &self.sqrt_q } else { &self.sqrt_qf };
+        jx.fill(0.0);
+        ju.fill(0.0);
+        for i in 0..n {
+            jx[i * n + i] = w[i];
+        }
+        if u.is_some() {
+            for j in 0..m {
+                ju[(n + j) * m + j] = self.sqrt_r[j];
+            }
+        }
+        Ok(())
+    }
+}
+
+/// The consistency weight $\lambda_k$ of each step.
+#[derive(Debug, Clone, PartialEq)]
+pub enum Lambda {
+    /// The same $\lambda$ at every step.
+    Constant(f64),
+    /// One $\lambda_k$ per step $k = 0, \dots, N-1$.
+    PerStep(Vec<f64>),
+}
+
+impl Lambda {
+    /// Per-step weights from the model's confidence along a trajectory:
+    /// $\lambda_k = g(\text{confidence}(x_k, u_k))$, `default` where the model
+    /// has no confidence. The weights are fixed for a solve (evaluate them at
+    /// the initial plan, or between solves for a schedule).
+    pub fn from_confidence<M: Model>(
+        model: &M,
+        states: &Mat<f64>,
+        controls: &Mat<f64>,
+        default: f64,
+        g: impl Fn(f64) -> f64,
+    ) -> Lambda {
+        let x = |k: usize| (0..states.ncols()).map(|i| states[(k, i)]).collect::<Vec<_>>();
+        let u = |k: usize| (0..controls.ncols()).map(|j| controls[(k, j)]).collect::<Vec<_>>();
+        Lambda::PerStep(
+            (0..controls.nrows())
+                .map(|k| model.confidence(&x(k), &u(k)).map_or(default, &g))
+                .collect(),
+        )
+    }
+
+    fn resolve(&self, horizon: usize) -> Result<Vec<f64>> {
+        let values = match self {
+            Lambda::Constant(l) => vec![*l; horizon],
+            Lambda::PerStep(v) => {
+                expect_len("lambda per step", horizon, v.len())?;
+                v.clone()
+            }
+        };
+        check_finite("lambda", &values)?;
+        if let Some(k) = values.iter().position(|&l| l < 0.0) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "lambda",
+                reason: format!("lambda[{k}] = {} is negative", values[k]),
+            });
+        }
+        Ok(values)
+    }
+}
+
+/// The criterion split into its parts (all squared norms as in the module
+/// docs).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CostBreakdown {
+    /// Everything: task + inconsistency + initial-state penalty.
+    pub total: f64,
+    /// $\sum_k c(x_k, u_k)$.
+    pub task: f64,
+    /// $\sum_k \lambda_k s^2 \lVert x_{k+1} - f(x_k, u_k) \rVert^2$.
+    pub inconsistency: f64,
+    /// The initial-state penalty.
+    pub initial_state: f64,
+    /// $\max_k \lVert x_{k+1} - f(x_k, u_k) \rVert_\infty$ (unweighted).
+    pub max_mismatch: f64,
+}
+
+/// Eq. 3 over basis coefficients; see the [module docs](self).
+///
+/// It is a [`LeastSquaresProblem`] (for [`GaussNewton`](crate::GaussNewton))
+/// and evaluates its scalar cost for derivative-free solvers
+/// ([`cost`](Self::cost)).
+pub struct Eq3Problem<M, C> {
+    model: M,
+    cost: C,
+    n: usize,
+    m: usize,
+    horizon: usize,
+    phi_x: SparseRowMat<usize, f64>,
+    phi_u: SparseRowMat<usize, f64>,
+    lambda: Vec<f64>,
+    scale: f64,
+    initial_state: Option<(Vec<f64>, f64)>,
+    pattern: SymbolicSparseRowMat<usize>,
+}
+
+impl<M: Model, C: StageCost> Eq3Problem<M, C> {
+    /// The problem on sample times `times` ($t_0 < \dots < t_N$, inside
+    /// both bases' domains); controls are sampled at $t_0, \dots, t_{N-1}$.
+    pub fn new(
+        model: M,
+        cost: C,
+        state_basis: &impl TrajectoryBasis,
+        control_basis: &impl TrajectoryBasis,
+        times: &[f64],
+        lambda: Lambda,
+    ) -> Result<Self> {
+        check_finite("times", times)?;
+        if times.len() < 2 {
+            return Err(TrajoptError::InvalidParameter {
+                name: "times",
+                reason: format!("need at least two sample times, got {}", times.len()),
+            });
+        }
+        if let Some(k) = (1..times.len()).find(|&k| times[k] <= times[k - 1]) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "times",
+                reason: format!(
+                    "sample times must increase: times[{k}] = {} after {}",
+                    times[k],
+                    times[k - 1]
+                ),
+            });
+        }
+        let horizon = times.len() - 1;
+        let (n, m) = (model.state_dim(), model.control_dim());
+        if n == 0 {
+            return Err(TrajoptError::InvalidParameter {
+                name: "model",
+                reason: "the state dimension is zero".into(),
+            });
+        }
+        let phi_x = state_basis.design_matrix_rows(times, 0)?;
+        let phi_u = control_basis.design_matrix_rows(&times[..horizon], 0)?;
+        let lambda = lambda.resolve(horizon)?;
+        let mut problem = Self {
+            model,
+            cost,
+            n,
+            m,
+            horizon,
+            phi_x,
+            phi_u,
+            lambda,
+            scale: 1.0,
+            initial_state: None,
+            pattern: SymbolicSparseRowMat::new_checked(0, 0, vec![0], None, vec![]),
+        };
+        problem.pattern = problem.build_pattern();
+        Ok(problem)
+    }
+
+    /// Scales the dynamics mismatch by `scale` ($s$ in the module docs;
+    /// $1 / \Delta t$ measures it in rate units).
+    pub fn with_consistency_scale(mut self, scale: f64) -> Result<Self> {
+        if !(scale.is_finite() && scale > 0.0) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "consistency scale",
+                reason: format!("must be finite and positive, got {scale}"),
+            });
+        }
+        self.scale = scale;
+        Ok(self)
+    }
+
+    /// Adds the penalty $w_0 \lVert x_0 - \bar x_0 \rVert^2$ fixing the initial state.
+    pub fn with_initial_state(mut self, x0: &[f64], weight: f64) -> Result<Self> {
+        expect_len("initial state", self.n, x0.len())?;
+        check_finite("initial state", x0)?;
+        if !(weight.is_finite() && weight > 0.0) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "initial state weight",
+                reason: format!("must be finite and positive, got {weight}"),
+            });
+        }
+        self.initial_state = Some((x0.to_vec(), weight));
+        self.pattern = self.build_pattern();
+        Ok(self)
+    }
+
+    /// Number of state coefficients per channel.
+    pub fn n_state_coeffs(&self) -> usize {
+        self.phi_x.ncols()
+    }
+
+    /// Number of control coefficients per channel.
+    pub fn n_control_coeffs(&self) -> usize {
+        self.phi_u.ncols()
+    }
+
+    /// The horizon $N$ (number of steps).
+    pub fn horizon(&self) -> usize {
+        self.horizon
+    }
+
+    /// The per-step consistency weights $\lambda_k$.
+    pub fn lambda(&self) -> &[f64] {
+        &self.lambda
+    }
+
+    /// The model.
+    pub fn model(&self) -> &M {
+        &self.model
+    }
+
+    /// The parameter vector $\theta$ of coefficient matrices $C_x$
+    /// (`n_state_coeffs` $\times n$) and $C_u$ (`n_control_coeffs` $\times m$).
+    pub fn pack(&self, cx: &Mat<f64>, cu: &Mat<f64>) -> Result<Vec<f64>> {
+        expect_len("state coefficient rows", self.n_state_coeffs(), cx.nrows())?;
+        expect_len("state coefficient columns", self.n, cx.ncols())?;
+        expect_len("control coefficient rows", self.n_control_coeffs(), cu.nrows())?;
+        expect_len("control coefficient columns", self.m, cu.ncols())?;
+        let mut theta = Vec::with_capacity(self.n_params());
+        for mat in [cx, cu] {
+            for j in 0..mat.ncols() {
+                theta.extend(mat.col(j).iter());
+            }
+        }
+        check_finite("coefficients", &theta)?;
+        Ok(theta)
+    }
+
+    /// The coefficient matrices $(C_x, C_u)$ of a parameter vector.
+    pub fn unpack(&self, theta: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        let (ncx, ncu) = (self.n_state_coeffs(), self.n_control_coeffs());
+        let off = ncx * self.n;
+        Ok((
+            Mat::from_fn(ncx, self.n, |j, i| theta[i * ncx + j]),
+            Mat::from_fn(ncu, self.m, |j, i| theta[off + i * ncu + j]),
+        ))
+    }
+
+    /// States $(N+1) \times n$ and controls $N \times m$ of a parameter vector.
+    pub fn trajectory(&self, theta: &[f64]) -> Result<(Mat<f64>, Mat<f64>)> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        let (x, u) = self.sample(theta);
+        Ok((
+            Mat::from_fn(self.horizon + 1, self.n, |k, i| x[k * self.n + i]),
+            Mat::from_fn(self.horizon, self.m, |k, j| u[k * self.m + j]),
+        ))
+    }
+
+    /// States (row-major, $(N+1) n$) and controls (row-major, $N m$).
+    fn sample(&self, theta: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        let (ncx, ncu) = (self.n_state_coeffs(), self.n_control_coeffs());
+        let off = ncx * self.n;
+        let mut x = vec![0.0; (self.horizon + 1) * self.n];
+        for k in 0..=self.horizon {
+            let cols = self.phi_x.symbolic().col_idx_of_row_raw(k);
+            let vals = self.phi_x.val_of_row(k);
+            for i in 0..self.n {
+                x[k * self.n + i] = cols.iter().zip(vals).map(|(&j, &v)| v * theta[i * ncx + j]).sum();
+            }
+        }
+        let mut u = vec![0.0; self.horizon * self.m];
+        for k in 0..self.horizon {
+            let cols = self.phi_u.symbolic().col_idx_of_row_raw(k);
+            let vals = self.phi_u.val_of_row(k);
+            for i in 0..self.m {
+                u[k * self.m + i] = cols.iter().zip(vals).map(|(&j, &v)| v * theta[off + i * ncu + j]).sum();
+            }
+        }
+        (x, u)
+    }
+
+    /// The criterion and its parts at $\theta$. A model or cost returning a
+    /// non-finite value gives a non-finite total (derivative-free solvers
+    /// treat it as $+\infty$).
+    pub fn cost_breakdown(&self, theta: &[f64]) -> Result<CostBreakdown> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        let (x, u) = self.sample(theta);
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let mut r = vec![0.0; nc];
+        let mut next = vec![0.0; n];
+        let mut out = CostBreakdown {
+            total: 0.0,
+            task: 0.0,
+            inconsistency: 0.0,
+            initial_state: 0.0,
+            max_mismatch: 0.0,
+        };
+        for k in 0..=self.horizon {
+            let xk = &x[k * n..(k + 1) * n];
+            let uk = (k < self.horizon).then(|| &u[k * m..(k + 1) * m]);
+            self.cost.residuals(k, xk, uk, &mut r)?;
+            out.task += r.iter().map(|v| v * v).sum::<f64>();
+            if let Some(uk) = uk {
+                self.model.step(xk, uk, &mut next)?;
+                let mut sq = 0.0;
+                for i in 0..n {
+                    let d = x[(k + 1) * n + i] - next[i];
+                    sq += d * d;
+                    out.max_mismatch = out.max_mismatch.max(d.abs());
+                }
+                out.inconsistency += self.lambda[k] * self.scale * self.scale * sq;
+            }
+        }
+        if let Some((x0, w)) = &self.initial_state {
+            out.initial_state = w * x0.iter().zip(&x[..n]).map(|(a, b)| (b - a) * (b - a)).sum::<f64>();
+        }
+        out.total = out.task + out.inconsistency + out.initial_state;
+        Ok(out)
+    }
+
+    /// The scalar criterion $C(\theta)$ ([`CostBreakdown::total`]).
+    pub fn cost(&self, theta: &[f64]) -> Result<f64> {
+        Ok(self.cost_breakdown(theta)?.total)
+    }
+
+    fn rows_per_step(&self) -> usize {
+        self.cost.n_residuals() + self.n
+    }
+
+    /// Columns of a state channel's coefficients touched by $\Phi_x$ row `k`.
+    fn state_cols(&self, k: usize, channel: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let ncx = self.n_state_coeffs();
+        let cols = self.phi_x.symbolic().col_idx_of_row_raw(k);
+        let vals = self.phi_x.val_of_row(k);
+        cols.iter().zip(vals).map(move |(&j, &v)| (channel * ncx + j, v))
+    }
+
+    /// Columns of a control channel's coefficients touched by $\Phi_u$ row `k`.
+    fn control_cols(&self, k: usize, channel: usize) -> impl Iterator<Item = (usize, f64)> + '_ {
+        let off = self.n_state_coeffs() * self.n;
+        let ncu = self.n_control_coeffs();
+        let cols = self.phi_u.symbolic().col_idx_of_row_raw(k);
+        let vals = self.phi_u.val_of_row(k);
+        cols.iter().zip(vals).map(move |(&j, &v)| (off + channel * ncu + j, v))
+    }
+
+    /// Calls `emit(row, entries)` for every Jacobian row with its (column,
+    /// value) terms (columns may repeat: the caller sums them), given the
+    /// local derivatives. `local(k)` returns (cost jx, cost ju, fx, fu) at step k.
+    fn for_each_row(
+        &self,
+        mut local: impl FnMut(usize) -> Result<LocalDerivatives>,
+        mut emit: impl FnMut(usize, &mut Vec<(usize, f64)>),
+    ) -> Result<()> {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let mut entries = Vec::new();
+        let mut row = 0;
+        for k in 0..=self.horizon {
+            let d = local(k)?;
+            let terminal = k == self.horizon;
+            for a in 0..nc {
+                entries.clear();
+                for i in 0..n {
+                    let g = d.jx[a * n + i];
+                    entries.extend(self.state_cols(k, i).map(|(c, v)| (c, g * v)));
+                }
+                if !terminal {
+                    for j in 0..m {
+                        let g = d.ju[a * m + j];
+                        entries.extend(self.control_cols(k, j).map(|(c, v)| (c, g * v)));
+                    }
+                }
+                emit(row, &mut entries);
+                row += 1;
+            }
+            if terminal {
+                break;
+            }
+            let w = self.scale * self.lambda[k].sqrt();
+            for i in 0..n {
+                entries.clear();
+                entries.extend(self.state_cols(k + 1, i).map(|(c, v)| (c, w * v)));
+                for c in 0..n {
+                    let g = -w * d.fx[i * n + c];
+                    entries.extend(self.state_cols(k, c).map(|(col, v)| (col, g * v)));
+                }
+                for j in 0..m {
+                    let g = -w * d.fu[i * m + j];
+                    entries.extend(self.control_cols(k, j).map(|(col, v)| (col, g * v)));
+                }
+                emit(row, &mut entries);
+                row += 1;
+            }
+        }
+        if let Some((_, w0)) = &self.initial_state {
+            let w = w0.sqrt();
+            for i in 0..n {
+                entries.clear();
+                entries.extend(self.state_cols(0, i).map(|(c, v)| (c, w * v)));
+                emit(row, &mut entries);
+                row += 1;
+            }
+        }
+        debug_assert_eq!(row, self.n_residuals());
+        Ok(())
+    }
+
+    fn build_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let ones = LocalDerivatives {
+            jx: vec![1.0; nc * n],
+            ju: vec![1.0; nc * m],
+            fx: vec![1.0; n * n],
+            fu: vec![1.0; n * m],
+        };
+        let mut row_ptr = vec![0];
+        let mut col_idx = Vec::new();
+        let result = self.for_each_row(
+            |_| Ok(ones.clone()),
+            |_, entries| {
+                entries.sort_unstable_by_key(|e| e.0);
+                entries.dedup_by_key(|e| e.0);
+                col_idx.extend(entries.iter().map(|e| e.0));
+                row_ptr.push(col_idx.len());
+            },
+        );
+        debug_assert!(result.is_ok());
+        SymbolicSparseRowMat::new_checked(self.n_residuals(), self.n_params(), row_ptr, None, col_idx)
+    }
+
+    /// Local derivatives of cost and model at step `k`.
+    fn local_derivatives(&self, k: usize, x: &[f64], u: &[f64]) -> Result<LocalDerivatives> {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let xk = &x[k * n..(k + 1) * n];
+        let mut d = LocalDerivatives {
+            jx: vec![0.0; nc * n],
+            ju: vec![0.0; nc * m],
+            fx: vec![0.0; n * n],
+            fu: vec![0.0; n * m],
+        };
+        if k == self.horizon {
+            self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju)?;
+            return Ok(d);
+        }
+        let uk = &u[k * m..(k + 1) * m];
+        self.cost.jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
+        if !self.model.jacobians(xk, uk, &mut d.fx, &mut d.fu)? {
+            central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
+        }
+        Ok(d)
+    }
+}
+
+#[derive(Clone)]
+struct LocalDerivatives {
+    jx: Vec<f64>,
+    ju: Vec<f64>,
+    fx: Vec<f64>,
+    fu: Vec<f64>,
+}
+
+/// Central differences of the model, step $\sqrt[3]{\epsilon} \max(1, |z|)$
+/// per coordinate.
+fn central_differences<M: Model>(model: &M, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+    let (n, m) = (x.len(), u.len());
+    let mut xp = x.to_vec();
+    let mut up = u.to_vec();
+    let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
+    let eps = f64::EPSILON.cbrt();
+    for c in 0..n + m {
+        let z = if c < n { x[c] } else { u[c - n] };
+        let h = eps * z.abs().max(1.0);
+        let set = |xp: &mut Vec<f64>, up: &mut Vec<f64>, v: f64| {
+            if c < n { xp[c] = v } else { up[c - n] = v }
+        };
+        set(&mut xp, &mut up, z + h);
+        model.step(&xp, &up, &mut plus)?;
+        set(&mut xp, &mut up, z - h);
+        model.step(&xp, &up, &mut minus)?;
+        set(&mut xp, &mut up, z);
+        for i in 0..n {
+            let g = (plus[i] - minus[i]) / (2.0 * h);
+            if c < n {
+                fx[i * n + c] = g;
+            } else {
+                fu[i * m + c - n] = g;
+            }
+        }
+    }
+    Ok(())
+}
+
+impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
+    fn n_params(&self) -> usize {
+        self.n_state_coeffs() * self.n + self.n_control_coeffs() * self.m
+    }
+
+    fn n_residuals(&self) -> usize {
+        let init = if self.initial_state.is_some() { self.n } else { 0 };
+        self.horizon * self.rows_per_step() + self.cost.n_residuals() + init
+    }
+
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        expect_len("residuals", self.n_residuals(), r.len())?;
+        let (x, u) = self.sample(theta);
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let mut next = vec![0.0; n];
+        let mut row = 0;
+        for k in 0..=self.horizon {
+            let xk = &x[k * n..(k + 1) * n];
+            let uk = (k < self.horizon).then(|| &u[k * m..(k + 1) * m]);
+            self.cost.residuals(k, xk, uk, &mut r[row..row + nc])?;
+            row += nc;
+            if let Some(uk) = uk {
+                self.model.step(xk, uk, &mut next)?;
+                let w = self.scale * self.lambda[k].sqrt();
+                for i in 0..n {
+                    r[row + i] = w * (x[(k + 1) * n + i] - next[i]);
+                }
+                row += n;
+            }
+        }
+        if let Some((x0, w0)) = &self.initial_state {
+            let w = w0.sqrt();
+            for i in 0..n {
+                r[row + i] = w * (x[i] - x0[i]);
+            }
+        }
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        self.pattern.clone()
+    }
+
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        expect_len("jacobian values", self.pattern.col_idx().len(), values.len())?;
+        let (x, u) = self.sample(theta);
+        let row_ptr = self.pattern.row_ptr();
+        let col_idx = self.pattern.col_idx();
+        self.for_each_row(
+            |k| self.local_derivatives(k, &x, &u),
+            |row, entries| {
+                let (start, end) = (row_ptr[row], row_ptr[row + 1]);
+                let out = &mut values[start..end];
+                out.fill(0.0);
+                let cols = &col_idx[start..end];
+                for &(c, v) in entries.iter() {
+                    // columns are sorted: binary search the slot
+                    if let Ok(p) = cols.binary_search(&c) {
+                        out[p] += v;
+                    }
+                }
+            },
+        )
+    }
+}
+
+fn expect_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
+    if expected != actual {
+        return Err(TrajoptError::DimensionMismatch { what, expected, actual });
+    }
+    Ok(())
+}

@@ -1,0 +1,321 @@
+//! Eq. 3 and the sparse Gauss-Newton / Levenberg-Marquardt solver.
+
+use faer::Mat;
+use faer::prelude::*;
+use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
+use proptest::prelude::*;
+use splines::{BSplineBasis, TrajectoryBasis};
+use trajopt::{
+    Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LeastSquaresProblem, LinearLeastSquares, LinearModel, Model,
+    Result, TrackingCost, TrajoptError,
+};
+
+const DT: f64 = 1.0 / 60.0;
+
+/// A damped pendulum on a moving pivot, semi-implicit Euler, with exact
+/// Jacobians (or none, to exercise the finite-difference path).
+struct Pendulum {
+    analytic: bool,
+}
+
+impl Model for Pendulum {
+    fn state_dim(&self) -> usize {
+        2
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        let acc = -(9.81 / 0.5) * x[0].sin() - (u[0] / 0.5) * x[0].cos() - 0.1 * x[1];
+        next[1] = x[1] + DT * acc;
+        next[0] = x[0] + DT * next[1];
+        Ok(())
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        if !self.analytic {
+            return Ok(false);
+        }
+        let da_dth = -(9.81 / 0.5) * x[0].cos() + (u[0] / 0.5) * x[0].sin();
+        let da_du = -x[0].cos() / 0.5;
+        // next[1] = x1 + dt acc; next[0] = x0 + dt next[1]
+        let (v_th, v_om, v_u) = (DT * da_dth, 1.0 - 0.1 * DT, DT * da_du);
+        fx.copy_from_slice(&[1.0 + DT * v_th, DT * v_om, v_th, v_om]);
+        fu.copy_from_slice(&[DT * v_u, v_u]);
+        Ok(true)
+    }
+}
+
+/// A swing-up-like problem: track a reference from hanging to upright.
+fn pendulum_problem(
+    horizon: usize,
+    lambda: Lambda,
+    analytic: bool,
+) -> (Eq3Problem<Pendulum, TrackingCost>, BSplineBasis, BSplineBasis, Vec<f64>) {
+    let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * DT).collect();
+    let t_end = times[horizon];
+    let state_ref = Mat::from_fn(horizon + 1, 2, |k, i| {
+        let s = k as f64 / horizon as f64;
+        if i == 0 {
+            std::f64::consts::PI * s * s
+        } else {
+            2.0 * std::f64::consts::PI * s / t_end
+        }
+    });
+    let control_ref = Mat::zeros(horizon, 1);
+    let cost = TrackingCost::new(state_ref, control_ref, &[1.0, 0.1], &[0.01], &[100.0, 10.0]).expect("valid cost");
+    let xb = BSplineBasis::clamped_uniform(12, 3, 0.0, t_end).expect("basis");
+    let ub = BSplineBasis::clamped_uniform(10, 3, 0.0, t_end).expect("basis");
+    let problem = Eq3Problem::new(Pendulum { analytic }, cost, &xb, &ub, &times, lambda).expect("valid problem");
+    (problem, xb, ub, times)
+}
+
+fn theta_guess(p: &Eq3Problem<Pendulum, TrackingCost>) -> Vec<f64> {
+    (0..p.n_params()).map(|i| 0.1 * ((i as f64) * 0.7).sin()).collect()
+}
+
+fn dense_jacobian<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Mat<f64> {
+    let pattern = p.jacobian_pattern();
+    let mut values = vec![0.0; pattern.col_idx().len()];
+    p.jacobian_values(theta, &mut values).expect("jacobian");
+    SparseRowMat::new(pattern, values).to_dense()
+}
+
+#[test]
+fn jacobian_equals_finite_differences() {
+    for analytic in [true, false] {
+        let (p, ..) = pendulum_problem(30, Lambda::Constant(50.0), analytic);
+        let p = p.with_consistency_scale(1.0 / DT).expect("scale");
+        let theta = theta_guess(&p);
+        let j = dense_jacobian(&p, &theta);
+        let (mut rp, mut rm) = (vec![0.0; p.n_residuals()], vec![0.0; p.n_residuals()]);
+        let mut t = theta.clone();
+        let mut worst: f64 = 0.0;
+        for c in 0..p.n_params() {
+            let h = 1e-6;
+            t[c] = theta[c] + h;
+            p.residuals(&t, &mut rp).expect("r");
+            t[c] = theta[c] - h;
+            p.residuals(&t, &mut rm).expect("r");
+            t[c] = theta[c];
+            for i in 0..p.n_residuals() {
+                let fd = (rp[i] - rm[i]) / (2.0 * h);
+                worst = worst.max((fd - j[(i, c)]).abs() / j[(i, c)].abs().max(1.0));
+            }
+        }
+        assert!(worst < 1e-5, "analytic={analytic}: worst relative error {worst}");
+    }
+}
+
+#[test]
+fn linear_least_squares_in_one_step() {
+    // a random-ish sparse tall matrix
+    let (m, n) = (40, 12);
+    let mut row_ptr = vec![0];
+    let mut cols = Vec::new();
+    let mut vals = Vec::new();
+    for i in 0..m {
+        let mut row: Vec<usize> = vec![i % n, (3 * i + 1) % n, (7 * i + 5) % n];
+        row.sort_unstable();
+        row.dedup();
+        for &c in &row {
+            cols.push(c);
+            vals.push(1.0 + ((i * 31 + c * 17) % 13) as f64 / 7.0);
+        }
+        row_ptr.push(cols.len());
+    }
+    let a = SparseRowMat::new(SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, cols), vals);
+    let b: Vec<f64> = (0..m).map(|i| ((i * 7) % 11) as f64 - 5.0).collect();
+    let dense = a.to_dense();
+    let problem = LinearLeastSquares::new(a, b.clone()).expect("valid");
+    // closed form: A^T A x = A^T b
+    let ata = dense.transpose() * &dense;
+    let atb = dense.transpose() * Mat::from_fn(m, 1, |i, _| b[i]);
+    let x = ata.llt(faer::Side::Lower).expect("spd").solve(&atb);
+    let settings = GaussNewtonSettings {
+        initial_damping: 0.0,
+        ..GaussNewtonSettings::default()
+    };
+    let res = GaussNewton::new(settings)
+        .expect("settings")
+        .solve(&problem, &vec![3.0; n])
+        .expect("solve");
+    assert!(res.status.converged(), "{:?}", res.status);
+    assert!(res.iterations <= 2, "took {} iterations", res.iterations);
+    let mut r = vec![0.0; m];
+    problem.residuals(&res.theta, &mut r).expect("r");
+    let optimal: f64 = r.iter().map(|v| v * v).sum();
+    assert!(
+        (res.cost_history[0] - optimal).abs() <= 1e-10 * optimal.max(1.0),
+        "first step is the GN step"
+    );
+    for j in 0..n {
+        assert!((res.theta[j] - x[(j, 0)]).abs() < 1e-9);
+    }
+}
+
+#[test]
+fn large_lambda_enforces_dynamics_and_zero_lambda_ignores_them() {
+    let solver = GaussNewton::new(GaussNewtonSettings::default()).expect("settings");
+    let mut mismatches = Vec::new();
+    for lambda in [1e2, 1e4, 1e6] {
+        let (p, ..) = pendulum_problem(60, Lambda::Constant(lambda), true);
+        let res = solver.solve(&p, &theta_guess(&p)).expect("solve");
+        assert!(res.cost <= res.initial_cost);
+        let parts = p.cost_breakdown(&res.theta).expect("cost");
+        mismatches.push(parts.max_mismatch);
+    }
+    // each 100x in lambda cuts the largest mismatch at least 5x
+    assert!(mismatches.windows(2).all(|w| w[1] < 0.2 * w[0]), "{mismatches:?}");
+    assert!(mismatches[2] < 2e-3, "{mismatches:?}");
+
+    // lambda = 0: the plan is the task cost's own minimiser (reference fit)
+    let (p, xb, ..) = pendulum_problem(60, Lambda::Constant(0.0), true);
+    let res = solver.solve(&p, &theta_guess(&p)).expect("solve");
+    let parts = p.cost_breakdown(&res.theta).expect("cost");
+    assert_eq!(parts.inconsistency, 0.0);
+    // the same optimum as minimising the task cost alone: controls go to their
+    // reference (zero) and the states to a weighted fit of the reference
+    let (x, u) = p.trajectory(&res.theta).expect("traj");
+    assert!((0..u.nrows()).all(|k| u[(k, 0)].abs() < 1e-6));
+    assert!(parts.task < 1e-2, "task {}", parts.task);
+    assert_eq!(xb.n_coeffs(), p.n_state_coeffs());
+    assert!((x[(60, 0)] - std::f64::consts::PI).abs() < 0.05);
+}
+
+#[test]
+fn zero_lambda_at_one_step_frees_only_that_step() {
+    // degree-1 B-splines with a knot at every sample: x_k is its own coefficient
+    let n_steps = 20;
+    let times: Vec<f64> = (0..=n_steps).map(|k| k as f64 * 0.1).collect();
+    let basis_x = BSplineBasis::clamped(&times, 1).expect("basis");
+    let basis_u = BSplineBasis::clamped(&times, 1).expect("basis");
+    // integrator x+ = x + 0.1 u, reference asks for a jump the controls cannot make cheaply
+    let model = LinearModel::new(Mat::from_fn(1, 1, |_, _| 1.0), Mat::from_fn(1, 1, |_, _| 0.1)).expect("model");
+    let state_ref = Mat::from_fn(n_steps + 1, 1, |k, _| if k > 10 { 1.0 } else { 0.0 });
+    let cost = TrackingCost::new(state_ref, Mat::zeros(n_steps, 1), &[1.0], &[1.0], &[1.0]).expect("cost");
+    let mut lambda = vec![1e8; n_steps];
+    lambda[10] = 0.0;
+    let p = Eq3Problem::new(model.clone(), cost, &basis_x, &basis_u, &times, Lambda::PerStep(lambda)).expect("p");
+    let res = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("settings")
+        .solve(&p, &vec![0.0; p.n_params()])
+        .expect("solve");
+    let (x, u) = p.trajectory(&res.theta).expect("traj");
+    let mut next = [0.0];
+    for k in 0..n_steps {
+        model.step(&[x[(k, 0)]], &[u[(k, 0)]], &mut next).expect("step");
+        let mismatch = (x[(k + 1, 0)] - next[0]).abs();
+        if k == 10 {
+            assert!(mismatch > 0.5, "the freed step jumps: {mismatch}");
+        } else {
+            assert!(mismatch < 1e-3, "step {k} mismatch {mismatch}");
+        }
+    }
+}
+
+#[test]
+fn bad_input_gives_errors() {
+    let (p, xb, ub, times) = pendulum_problem(10, Lambda::Constant(1.0), true);
+    assert!(matches!(
+        GaussNewton::new(GaussNewtonSettings::default())
+            .expect("ok")
+            .solve(&p, &[0.0; 3]),
+        Err(TrajoptError::DimensionMismatch { .. })
+    ));
+    let mut nan = theta_guess(&p);
+    nan[0] = f64::NAN;
+    assert!(matches!(
+        GaussNewton::new(GaussNewtonSettings::default())
+            .expect("ok")
+            .solve(&p, &nan),
+        Err(TrajoptError::NotFinite { .. })
+    ));
+    let bad_ref = Mat::from_fn(11, 2, |k, _| if k == 3 { f64::NAN } else { 0.0 });
+    assert!(matches!(
+        TrackingCost::new(bad_ref, Mat::zeros(10, 1), &[1.0, 1.0], &[1.0], &[1.0, 1.0]),
+        Err(TrajoptError::NotFinite { .. })
+    ));
+    let cost = TrackingCost::new(Mat::zeros(11, 2), Mat::zeros(10, 1), &[1.0, 1.0], &[1.0], &[1.0, 1.0]).expect("ok");
+    assert!(matches!(
+        Eq3Problem::new(
+            Pendulum { analytic: true },
+            cost.clone(),
+            &xb,
+            &ub,
+            &times,
+            Lambda::Constant(-1.0)
+        ),
+        Err(TrajoptError::InvalidParameter { name: "lambda", .. })
+    ));
+    assert!(matches!(
+        Eq3Problem::new(
+            Pendulum { analytic: true },
+            cost.clone(),
+            &xb,
+            &ub,
+            &times,
+            Lambda::PerStep(vec![1.0; 3])
+        ),
+        Err(TrajoptError::DimensionMismatch { .. })
+    ));
+    assert!(matches!(
+        GaussNewton::new(GaussNewtonSettings {
+            tol_grad: f64::NAN,
+            ..GaussNewtonSettings::default()
+        }),
+        Err(TrajoptError::InvalidParameter { .. })
+    ));
+
+    /// A model that returns NaN beyond |theta| > 1: the solver must not step there.
+    struct Cliff;
+    impl Model for Cliff {
+        fn state_dim(&self) -> usize {
+            2
+        }
+        fn control_dim(&self) -> usize {
+            1
+        }
+        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+            next[0] = if x[0].abs() > 1.0 { f64::NAN } else { x[0] + DT * x[1] };
+            next[1] = x[1] + DT * u[0];
+            Ok(())
+        }
+    }
+    let state_ref = Mat::from_fn(11, 2, |k, i| if i == 0 { 3.0 * k as f64 / 10.0 } else { 0.0 });
+    let cost = TrackingCost::new(state_ref, Mat::zeros(10, 1), &[1.0, 1.0], &[1.0], &[1.0, 1.0]).expect("ok");
+    let p = Eq3Problem::new(Cliff, cost, &xb, &ub, &times, Lambda::Constant(10.0)).expect("p");
+    let res = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("ok")
+        .solve(&p, &vec![0.0; p.n_params()])
+        .expect("a status, not an error");
+    assert!(res.cost.is_finite() && res.cost <= res.initial_cost);
+    // starting in the NaN region is an error: nothing to improve on
+    let start: Vec<f64> = vec![2.0; p.n_params()];
+    assert!(matches!(
+        GaussNewton::new(GaussNewtonSettings::default())
+            .expect("ok")
+            .solve(&p, &start),
+        Err(TrajoptError::NonFiniteStart { .. })
+    ));
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    #[test]
+    fn gauss_newton_never_increases_the_cost(
+        lambda in prop_oneof![Just(0.0), 1e-2..1e6f64],
+        seed in 0u32..1000,
+        horizon in 5usize..40,
+    ) {
+        let (p, ..) = pendulum_problem(horizon, Lambda::Constant(lambda), seed % 2 == 0);
+        let theta: Vec<f64> = (0..p.n_params()).map(|i| ((i as f64 + seed as f64) * 1.3).sin()).collect();
+        let res = GaussNewton::new(GaussNewtonSettings { max_iters: 30, ..GaussNewtonSettings::default() })
+            .expect("settings")
+            .solve(&p, &theta)
+            .expect("solve");
+        prop_assert!(res.cost <= res.initial_cost);
+        prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
+        prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+    }
+}
