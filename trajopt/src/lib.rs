@@ -1,6 +1,61 @@
-//! The paper's Eq. 3 trajectory optimiser,
-//! $C = \sum_k c(x_k, u_k) + \lambda_k \lVert x_{k+1} - f(x_k, u_k) \rVert^2$,
-//! over the coefficients of [`splines`] bases (work in progress).
+//! The paper's Eq. 3: trajectory optimisation with the learned dynamics as a
+//! soft constraint,
+//! $$C = \sum_k c(x_k, u_k) + \lambda_k \lVert x_{k+1} - f(x_k, u_k) \rVert^2,$$
+//! over the coefficients of [`splines`] bases, states and controls
+//! represented separately (Atkeson 1997: "a planner should not obey a freshly
+//! learned model exactly"; $\lambda = 0$ ignores the model, $\lambda \to \infty$
+//! obeys it).
+//!
+//! - [`Eq3Problem`]: the criterion over basis coefficients, with a [`Model`]
+//!   (value, Jacobians when it has them, optional confidence), a
+//!   [`StageCost`] in residual form ([`TrackingCost`] is the paper's Eq. 5),
+//!   per-step consistency weights ([`Lambda`]) and the cost split into task
+//!   and inconsistency ([`CostBreakdown`]).
+//! - [`GaussNewton`]: sparse Gauss-Newton / Levenberg-Marquardt; $J^\top J$ and
+//!   its symbolic Cholesky factorisation (faer) are structured once and reused.
+//! - [`powell`]: Powell's derivative-free method, the paper's solver, also an
+//!   argmin `Solver`.
+//! - [`problems`]: a shared benchmark set (the soft-dynamics pendulum swing-up
+//!   at any horizon, Rosenbrock, Powell's singular function).
+//!
+//! Invalid input is a typed [`TrajoptError`]; a solver that stops without
+//! converging returns its best point with a status.
+//!
+//! # Example
+//!
+//! ```
+//! use faer::Mat;
+//! use splines::BSplineBasis;
+//! use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LinearModel, TrackingCost};
+//!
+//! // a double integrator (position, velocity) driven by an acceleration, 50 steps of 0.02 s
+//! let dt = 0.02;
+//! let model = LinearModel::new(
+//!     Mat::from_fn(2, 2, |i, j| [[1.0, dt], [0.0, 1.0]][i][j]),
+//!     Mat::from_fn(2, 1, |i, _| [0.5 * dt * dt, dt][i]),
+//! )?;
+//! let times: Vec<f64> = (0..=50).map(|k| k as f64 * dt).collect();
+//! // track a reference that jumps from 0 to 1 (not feasible for the dynamics)
+//! let state_ref = Mat::from_fn(51, 2, |k, i| if i == 0 && k > 25 { 1.0 } else { 0.0 });
+//! let cost = TrackingCost::new(state_ref, Mat::zeros(50, 1), &[1.0, 0.0], &[1e-4], &[10.0, 10.0])?;
+//! let state_basis = BSplineBasis::clamped_uniform(15, 3, 0.0, 1.0)?;
+//! let control_basis = BSplineBasis::clamped_uniform(12, 3, 0.0, 1.0)?;
+//! let solver = GaussNewton::new(GaussNewtonSettings::default())?;
+//!
+//! let mut mismatch = Vec::new();
+//! for lambda in [0.0, 1e2, 1e6] {
+//!     let problem = Eq3Problem::new(model.clone(), cost.clone(), &state_basis, &control_basis, &times, Lambda::Constant(lambda))?
+//!         .with_consistency_scale(1.0 / dt)?;
+//!     let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
+//!     let result = solver.solve(&problem, &theta0)?;
+//!     assert!(result.cost <= result.initial_cost);
+//!     let parts = problem.cost_breakdown(&result.theta)?;
+//!     mismatch.push(parts.max_mismatch);
+//! }
+//! // the more the model is trusted, the more consistent the plan
+//! assert!(mismatch[0] > mismatch[1] && mismatch[1] > mismatch[2]);
+//! # Ok::<(), trajopt::TrajoptError>(())
+//! ```
 #![warn(missing_docs)]
 
 pub mod error;
@@ -9,6 +64,9 @@ pub mod least_squares;
 pub mod models;
 pub mod powell;
 pub mod problem;
+pub mod problems;
+#[cfg(feature = "proptest")]
+pub mod strategies;
 
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus};

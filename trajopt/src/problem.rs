@@ -249,6 +249,25 @@ pub struct Eq3Problem<M, C> {
     pattern: SymbolicSparseRowMat<usize>,
 }
 
+impl<M, C> std::fmt::Debug for Eq3Problem<M, C> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let (lo, hi) = self
+            .lambda
+            .iter()
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), &l| (a.min(l), b.max(l)));
+        f.debug_struct("Eq3Problem")
+            .field("state_dim", &self.n)
+            .field("control_dim", &self.m)
+            .field("horizon", &self.horizon)
+            .field("state_coeffs", &self.phi_x.ncols())
+            .field("control_coeffs", &self.phi_u.ncols())
+            .field("lambda_range", &(lo, hi))
+            .field("consistency_scale", &self.scale)
+            .field("initial_state", &self.initial_state)
+            .finish()
+    }
+}
+
 impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     /// The problem on sample times `times` ($t_0 < \dots < t_N$, inside
     /// both bases' domains); controls are sampled at $t_0, \dots, t_{N-1}$.

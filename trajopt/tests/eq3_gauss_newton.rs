@@ -319,3 +319,42 @@ proptest! {
         prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
     }
 }
+
+mod known_solutions {
+    use super::*;
+    use trajopt::strategies::{linear_least_squares, linear_soft_dynamics};
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(64))]
+
+        #[test]
+        fn gauss_newton_solves_linear_least_squares_in_one_step((problem, solution) in linear_least_squares(12)) {
+            let settings = GaussNewtonSettings { initial_damping: 0.0, ..GaussNewtonSettings::default() };
+            let res = GaussNewton::new(settings).expect("settings").solve(&problem, &vec![0.0; problem.n_params()]).expect("solve");
+            prop_assert!(res.status.converged(), "{:?}", res.status);
+            prop_assert!(res.cost_history.len() <= 2, "{} accepted steps", res.cost_history.len());
+            for (a, b) in res.theta.iter().zip(&solution) {
+                prop_assert!((a - b).abs() <= 1e-8 * b.abs().max(1.0), "{a} vs {b}");
+            }
+        }
+
+        #[test]
+        fn gauss_newton_finds_the_consistent_optimum((problem, optimum) in linear_soft_dynamics()) {
+            // zero task cost and zero inconsistency at the known optimum
+            let parts = problem.cost_breakdown(&optimum).expect("cost");
+            prop_assert!(parts.total < 1e-20, "{parts:?}");
+            let res = GaussNewton::new(GaussNewtonSettings::default())
+                .expect("settings")
+                .solve(&problem, &vec![0.0; problem.n_params()])
+                .expect("solve");
+            prop_assert!(res.cost < 1e-12 * res.initial_cost.max(1.0), "cost {} from {}", res.cost, res.initial_cost);
+            let (x, _) = problem.trajectory(&res.theta).expect("trajectory");
+            let (xs, _) = problem.trajectory(&optimum).expect("trajectory");
+            for k in 0..x.nrows() {
+                for i in 0..x.ncols() {
+                    prop_assert!((x[(k, i)] - xs[(k, i)]).abs() < 1e-5);
+                }
+            }
+        }
+    }
+}

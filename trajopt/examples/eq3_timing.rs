@@ -1,0 +1,51 @@
+//! Solves the benchmark pendulum swing-up (`trajopt::problems`) with
+//! Gauss-Newton at several horizons and prints one JSON object per line:
+//! horizon, seconds, iterations, evaluations, final cost and its parts.
+//! `scripts/compare_trajopt.py` runs it beside scipy on the same problem.
+//!
+//! `cargo run --release -p trajopt --example eq3_timing -- [LAMBDA] [HORIZONS...]`
+
+use std::time::Instant;
+
+use trajopt::problems::pendulum_swingup;
+use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem};
+
+fn main() -> anyhow::Result<()> {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let lambda: f64 = args.first().map_or(Ok(1e3), |a| a.parse())?;
+    let horizons: Vec<usize> = args.iter().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
+    let horizons = if horizons.is_empty() {
+        vec![50, 150, 500, 1000, 5000]
+    } else {
+        horizons
+    };
+    let solver = GaussNewton::new(GaussNewtonSettings::default())?;
+    for horizon in horizons {
+        let (problem, theta0) = pendulum_swingup(horizon, lambda)?;
+        // best of 3 (the machine may be shared)
+        let mut best = f64::INFINITY;
+        let mut result = None;
+        for _ in 0..3 {
+            let start = Instant::now();
+            let r = solver.solve(&problem, &theta0)?;
+            best = best.min(start.elapsed().as_secs_f64());
+            result = Some(r);
+        }
+        let r = result.ok_or_else(|| anyhow::anyhow!("no run"))?;
+        let parts = problem.cost_breakdown(&r.theta)?;
+        println!(
+            "{{\"horizon\": {horizon}, \"lambda\": {lambda:e}, \"params\": {}, \"residuals\": {}, \"seconds\": {best:e}, \"iterations\": {}, \"residual_evals\": {}, \"status\": \"{:?}\", \"cost\": {:e}, \"initial_cost\": {:e}, \"task\": {:e}, \"inconsistency\": {:e}, \"max_mismatch\": {:e}}}",
+            problem.n_params(),
+            problem.n_residuals(),
+            r.iterations,
+            r.residual_evals,
+            r.status,
+            r.cost,
+            r.initial_cost,
+            parts.task,
+            parts.inconsistency,
+            parts.max_mismatch
+        );
+    }
+    Ok(())
+}
