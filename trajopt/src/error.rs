@@ -44,6 +44,9 @@ pub enum TrajoptError {
         /// The value returned.
         value: f64,
     },
+    /// The bounds admit no parameters (no point satisfies them all).
+    #[error("the bounds are infeasible: no parameters satisfy them all")]
+    InfeasibleBounds,
     /// A user-supplied model or cost failed.
     #[error("the model failed: {0}")]
     Model(String),

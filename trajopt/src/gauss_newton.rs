@@ -15,6 +15,12 @@
 //! linear least-squares problem is solved in one iteration); damping is
 //! switched on only if a step fails.
 //!
+//! With [bounds](LeastSquaresProblem::bounds) $\ell \le A\theta \le u$, the
+//! step instead minimises the same damped model subject to
+//! $\ell \le A(\theta + \delta) \le u$, a sparse convex QP solved by clarabel's
+//! interior-point method; an infeasible start is first moved to the nearest
+//! feasible point (the cost comparison starts there).
+//!
 //! For Eq. 3 ([`Eq3Problem`](crate::Eq3Problem)) every residual touches the
 //! few coefficients whose basis functions overlap one time step, so $J^\top J$
 //! is banded after ordering and an iteration costs time linear in the horizon.
@@ -185,8 +191,32 @@ impl GaussNewton {
         if !cost.is_finite() {
             return Err(TrajoptError::NonFiniteStart { value: cost });
         }
-        let initial_cost = cost;
         let mut residual_evals = 1;
+        let bounds = problem.bounds();
+        if let Some(b) = bounds {
+            b.validate()?;
+            if b.a.ncols() != n_p {
+                return Err(TrajoptError::DimensionMismatch {
+                    what: "bound matrix columns",
+                    expected: n_p,
+                    actual: b.a.ncols(),
+                });
+            }
+            // an infeasible start is first moved to the nearest feasible point
+            if b.violation(&theta) > 1e-9 {
+                let delta = crate::qp::projection(b, &theta).ok_or(TrajoptError::InfeasibleBounds)?;
+                for (t, d) in theta.iter_mut().zip(delta) {
+                    *t += d;
+                }
+                problem.residuals(&theta, &mut r)?;
+                residual_evals += 1;
+                cost = sum_sq(&r);
+                if !cost.is_finite() {
+                    return Err(TrajoptError::NonFiniteStart { value: cost });
+                }
+            }
+        }
+        let initial_cost = cost;
         let mut jacobian_evals = 0;
         let mut cost_history = Vec::new();
 
@@ -254,16 +284,22 @@ impl GaussNewton {
                 for (&p, &d) in diag_pos.iter().zip(&scale) {
                     h_damped.val_mut()[p] += mu * d;
                 }
-                let step = match Llt::try_new_with_symbolic(llt_symbolic.clone(), h_damped.as_ref(), Side::Lower) {
-                    Ok(llt) => {
-                        let mut rhs = grad.clone();
-                        for j in 0..n_p {
-                            rhs[(j, 0)] = -rhs[(j, 0)];
-                        }
-                        llt.solve_in_place(rhs.as_mut());
-                        Some(rhs)
+                let step = match bounds {
+                    // bounded: the damped model minimised subject to the bounds (a QP)
+                    Some(b) => {
+                        crate::qp::bounded_step(&h_damped, &grad, b, &theta).map(|d| Mat::from_fn(n_p, 1, |j, _| d[j]))
                     }
-                    Err(_) => None,
+                    None => match Llt::try_new_with_symbolic(llt_symbolic.clone(), h_damped.as_ref(), Side::Lower) {
+                        Ok(llt) => {
+                            let mut rhs = grad.clone();
+                            for j in 0..n_p {
+                                rhs[(j, 0)] = -rhs[(j, 0)];
+                            }
+                            llt.solve_in_place(rhs.as_mut());
+                            Some(rhs)
+                        }
+                        Err(_) => None,
+                    },
                 };
                 let step = match step {
                     Some(st) if (0..n_p).all(|j| st[(j, 0)].is_finite()) => st,
@@ -288,13 +324,11 @@ impl GaussNewton {
                 problem.residuals(&trial, &mut r_trial)?;
                 residual_evals += 1;
                 let trial_cost = sum_sq(&r_trial);
-                // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d with H d = -g - mu D d,
-                // so the predicted reduction L(0) - L(d) = d.(mu D d - g) > 0
-                let predicted: f64 = scale
-                    .iter()
-                    .enumerate()
-                    .map(|(j, &d)| step[(j, 0)] * (mu * d * step[(j, 0)] - grad[(j, 0)]))
-                    .sum();
+                // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
+                let h_step = sym_mat_vec(&h, &step);
+                let predicted: f64 = -(0..n_p)
+                    .map(|j| step[(j, 0)] * (2.0 * grad[(j, 0)] + h_step[j]))
+                    .sum::<f64>();
                 let rho = if predicted > 0.0 && trial_cost.is_finite() {
                     (cost - trial_cost) / predicted
                 } else {
@@ -379,6 +413,18 @@ fn augment_with_diagonal(
         None,
         col_idx,
     ))
+}
+
+/// $H d$ for a CSC matrix holding both triangles.
+fn sym_mat_vec(h: &SparseColMat<usize, f64>, d: &Mat<f64>) -> Vec<f64> {
+    let mut out = vec![0.0; h.nrows()];
+    for j in 0..h.ncols() {
+        let dj = d[(j, 0)];
+        for (&i, &v) in h.symbolic().row_idx_of_col_raw(j).iter().zip(h.val_of_col(j)) {
+            out[i] += v * dj;
+        }
+    }
+    out
 }
 
 /// Positions of the diagonal entries in the values of a CSC matrix.

@@ -26,6 +26,69 @@ pub trait LeastSquaresProblem {
     /// Writes the values of $J(\theta)$ in the order of
     /// [`jacobian_pattern`](Self::jacobian_pattern).
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()>;
+
+    /// Linear bounds $\ell \le A \theta \le u$ the solution must satisfy
+    /// (none by default).
+    fn bounds(&self) -> Option<&LinearBounds> {
+        None
+    }
+}
+
+/// Linear bounds $\ell \le A \theta \le u$ on the parameters, $A$ sparse;
+/// an infinite entry of $\ell$ or $u$ leaves that side free. For a
+/// trajectory, each row of $A$ is a basis row at one sample time, so the
+/// bounds hold at the sample times.
+#[derive(Debug, Clone)]
+pub struct LinearBounds {
+    /// $A$, one row per bounded quantity.
+    pub a: faer::sparse::SparseRowMat<usize, f64>,
+    /// Lower bounds $\ell$ (may be $-\infty$).
+    pub lower: Vec<f64>,
+    /// Upper bounds $u$ (may be $+\infty$).
+    pub upper: Vec<f64>,
+}
+
+impl LinearBounds {
+    /// Checks the sizes and that $\ell \le u$ with no NaN.
+    pub fn validate(&self) -> Result<()> {
+        for (what, v) in [("lower bounds", &self.lower), ("upper bounds", &self.upper)] {
+            if v.len() != self.a.nrows() {
+                return Err(crate::TrajoptError::DimensionMismatch {
+                    what,
+                    expected: self.a.nrows(),
+                    actual: v.len(),
+                });
+            }
+        }
+        for (i, (&l, &u)) in self.lower.iter().zip(&self.upper).enumerate() {
+            if l.is_nan() || u.is_nan() || l > u || l == f64::INFINITY || u == f64::NEG_INFINITY {
+                return Err(crate::TrajoptError::InvalidParameter {
+                    name: "bounds",
+                    reason: format!("bound {i} is empty: [{l}, {u}]"),
+                });
+            }
+        }
+        crate::error::check_finite("bound matrix", self.a.val())
+    }
+
+    /// $A\theta$.
+    pub fn apply(&self, theta: &[f64]) -> Vec<f64> {
+        (0..self.a.nrows())
+            .map(|i| {
+                let cols = self.a.symbolic().col_idx_of_row_raw(i);
+                cols.iter().zip(self.a.val_of_row(i)).map(|(&c, &v)| v * theta[c]).sum()
+            })
+            .collect()
+    }
+
+    /// The largest violation $\max_i \max(\ell_i - (A\theta)_i, (A\theta)_i - u_i, 0)$.
+    pub fn violation(&self, theta: &[f64]) -> f64 {
+        self.apply(theta)
+            .iter()
+            .zip(self.lower.iter().zip(&self.upper))
+            .map(|(&v, (&l, &u))| (l - v).max(v - u).max(0.0))
+            .fold(0.0, f64::max)
+    }
 }
 
 /// The linear least-squares problem $\min_\theta \lVert A \theta - b \rVert^2$

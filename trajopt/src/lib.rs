@@ -65,11 +65,12 @@ pub mod models;
 pub mod powell;
 pub mod problem;
 pub mod problems;
+mod qp;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus};
-pub use least_squares::{LeastSquaresProblem, LinearLeastSquares};
+pub use least_squares::{LeastSquaresProblem, LinearBounds, LinearLeastSquares};
 pub use models::LinearModel;
 pub use problem::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};

@@ -22,7 +22,7 @@ use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
 use splines::TrajectoryBasis;
 
 use crate::error::{Result, TrajoptError, check_finite};
-use crate::least_squares::LeastSquaresProblem;
+use crate::least_squares::{LeastSquaresProblem, LinearBounds};
 
 /// A discrete-time dynamics model $x_{k+1} = f(x_k, u_k)$.
 pub trait Model {
@@ -247,6 +247,7 @@ pub struct Eq3Problem<M, C> {
     scale: f64,
     initial_state: Option<(Vec<f64>, f64)>,
     pattern: SymbolicSparseRowMat<usize>,
+    bounds: Option<LinearBounds>,
 }
 
 impl<M, C> std::fmt::Debug for Eq3Problem<M, C> {
@@ -264,6 +265,7 @@ impl<M, C> std::fmt::Debug for Eq3Problem<M, C> {
             .field("lambda_range", &(lo, hi))
             .field("consistency_scale", &self.scale)
             .field("initial_state", &self.initial_state)
+            .field("bounded_quantities", &self.bounds.as_ref().map_or(0, |b| b.a.nrows()))
             .finish()
     }
 }
@@ -319,6 +321,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             scale: 1.0,
             initial_state: None,
             pattern: SymbolicSparseRowMat::new_checked(0, 0, vec![0], None, vec![]),
+            bounds: None,
         };
         problem.pattern = problem.build_pattern();
         Ok(problem)
@@ -349,6 +352,71 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
         self.initial_state = Some((x0.to_vec(), weight));
         self.pattern = self.build_pattern();
+        Ok(self)
+    }
+
+    /// Box bounds `lower[i] <= x_{k,i} <= upper[i]` on every state channel at
+    /// every sample time (infinite entries leave a side free), enforced by
+    /// [`GaussNewton`](crate::GaussNewton) through a QP step.
+    pub fn with_state_bounds(self, lower: &[f64], upper: &[f64]) -> Result<Self> {
+        expect_len("state lower bounds", self.n, lower.len())?;
+        expect_len("state upper bounds", self.n, upper.len())?;
+        let rows = (0..=self.horizon).collect::<Vec<_>>();
+        self.add_bounds(true, &rows, lower, upper)
+    }
+
+    /// Box bounds on every control channel at every control sample time
+    /// (e.g. acceleration limits); see [`with_state_bounds`](Self::with_state_bounds).
+    pub fn with_control_bounds(self, lower: &[f64], upper: &[f64]) -> Result<Self> {
+        expect_len("control lower bounds", self.m, lower.len())?;
+        expect_len("control upper bounds", self.m, upper.len())?;
+        let rows = (0..self.horizon).collect::<Vec<_>>();
+        self.add_bounds(false, &rows, lower, upper)
+    }
+
+    fn add_bounds(mut self, state: bool, samples: &[usize], lower: &[f64], upper: &[f64]) -> Result<Self> {
+        let mut row_ptr = vec![0];
+        let (mut cols, mut vals, mut lo, mut hi) = (Vec::new(), Vec::new(), Vec::new(), Vec::new());
+        if let Some(b) = &self.bounds {
+            for i in 0..b.a.nrows() {
+                cols.extend_from_slice(b.a.symbolic().col_idx_of_row_raw(i));
+                vals.extend_from_slice(b.a.val_of_row(i));
+                row_ptr.push(cols.len());
+            }
+            lo.extend_from_slice(&b.lower);
+            hi.extend_from_slice(&b.upper);
+        }
+        for (ch, (&l, &u)) in lower.iter().zip(upper).enumerate() {
+            if l == f64::NEG_INFINITY && u == f64::INFINITY {
+                continue;
+            }
+            for &k in samples {
+                let entries: Vec<(usize, f64)> = if state {
+                    self.state_cols(k, ch).collect()
+                } else {
+                    self.control_cols(k, ch).collect()
+                };
+                for (c, v) in entries {
+                    cols.push(c);
+                    vals.push(v);
+                }
+                row_ptr.push(cols.len());
+                lo.push(l);
+                hi.push(u);
+            }
+        }
+        let n_rows = lo.len();
+        let a = SparseRowMat::new(
+            SymbolicSparseRowMat::new_checked(n_rows, self.n_params(), row_ptr, None, cols),
+            vals,
+        );
+        let bounds = LinearBounds {
+            a,
+            lower: lo,
+            upper: hi,
+        };
+        bounds.validate()?;
+        self.bounds = Some(bounds);
         Ok(self)
     }
 
@@ -691,6 +759,10 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
 
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
         self.pattern.clone()
+    }
+
+    fn bounds(&self) -> Option<&LinearBounds> {
+        self.bounds.as_ref()
     }
 
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {

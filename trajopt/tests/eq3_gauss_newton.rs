@@ -358,3 +358,64 @@ mod known_solutions {
         }
     }
 }
+
+#[test]
+fn bounds_on_controls_and_states_hold_at_the_samples() {
+    use trajopt::problems::pendulum_swingup;
+    let solver = GaussNewton::new(GaussNewtonSettings {
+        max_iters: 60,
+        ..GaussNewtonSettings::default()
+    })
+    .expect("settings");
+    let (free, theta0) = pendulum_swingup(90, 1e3).expect("problem");
+    let unbounded = solver.solve(&free, &theta0).expect("solve");
+    let (x_free, u_free) = free.trajectory(&unbounded.theta).expect("traj");
+    let u_max = (0..u_free.nrows()).map(|k| u_free[(k, 0)].abs()).fold(0.0, f64::max);
+    let x_max = (0..x_free.nrows()).map(|k| x_free[(k, 2)].abs()).fold(0.0, f64::max);
+    assert!(
+        u_max > 1.0 && x_max > 0.05,
+        "the free plan uses the hand: |u| {u_max}, |x| {x_max}"
+    );
+
+    let (u_lim, x_lim) = (0.6 * u_max, 0.5 * x_max);
+    let (bounded, _) = pendulum_swingup(90, 1e3).expect("problem");
+    let inf = f64::INFINITY;
+    let bounded = bounded
+        .with_control_bounds(&[-u_lim], &[u_lim])
+        .expect("bounds")
+        .with_state_bounds(&[-inf, -inf, -x_lim, -inf], &[inf, inf, x_lim, inf])
+        .expect("bounds");
+    // the start (zero controls, hand at rest) is feasible
+    let res = solver.solve(&bounded, &theta0).expect("solve");
+    assert!(res.cost <= res.initial_cost);
+    let (x, u) = bounded.trajectory(&res.theta).expect("traj");
+    for k in 0..u.nrows() {
+        assert!(
+            u[(k, 0)].abs() <= u_lim * (1.0 + 1e-6),
+            "u[{k}] = {} beyond {u_lim}",
+            u[(k, 0)]
+        );
+    }
+    for k in 0..x.nrows() {
+        assert!(
+            x[(k, 2)].abs() <= x_lim * (1.0 + 1e-6) + 1e-9,
+            "x[{k}] = {} beyond {x_lim}",
+            x[(k, 2)]
+        );
+    }
+    // the limits cost something
+    assert!(res.cost > unbounded.cost, "{} vs {}", res.cost, unbounded.cost);
+
+    // an infeasible start is projected first, then improved
+    let res2 = solver.solve(&bounded, &unbounded.theta).expect("solve");
+    let (_, u2) = bounded.trajectory(&res2.theta).expect("traj");
+    assert!((0..u2.nrows()).all(|k| u2[(k, 0)].abs() <= u_lim * (1.0 + 1e-6)));
+    assert!(res2.cost <= res2.initial_cost);
+
+    // empty bounds are refused
+    let (p, _) = pendulum_swingup(20, 1e3).expect("problem");
+    assert!(matches!(
+        p.with_control_bounds(&[1.0], &[-1.0]),
+        Err(TrajoptError::InvalidParameter { .. })
+    ));
+}
