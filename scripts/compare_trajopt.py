@@ -1,0 +1,189 @@
+#!/usr/bin/env python3
+"""Side by side: trajopt's sparse Gauss-Newton against scipy and CasADi + IPOPT
+on the same soft-dynamics pendulum swing-up (trajopt::problems::pendulum_swingup).
+
+    python3 scripts/compare_trajopt.py [--lambda L] [HORIZONS...]    (default 1e2; 150 1000)
+
+Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
+on first use, runs `cargo run --release -p trajopt --example eq3_timing`, and
+solves the same problem (same bases, weights, lambda and starting point) with
+  - scipy.optimize.least_squares, method 'trf', with the Jacobian's sparsity
+    pattern (finite differences grouped by it) and tight inner tolerances
+    (tr_options atol = btol = 1e-14, as the trf solver otherwise stalls here);
+  - CasADi's IPOPT with exact derivatives (if casadi installs).
+Prints wall times of the solves (model building excluded), their ratios to
+trajopt, and the final costs with their relative difference. Different
+solvers can stop at different local minima; the cost column shows it.
+"""
+import json
+import os
+import pathlib
+import subprocess
+import sys
+import time
+
+ROOT = pathlib.Path(__file__).resolve().parents[1]
+VENV = ROOT / ".venv-ref"
+DT = 1.0 / 60.0
+
+
+def ensure_venv():
+    py = VENV / "bin" / "python"
+    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
+        return
+    if not py.exists():
+        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
+        subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
+    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
+
+
+def problem(horizon, lam):
+    """The numpy twin of trajopt::problems::pendulum_swingup."""
+    import numpy as np
+    from scipy.interpolate import BSpline
+
+    times = np.arange(horizon + 1) * DT
+    t_end = times[-1]
+    t = times
+    s = np.minimum(t / 2.0, 1.0)
+    ref = np.zeros((horizon + 1, 4))
+    ref[:, 0] = np.pi * s * s * (3.0 - 2.0 * s)
+    ref[:, 1] = np.where(t < 2.0, np.pi * 6.0 * s * (1.0 - s) / 2.0, 0.0)
+
+    def basis(n_coeffs):
+        n_int = n_coeffs - 3
+        breaks = np.array([t_end if i == n_int else 0.0 + t_end * (i / n_int) for i in range(n_int + 1)])
+        return np.r_[[0.0] * 3, breaks, [t_end] * 3]
+
+    kx, ku = basis(horizon // 6 + 4), basis(horizon // 8 + 4)
+    phix = BSpline.design_matrix(times, kx, 3).tocsr()
+    phiu = BSpline.design_matrix(times[:-1], ku, 3).tocsr()
+    ncx, ncu = phix.shape[1], phiu.shape[1]
+    # start: least-squares fit of the reference, zero controls
+    cx = np.linalg.lstsq(phix.toarray(), ref, rcond=None)[0]
+    theta0 = np.r_[cx.T.ravel(), np.zeros(ncu)]
+    sq = np.sqrt
+    wq, wr, wqf = sq(np.array([1.0, 0.1, 1.0, 0.1])), sq(0.01), sq(np.array([1000.0, 100.0, 1000.0, 100.0]))
+    w_cons = sq(lam) / DT
+    return dict(times=times, ref=ref, phix=phix, phiu=phiu, ncx=ncx, ncu=ncu, theta0=theta0,
+                wq=wq, wr=wr, wqf=wqf, w_cons=w_cons, horizon=horizon)
+
+
+def residuals_np(theta, p):
+    import numpy as np
+
+    ncx, n = p["ncx"], p["horizon"]
+    x = p["phix"] @ theta[: 4 * ncx].reshape(4, ncx).T
+    u = p["phiu"] @ theta[4 * ncx:]
+    th, om, hx, hv = x[:-1, 0], x[:-1, 1], x[:-1, 2], x[:-1, 3]
+    acc = -(9.81 / 0.5) * np.sin(th) - (u / 0.5) * np.cos(th) - 0.05 * om
+    om1 = om + DT * acc
+    th1 = th + DT * om1
+    hv1 = hv + DT * u
+    hx1 = hx + DT * hv1
+    f = np.stack([th1, om1, hx1, hv1], axis=1)
+    d = x - p["ref"]
+    return np.concatenate([
+        (d[:-1] * p["wq"]).ravel(),
+        p["wr"] * u,
+        d[-1] * p["wqf"],
+        (p["w_cons"] * (x[1:] - f)).ravel(),
+    ])
+
+
+def sparsity(p):
+    """The Jacobian's structural nonzeros, in the residual order of residuals_np."""
+    import numpy as np
+    import scipy.sparse as sp
+
+    ncx, ncu, n = p["ncx"], p["ncu"], p["horizon"]
+    sx = (p["phix"] != 0).astype(float)
+    su = (p["phiu"] != 0).astype(float)
+    # kron(rows of Phi_x, block) has rows k*4+i and columns j*4+c; theta has c*ncx+j
+    perm = [j * 4 + c for c in range(4) for j in range(ncx)]
+
+    def states(rows, channel_block):
+        return sp.kron(rows, channel_block).tocsc()[:, perm]
+
+    eye, full = sp.identity(4), sp.csr_matrix(np.ones((4, 4)))
+    zu = lambda r: sp.csr_matrix((r, ncu))
+    task_x = sp.hstack([states(sx[:-1], eye), zu(4 * n)])
+    task_u = sp.hstack([sp.csr_matrix((n, 4 * ncx)), su])
+    term = sp.hstack([states(sx[-1:], eye), zu(4)])
+    cons = sp.hstack([states(sx[1:], eye) + states(sx[:-1], full), sp.kron(su, np.ones((4, 1)))])
+    return (sp.vstack([task_x, task_u, term, cons]) != 0).astype(float).tocsr()
+
+
+def solve_scipy(p):
+    from scipy.optimize import least_squares
+
+    start = time.perf_counter()
+    res = least_squares(residuals_np, p["theta0"], args=(p,), method="trf", jac_sparsity=sparsity(p),
+                        x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12, max_nfev=20000,
+                        tr_options=dict(atol=1e-14, btol=1e-14, maxiter=5000))
+    return time.perf_counter() - start, float(2.0 * res.cost), res.nfev
+
+
+def solve_casadi(p):
+    try:
+        import casadi as ca
+    except ImportError:
+        return None
+    import numpy as np
+
+    ncx, ncu, n = p["ncx"], p["ncu"], p["horizon"]
+    theta = ca.SX.sym("theta", 4 * ncx + ncu)
+    cx = ca.reshape(theta[: 4 * ncx], ncx, 4)
+    x = ca.mtimes(ca.DM(p["phix"].tocsc()), cx)
+    u = ca.mtimes(ca.DM(p["phiu"].tocsc()), theta[4 * ncx:])
+    th, om, hx, hv = x[:-1, 0], x[:-1, 1], x[:-1, 2], x[:-1, 3]
+    acc = -(9.81 / 0.5) * ca.sin(th) - (u / 0.5) * ca.cos(th) - 0.05 * om
+    om1 = om + DT * acc
+    th1 = th + DT * om1
+    hv1 = hv + DT * u
+    hx1 = hx + DT * hv1
+    f = ca.horzcat(th1, om1, hx1, hv1)
+    d = x - ca.DM(p["ref"])
+    cost = 0
+    for i in range(4):
+        cost += p["wq"][i] ** 2 * ca.sumsqr(d[:-1, i]) + p["wqf"][i] ** 2 * d[-1, i] ** 2
+    cost += p["wr"] ** 2 * ca.sumsqr(u) + p["w_cons"] ** 2 * ca.sumsqr(x[1:, :] - f)
+    solver = ca.nlpsol("s", "ipopt", {"x": theta, "f": cost},
+                       {"ipopt.print_level": 0, "print_time": 0, "ipopt.tol": 1e-10, "ipopt.max_iter": 3000})
+    start = time.perf_counter()
+    sol = solver(x0=p["theta0"])
+    elapsed = time.perf_counter() - start
+    return elapsed, float(sol["f"]), solver.stats().get("iter_count")
+
+
+def main():
+    ensure_venv()
+    args = sys.argv[1:]
+    lam = 1e2
+    if args[:1] == ["--lambda"]:
+        lam, args = float(args[1]), args[2:]
+    horizons = [int(a) for a in args] or [150, 1000]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "trajopt", "--example", "eq3_timing", "--", str(lam),
+           *map(str, horizons)]
+    out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
+    ours = {d["horizon"]: d for d in map(json.loads, (l for l in out.splitlines() if l.startswith("{")))}
+    print(f"lambda = {lam:g}; times are wall seconds of one solve (trajopt: best of 3)")
+    print(f"{'N':>6} {'solver':<22}{'seconds':>10}{'ratio':>9}{'iters/evals':>12}{'final cost':>18}{'rel. diff':>11}")
+    for n in horizons:
+        p = problem(n, lam)
+        r0 = residuals_np(p["theta0"], p)
+        o = ours[n]
+        assert abs(float(r0 @ r0) - o["initial_cost"]) <= 1e-9 * o["initial_cost"], (float(r0 @ r0), o["initial_cost"])
+        rows = [("trajopt Gauss-Newton", o["seconds"], f"{o['iterations']}", o["cost"])]
+        t, c, ev = solve_scipy(p)
+        rows.append(("scipy least_squares", t, f"{ev}", c))
+        cas = solve_casadi(p)
+        if cas is not None:
+            rows.append(("CasADi + IPOPT", cas[0], f"{cas[2]}", cas[1]))
+        for name, secs, its, cost in rows:
+            print(f"{n:>6} {name:<22}{secs:>10.4f}{secs / o['seconds']:>8.1f}x{its:>12}{cost:>18.10g}"
+                  f"{(cost - o['cost']) / o['cost']:>11.1e}")
+
+
+if __name__ == "__main__":
+    main()
