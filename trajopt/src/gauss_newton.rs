@@ -39,14 +39,11 @@
 
 use std::time::{Duration, Instant};
 
-use faer::dyn_stack::{MemBuffer, MemStack};
 use faer::prelude::*;
-use faer::sparse::linalg::matmul::{
-    SparseMatMulInfo, sparse_sparse_matmul_numeric, sparse_sparse_matmul_numeric_scratch, sparse_sparse_matmul_symbolic,
-};
+use faer::sparse::linalg::matmul::sparse_sparse_matmul_symbolic;
 use faer::sparse::linalg::solvers::{Llt, SymbolicLlt};
 use faer::sparse::{SparseColMat, SparseRowMat, SymbolicSparseColMat, SymbolicSparseRowMat};
-use faer::{Accum, Mat, Par, Side};
+use faer::{Mat, Side};
 
 use crate::error::{Result, TrajoptError, check_finite};
 use crate::least_squares::LeastSquaresProblem;
@@ -229,18 +226,14 @@ impl GaussNewton {
         let nnz_problem = nnz - n_p;
         let mut jac = SparseRowMat::new(pattern, vec![0.0; nnz]);
         let jac_cols = jac.to_col_major().map_err(alloc_error)?;
-        let (h_symbolic, h_info) =
-            sparse_sparse_matmul_symbolic(jac.as_ref().transpose().symbolic(), jac_cols.symbolic())
-                .map_err(alloc_error)?;
+        let (h_symbolic, _) = sparse_sparse_matmul_symbolic(jac.as_ref().transpose().symbolic(), jac_cols.symbolic())
+            .map_err(alloc_error)?;
         let diag_pos = diagonal_positions(&h_symbolic)?;
         let h_nnz = h_symbolic.row_idx().len();
         let mut h = SparseColMat::new(h_symbolic, vec![0.0; h_nnz]);
         let llt_symbolic = SymbolicLlt::try_new(h.symbolic(), Side::Lower).map_err(alloc_error)?;
         let mut h_damped = h.clone();
-        let mut mem = MemBuffer::new(sparse_sparse_matmul_numeric_scratch::<usize, f64>(
-            h.symbolic(),
-            Par::Seq,
-        ));
+        let mut normal = NormalEquations::new(&jac, jac_cols, &h.symbolic().to_owned().map_err(alloc_error)?);
 
         let mut grad = Mat::<f64>::zeros(n_p, 1);
         let mut trial = vec![0.0; n_p];
@@ -258,8 +251,7 @@ impl GaussNewton {
                 status = GaussNewtonStatus::NumericalError;
                 break;
             }
-            let jac_cols = jac.to_col_major().map_err(alloc_error)?;
-            form_normal_matrix(&mut h, &jac, &jac_cols, &h_info, &mut mem);
+            normal.form(&jac, &mut h);
             // g = J^T r
             for j in 0..n_p {
                 grad[(j, 0)] = 0.0;
@@ -444,22 +436,74 @@ fn diagonal_positions(h: &SymbolicSparseColMat<usize>) -> Result<Vec<usize>> {
         .collect()
 }
 
-/// $H = J^\top J$ into the fixed pattern of `h`.
-fn form_normal_matrix(
-    h: &mut SparseColMat<usize, f64>,
-    jac: &SparseRowMat<usize, f64>,
-    jac_cols: &SparseColMat<usize, f64>,
-    info: &SparseMatMulInfo,
-    mem: &mut MemBuffer,
-) {
-    sparse_sparse_matmul_numeric(
-        h.as_dyn_mut(),
-        Accum::Replace,
-        jac.as_ref().transpose(),
-        jac_cols.as_ref(),
-        1.0,
-        info,
-        Par::Seq,
-        MemStack::new(mem),
-    );
+/// Forms $H = J^\top J$ into a fixed pattern, column by column (Gustavson):
+/// $H_{:,j} = \sum_{i : J_{ij} \ne 0} J_{ij} J_{i,:}$, accumulated in a dense
+/// vector that is cleared entry by entry through the pattern of $H_{:,j}$, so
+/// the cost is $\sum_i \mathrm{nnz}(J_{i,:})^2$, linear in the horizon (a
+/// general sparse product clears its whole accumulator per column, which is
+/// quadratic in the number of parameters).
+struct NormalEquations {
+    /// $J$ by columns; its values are refreshed from the rows each time.
+    cols: SparseColMat<usize, f64>,
+    /// Position in `cols` of each entry of $J$'s rows.
+    row_to_col: Vec<usize>,
+    /// The pattern of $H$ (column pointers and row indices).
+    h_col_ptr: Vec<usize>,
+    h_row_idx: Vec<usize>,
+    work: Vec<f64>,
+}
+
+impl NormalEquations {
+    fn new(rows: &SparseRowMat<usize, f64>, cols: SparseColMat<usize, f64>, h: &SymbolicSparseColMat<usize>) -> Self {
+        // entries of a column are sorted by row, so walking the rows in order
+        // meets each column's entries in storage order
+        let mut next: Vec<usize> = cols.symbolic().col_ptr()[..cols.ncols()].to_vec();
+        let row_to_col = rows
+            .symbolic()
+            .col_idx()
+            .iter()
+            .map(|&c| {
+                let p = next[c];
+                next[c] += 1;
+                p
+            })
+            .collect();
+        let work = vec![0.0; cols.ncols()];
+        Self {
+            cols,
+            row_to_col,
+            h_col_ptr: h.col_ptr().to_vec(),
+            h_row_idx: h.row_idx().to_vec(),
+            work,
+        }
+    }
+
+    fn form(&mut self, rows: &SparseRowMat<usize, f64>, h: &mut SparseColMat<usize, f64>) {
+        {
+            let vals = self.cols.val_mut();
+            for (&p, &v) in self.row_to_col.iter().zip(rows.val()) {
+                vals[p] = v;
+            }
+        }
+        let row_ptr = rows.symbolic().row_ptr();
+        let row_cols = rows.symbolic().col_idx();
+        let row_vals = rows.val();
+        let (col_ptr, h_rows) = (&self.h_col_ptr, &self.h_row_idx);
+        let h_vals = h.val_mut();
+        for j in 0..self.cols.ncols() {
+            let (start, end) = (self.cols.symbolic().col_ptr()[j], self.cols.symbolic().col_ptr()[j + 1]);
+            for p in start..end {
+                let i = self.cols.symbolic().row_idx()[p];
+                let v = self.cols.val()[p];
+                for q in row_ptr[i]..row_ptr[i + 1] {
+                    self.work[row_cols[q]] += v * row_vals[q];
+                }
+            }
+            for p in col_ptr[j]..col_ptr[j + 1] {
+                let r = h_rows[p];
+                h_vals[p] = self.work[r];
+                self.work[r] = 0.0;
+            }
+        }
+    }
 }

@@ -49,6 +49,18 @@ impl Model for LinearModel {
         Ok(())
     }
 
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        let (n, m) = (self.a.nrows(), self.b.ncols());
+        for i in 0..n {
+            for c in 0..n {
+                fx[i * n + c] = self.a[(i, c)] != 0.0;
+            }
+            for c in 0..m {
+                fu[i * m + c] = self.b[(i, c)] != 0.0;
+            }
+        }
+    }
+
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
         let (n, m) = (x.len(), u.len());
         for i in 0..n {

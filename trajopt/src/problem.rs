@@ -43,6 +43,16 @@ pub trait Model {
         Ok(false)
     }
 
+    /// Which entries of $\partial f / \partial x$ and $\partial f / \partial u$
+    /// (row-major, as in [`jacobians`](Self::jacobians)) can be nonzero; the
+    /// default says all. A model that leaves structural zeros out shrinks
+    /// the planner's Jacobian and normal equations; it must not leave out
+    /// any entry that can be nonzero.
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        fx.fill(true);
+        fu.fill(true);
+    }
+
     /// The model's confidence at $(x, u)$, if it has one (a learned model's
     /// support or inverse variance); used by [`Lambda::from_confidence`].
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
@@ -63,6 +73,14 @@ pub trait StageCost {
     /// $\partial r^c_k / \partial u$ (`n_residuals` $\times m$), row-major;
     /// at the terminal stage `ju` is ignored.
     fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()>;
+
+    /// Which entries of the residual Jacobians can be nonzero at any stage
+    /// (row-major, as in [`jacobians`](Self::jacobians)); the default says
+    /// all. Must not leave out any entry that can be nonzero.
+    fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
+        jx.fill(true);
+        ju.fill(true);
+    }
 }
 
 /// The paper's Eq. 5 as a built-in stage cost: quadratic tracking of a state
@@ -146,6 +164,18 @@ impl StageCost for TrackingCost {
             };
         }
         Ok(())
+    }
+
+    fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
+        let (n, m) = (self.sqrt_q.len(), self.sqrt_r.len());
+        jx.fill(false);
+        ju.fill(false);
+        for i in 0..n {
+            jx[i * n + i] = true;
+        }
+        for j in 0..m {
+            ju[(n + j) * m + j] = true;
+        }
     }
 
     fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()> {
@@ -634,17 +664,26 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
 
     fn build_pattern(&self) -> SymbolicSparseRowMat<usize> {
         let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        // structural nonzeros of the local derivatives as ones
+        let (mut bx, mut bu) = (vec![false; nc * n], vec![false; nc * m]);
+        self.cost.jacobian_structure(&mut bx, &mut bu);
+        let (mut mx, mut mu) = (vec![false; n * n], vec![false; n * m]);
+        self.model.jacobian_structure(&mut mx, &mut mu);
+        let one = |b: Vec<bool>| b.into_iter().map(|v| if v { 1.0 } else { 0.0 }).collect();
         let ones = LocalDerivatives {
-            jx: vec![1.0; nc * n],
-            ju: vec![1.0; nc * m],
-            fx: vec![1.0; n * n],
-            fu: vec![1.0; n * m],
+            jx: one(bx),
+            ju: one(bu),
+            fx: one(mx),
+            fu: one(mu),
         };
         let mut row_ptr = vec![0];
         let mut col_idx = Vec::new();
         let result = self.for_each_row(
             |_| Ok(ones.clone()),
             |_, entries| {
+                // with unit weights, an entry is zero only where the structure
+                // (or the fixed basis value, or lambda_k = 0) makes it so
+                entries.retain(|e| e.1 != 0.0);
                 entries.sort_unstable_by_key(|e| e.0);
                 entries.dedup_by_key(|e| e.0);
                 col_idx.extend(entries.iter().map(|e| e.0));
@@ -786,6 +825,23 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
                 }
             },
         )
+    }
+}
+
+/// Eq. 3's scalar criterion for [`Powell`](crate::powell::Powell).
+impl<M: Model, C: StageCost> crate::powell::Objective for Eq3Problem<M, C> {
+    fn cost(&self, theta: &[f64]) -> Result<f64> {
+        Eq3Problem::cost(self, theta)
+    }
+}
+
+/// Eq. 3's scalar criterion for argmin's solvers (parameters as `Vec<f64>`).
+impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
+    type Param = Vec<f64>;
+    type Output = f64;
+
+    fn cost(&self, theta: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
+        Eq3Problem::cost(self, theta).map_err(argmin::core::Error::new)
     }
 }
 

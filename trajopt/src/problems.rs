@@ -65,6 +65,15 @@ impl Model for Pendulum {
         Ok(())
     }
 
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        // the pendulum (theta, omega) and the hand (x, v) couple only through u
+        fx.fill(false);
+        for (i, c) in [(0, 0), (0, 1), (1, 0), (1, 1), (2, 2), (2, 3), (3, 3)] {
+            fx[i * 4 + c] = true;
+        }
+        fu.fill(true);
+    }
+
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
         let (g, l, b, dt) = (self.gravity, self.length, self.damping, self.dt);
         let da_dth = -(g / l) * x[0].cos() + (u[0] / l) * x[0].sin();

@@ -16,58 +16,69 @@ use crate::problem::{Eq3Problem, Lambda, Model, TrackingCost};
 /// with $b = A \theta^\star$ and $A$ of full column rank (its top block is a
 /// scaled identity), returned with its unique minimiser $\theta^\star$.
 pub fn linear_least_squares(max_params: usize) -> impl Strategy<Value = (LinearLeastSquares, Vec<f64>)> {
-    (1..=max_params.max(1)).prop_flat_map(|n| {
-        let extra = 0..(2 * n + 1);
-        (Just(n), vec(-5.0..5.0f64, n), extra, vec((0..n, -3.0..3.0f64), 0..(4 * n + 1)), 0.5..3.0f64)
-    })
-    .prop_map(|(n, solution, extra, entries, diag)| {
-        // rows 0..n: diag * I; then `extra` rows with entries scattered among them
-        let mut rows: Vec<Vec<(usize, f64)>> = (0..n).map(|i| vec![(i, diag)]).collect();
-        rows.extend((0..extra).map(|_| Vec::new()));
-        for (k, (col, v)) in entries.into_iter().enumerate() {
-            if extra > 0 {
-                rows[n + k % extra].push((col, v));
+    (1..=max_params.max(1))
+        .prop_flat_map(|n| {
+            let extra = 0..(2 * n + 1);
+            (
+                Just(n),
+                vec(-5.0..5.0f64, n),
+                extra,
+                vec((0..n, -3.0..3.0f64), 0..(4 * n + 1)),
+                0.5..3.0f64,
+            )
+        })
+        .prop_map(|(n, solution, extra, entries, diag)| {
+            // rows 0..n: diag * I; then `extra` rows with entries scattered among them
+            let mut rows: Vec<Vec<(usize, f64)>> = (0..n).map(|i| vec![(i, diag)]).collect();
+            rows.extend((0..extra).map(|_| Vec::new()));
+            for (k, (col, v)) in entries.into_iter().enumerate() {
+                if extra > 0 {
+                    rows[n + k % extra].push((col, v));
+                }
             }
-        }
-        let mut row_ptr = vec![0];
-        let (mut cols, mut vals) = (Vec::new(), Vec::new());
-        for mut row in rows {
-            row.sort_by_key(|e| e.0);
-            row.dedup_by_key(|e| e.0);
-            for (c, v) in row {
-                cols.push(c);
-                vals.push(v);
+            let mut row_ptr = vec![0];
+            let (mut cols, mut vals) = (Vec::new(), Vec::new());
+            for mut row in rows {
+                row.sort_by_key(|e| e.0);
+                row.dedup_by_key(|e| e.0);
+                for (c, v) in row {
+                    cols.push(c);
+                    vals.push(v);
+                }
+                row_ptr.push(cols.len());
             }
-            row_ptr.push(cols.len());
-        }
-        let m = row_ptr.len() - 1;
-        let a = SparseRowMat::new(SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, cols), vals);
-        let b = (0..m)
-            .map(|i| {
-                let c = a.symbolic().col_idx_of_row_raw(i);
-                c.iter().zip(a.val_of_row(i)).map(|(&j, &v)| v * solution[j]).sum()
-            })
-            .collect();
-        let problem = LinearLeastSquares::new(a, b).expect("finite by construction");
-        (problem, solution)
-    })
+            let m = row_ptr.len() - 1;
+            let a = SparseRowMat::new(SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, cols), vals);
+            let b = (0..m)
+                .map(|i| {
+                    let c = a.symbolic().col_idx_of_row_raw(i);
+                    c.iter().zip(a.val_of_row(i)).map(|(&j, &v)| v * solution[j]).sum()
+                })
+                .collect();
+            let problem = LinearLeastSquares::new(a, b).expect("finite by construction");
+            (problem, solution)
+        })
 }
 
 /// A convex quadratic $f(x) = (x - x^\star)^\top (L L^\top + I)(x - x^\star)$
 /// in `1..=max_dim` dimensions, as its Hessian factor $L$ and minimiser
 /// $x^\star$ (minimum value 0).
 pub fn convex_quadratic(max_dim: usize) -> impl Strategy<Value = (Mat<f64>, Vec<f64>)> {
-    (1..=max_dim.max(1)).prop_flat_map(|n| (vec(-2.0..2.0f64, n * n), vec(-5.0..5.0f64, n))).prop_map(|(l, x)| {
-        let n = x.len();
-        (Mat::from_fn(n, n, |i, j| l[i * n + j]), x)
-    })
+    (1..=max_dim.max(1))
+        .prop_flat_map(|n| (vec(-2.0..2.0f64, n * n), vec(-5.0..5.0f64, n)))
+        .prop_map(|(l, x)| {
+            let n = x.len();
+            (Mat::from_fn(n, n, |i, j| l[i * n + j]), x)
+        })
 }
 
 /// Evaluates the [`convex_quadratic`] $f(x)$ for factor `l` and minimiser `xs`.
 pub fn convex_quadratic_value(l: &Mat<f64>, xs: &[f64], x: &[f64]) -> f64 {
     let d: Vec<f64> = x.iter().zip(xs).map(|(a, b)| a - b).collect();
     let n = d.len();
-    let lt_d: f64 = (0..n).map(|j| (0..n).map(|i| l[(i, j)] * d[i]).sum::<f64>().powi(2)).sum();
+    let lt_d: f64 = (0..n)
+        .map(|j| (0..n).map(|i| l[(i, j)] * d[i]).sum::<f64>().powi(2))
+        .sum();
     lt_d + d.iter().map(|v| v * v).sum::<f64>()
 }
 
@@ -78,36 +89,47 @@ pub fn convex_quadratic_value(l: &Mat<f64>, xs: &[f64], x: &[f64]) -> f64 {
 /// optimum has zero task cost and zero inconsistency for every $\lambda \ge 0$.
 /// Returned with that optimum's parameter vector.
 pub fn linear_soft_dynamics() -> impl Strategy<Value = (Eq3Problem<LinearModel, TrackingCost>, Vec<f64>)> {
-    (1usize..=3, 1usize..=2, 3usize..=25, 0.0..1e4f64).prop_flat_map(|(n, m, horizon, lambda)| {
-        (
-            Just((n, m, horizon, lambda)),
-            vec(-0.3..0.3f64, n * n),
-            vec(-1.0..1.0f64, n * m),
-            vec(-1.0..1.0f64, n),
-            vec(-1.0..1.0f64, horizon * m),
-        )
-    })
-    .prop_map(|((n, m, horizon, lambda), a, b, x0, u)| {
-        let a = Mat::from_fn(n, n, |i, j| a[i * n + j] + if i == j { 0.9 } else { 0.0 });
-        let b = Mat::from_fn(n, m, |i, j| b[i * m + j]);
-        let model = LinearModel::new(a, b).expect("finite");
-        let mut states = vec![x0];
-        for k in 0..horizon {
-            let mut next = vec![0.0; n];
-            model.step(&states[k], &u[k * m..(k + 1) * m], &mut next).expect("linear step");
-            states.push(next);
-        }
-        let state_ref = Mat::from_fn(horizon + 1, n, |k, i| states[k][i]);
-        let control_ref = Mat::from_fn(horizon, m, |k, j| u[k * m + j]);
-        let cost = TrackingCost::new(state_ref.clone(), control_ref.clone(), &vec![1.0; n], &vec![0.1; m], &vec![1.0; n])
+    (1usize..=3, 1usize..=2, 3usize..=25, 0.0..1e4f64)
+        .prop_flat_map(|(n, m, horizon, lambda)| {
+            (
+                Just((n, m, horizon, lambda)),
+                vec(-0.3..0.3f64, n * n),
+                vec(-1.0..1.0f64, n * m),
+                vec(-1.0..1.0f64, n),
+                vec(-1.0..1.0f64, horizon * m),
+            )
+        })
+        .prop_map(|((n, m, horizon, lambda), a, b, x0, u)| {
+            let a = Mat::from_fn(n, n, |i, j| a[i * n + j] + if i == j { 0.9 } else { 0.0 });
+            let b = Mat::from_fn(n, m, |i, j| b[i * m + j]);
+            let model = LinearModel::new(a, b).expect("finite");
+            let mut states = vec![x0];
+            for k in 0..horizon {
+                let mut next = vec![0.0; n];
+                model
+                    .step(&states[k], &u[k * m..(k + 1) * m], &mut next)
+                    .expect("linear step");
+                states.push(next);
+            }
+            let state_ref = Mat::from_fn(horizon + 1, n, |k, i| states[k][i]);
+            let control_ref = Mat::from_fn(horizon, m, |k, j| u[k * m + j]);
+            let cost = TrackingCost::new(
+                state_ref.clone(),
+                control_ref.clone(),
+                &vec![1.0; n],
+                &vec![0.1; m],
+                &vec![1.0; n],
+            )
             .expect("valid weights");
-        let times: Vec<f64> = (0..=horizon).map(|k| k as f64).collect();
-        let xb = BSplineBasis::clamped(&times, 1).expect("valid");
-        let ub = BSplineBasis::clamped(&times[..horizon.max(2)], 1).expect("valid");
-        let problem = Eq3Problem::new(model, cost, &xb, &ub, &times, Lambda::Constant(lambda)).expect("valid");
-        // controls at t_0..t_{N-1}: coefficient k of the control basis is u_k
-        let cu = Mat::from_fn(problem.n_control_coeffs(), m, |k, j| if k < horizon { u[k * m + j] } else { 0.0 });
-        let theta = problem.pack(&state_ref, &cu).expect("shapes agree");
-        (problem, theta)
-    })
+            let times: Vec<f64> = (0..=horizon).map(|k| k as f64).collect();
+            let xb = BSplineBasis::clamped(&times, 1).expect("valid");
+            let ub = BSplineBasis::clamped(&times[..horizon.max(2)], 1).expect("valid");
+            let problem = Eq3Problem::new(model, cost, &xb, &ub, &times, Lambda::Constant(lambda)).expect("valid");
+            // controls at t_0..t_{N-1}: coefficient k of the control basis is u_k
+            let cu = Mat::from_fn(problem.n_control_coeffs(), m, |k, j| {
+                if k < horizon { u[k * m + j] } else { 0.0 }
+            });
+            let theta = problem.pack(&state_ref, &cu).expect("shapes agree");
+            (problem, theta)
+        })
 }

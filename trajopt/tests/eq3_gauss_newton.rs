@@ -419,3 +419,48 @@ fn bounds_on_controls_and_states_hold_at_the_samples() {
         Err(TrajoptError::InvalidParameter { .. })
     ));
 }
+
+#[test]
+fn powell_and_gauss_newton_agree_on_a_small_eq3_problem() {
+    use argmin::core::Executor;
+    use trajopt::powell::{Powell, PowellArgmin, PowellSettings};
+    // a small problem Powell can finish: 20 steps, 6 + 5 coefficients per channel
+    let (p, _, _, _) = pendulum_problem(20, Lambda::Constant(10.0), true);
+    let theta0 = theta_guess(&p);
+    let gn = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("settings")
+        .solve(&p, &theta0)
+        .expect("gn");
+    let settings = PowellSettings {
+        tol_f: 1e-12,
+        tol_x: 1e-10,
+        max_evals: Some(200_000),
+        ..PowellSettings::default()
+    };
+    let pw = Powell::new(settings.clone())
+        .expect("settings")
+        .solve(&p, &theta0)
+        .expect("powell");
+    assert!(pw.cost <= pw.initial_cost);
+    assert!(
+        (pw.cost - gn.cost).abs() <= 1e-4 * gn.cost,
+        "powell {} vs gauss-newton {}",
+        pw.cost,
+        gn.cost
+    );
+    assert!(
+        pw.cost_evals > 100 * gn.residual_evals,
+        "derivative-free costs many more evaluations"
+    );
+    // the same problem under argmin's executor
+    let res = Executor::new(p, PowellArgmin::new(settings).expect("settings"))
+        .configure(|s| s.param(theta0.clone()).max_iters(500))
+        .run()
+        .expect("argmin run");
+    let best = res.state().best_cost;
+    assert!(
+        (best - gn.cost).abs() <= 1e-3 * gn.cost,
+        "argmin powell {best} vs {}",
+        gn.cost
+    );
+}
