@@ -1,0 +1,167 @@
+//! Criterion benchmarks of the LWR model over database sizes.
+//!
+//! `cargo bench -p lwr`: single queries (with confidence, and with the
+//! Jacobian), parallel batches, inserts, leave-one-out and tuning, for
+//! $10^3$ to $10^5$ uniform points in 2 and 5 dimensions. The tricube
+//! bandwidth is chosen so that about 50 points carry weight at every size,
+//! so a query should grow like $\log n$ (tree descent) plus a constant fit.
+
+use std::hint::black_box;
+use std::time::Duration;
+
+use criterion::{BatchSize, BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
+use lwr::{Kernel, LwrModel, LwrSettings, TuneSettings};
+
+const SIZES: [usize; 3] = [1_000, 10_000, 100_000];
+const DIMS: [usize; 2] = [2, 5];
+/// Expected number of points inside the kernel's support.
+const NEIGHBOURS: f64 = 50.0;
+
+struct Lcg(u64);
+
+impl Lcg {
+    fn next(&mut self) -> f64 {
+        self.0 = self
+            .0
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (self.0 >> 11) as f64 / (1u64 << 53) as f64
+    }
+}
+
+fn points(n: usize, d: usize, seed: u64) -> (Vec<Vec<f64>>, Vec<Vec<f64>>) {
+    let mut r = Lcg(seed);
+    let xs: Vec<Vec<f64>> = (0..n).map(|_| (0..d).map(|_| r.next()).collect()).collect();
+    let ys = xs
+        .iter()
+        .map(|x| vec![(6.0 * x[0]).sin() + x[1] * x[1] + 0.05 * r.next()])
+        .collect();
+    (xs, ys)
+}
+
+/// Tricube bandwidth with about `NEIGHBOURS` points in the unit ball of radius h.
+fn bandwidth(n: usize, d: usize) -> f64 {
+    let unit_ball = match d {
+        2 => std::f64::consts::PI,
+        5 => 8.0 * std::f64::consts::PI.powi(2) / 15.0,
+        _ => 1.0,
+    };
+    (NEIGHBOURS / (n as f64 * unit_ball)).powf(1.0 / d as f64)
+}
+
+fn model(n: usize, d: usize) -> LwrModel {
+    let settings = LwrSettings {
+        kernel: Kernel::Tricube,
+        bandwidth: bandwidth(n, d),
+        ..Default::default()
+    };
+    let (xs, ys) = points(n, d, 42);
+    let mut m = LwrModel::new(d, 1, settings).expect("valid settings");
+    m.insert_many(&xs, &ys).expect("finite data");
+    m
+}
+
+fn queries(c: &mut Criterion) {
+    let mut group = c.benchmark_group("query");
+    group
+        .sample_size(20)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    for d in DIMS {
+        for n in SIZES {
+            let m = model(n, d);
+            let q = vec![0.5; d];
+            let id = format!("d{d}");
+            group.bench_with_input(BenchmarkId::new(format!("predict_{id}"), n), &q, |b, q| {
+                b.iter(|| m.predict(black_box(q)).expect("weighted"))
+            });
+            group.bench_with_input(BenchmarkId::new(format!("jacobian_{id}"), n), &q, |b, q| {
+                b.iter(|| m.predict_with_jacobian(black_box(q)).expect("weighted"))
+            });
+        }
+    }
+    group.finish();
+
+    let mut group = c.benchmark_group("batch");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    for d in DIMS {
+        for n in SIZES {
+            let m = model(n, d);
+            let (qs, _) = points(1000, d, 7);
+            let qs: Vec<Vec<f64>> = qs
+                .into_iter()
+                .map(|q| q.iter().map(|v| 0.1 + 0.8 * v).collect())
+                .collect();
+            group.throughput(Throughput::Elements(qs.len() as u64));
+            group.bench_with_input(BenchmarkId::new(format!("predict_1000_d{d}"), n), &qs, |b, qs| {
+                b.iter(|| m.predict_batch(black_box(qs)))
+            });
+        }
+    }
+    group.finish();
+}
+
+fn inserts(c: &mut Criterion) {
+    let mut group = c.benchmark_group("insert");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(1));
+    for d in DIMS {
+        for n in SIZES {
+            let m = model(n, d);
+            let (xs, ys) = points(1000, d, 9);
+            group.throughput(Throughput::Elements(1000));
+            group.bench_function(BenchmarkId::new(format!("1000_into_d{d}"), n), |b| {
+                b.iter_batched(
+                    || m.clone(),
+                    |mut m| {
+                        for (x, y) in xs.iter().zip(&ys) {
+                            m.insert(x, y).expect("finite");
+                        }
+                        m
+                    },
+                    BatchSize::LargeInput,
+                )
+            });
+        }
+    }
+    group.finish();
+}
+
+fn cross_validation(c: &mut Criterion) {
+    let mut group = c.benchmark_group("loo");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(2));
+    for d in DIMS {
+        for n in [1_000, 10_000] {
+            let m = model(n, d);
+            group.throughput(Throughput::Elements(n as u64));
+            group.bench_function(BenchmarkId::new(format!("d{d}"), n), |b| {
+                b.iter(|| m.loo().expect("nonempty"))
+            });
+        }
+    }
+    group.finish();
+
+    let mut group = c.benchmark_group("tune");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(300))
+        .measurement_time(Duration::from_secs(3));
+    let m = model(500, 2);
+    let tune = TuneSettings {
+        max_evals: 30,
+        ..Default::default()
+    };
+    group.bench_function("n500_d2_30evals", |b| b.iter(|| m.tune(&tune).expect("valid")));
+    group.finish();
+}
+
+criterion_group!(benches, queries, inserts, cross_validation);
+criterion_main!(benches);

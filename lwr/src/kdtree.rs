@@ -1,0 +1,435 @@
+//! A k-d tree over the database's inputs, with leaf buckets that split when
+//! full and subtrees rebuilt when they become unbalanced.
+//!
+//! Distances are diagonal: $d^2(x, q) = \sum_j m_j^2 (x_j - q_j)^2$ with
+//! per-dimension scales $m_j \ge 0$ (a zero scale ignores the dimension).
+//! Every node keeps the tight bounding box of its points, so a query prunes
+//! a node when the box's smallest possible distance already exceeds the
+//! radius (or the current k-th distance). Points are indices into the flat,
+//! row-major input array owned by [`Database`](crate::Database).
+//!
+//! Leaves keep a copy of their points' coordinates, so a query scans them
+//! contiguously instead of gathering rows from the database (2-3 times
+//! faster for random 5-D queries on $10^5$ points on a busy 2-core machine;
+//! the inputs are stored twice). Leaves hold up to [`BUCKET`] = 32 points,
+//! which measured faster than 8 or 16 in 5-D and the same in 2-D.
+//!
+//! Insertion descends to a leaf and appends; a leaf holding more than
+//! [`BUCKET`] points splits at the median of its widest dimension (a leaf of
+//! identical points cannot split and simply grows). An inner node whose
+//! subtree has at least doubled since it was built and whose larger child
+//! holds more than [`ALPHA`] of its points is rebuilt balanced, so the
+//! rebuild cost is amortised over the inserts that caused it (as in a
+//! scapegoat tree).
+
+use std::cmp::Ordering;
+use std::collections::BinaryHeap;
+
+/// Largest number of points in a leaf that can still be split.
+pub(crate) const BUCKET: usize = 32;
+/// Largest fraction of an inner node's points that one child may hold before
+/// the node is rebuilt.
+pub(crate) const ALPHA: f64 = 0.75;
+
+#[derive(Debug, Clone)]
+struct Bounds {
+    lo: Vec<f64>,
+    hi: Vec<f64>,
+}
+
+impl Bounds {
+    fn of_point(x: &[f64]) -> Self {
+        Self {
+            lo: x.to_vec(),
+            hi: x.to_vec(),
+        }
+    }
+
+    fn expand(&mut self, x: &[f64]) {
+        for ((lo, hi), &v) in self.lo.iter_mut().zip(&mut self.hi).zip(x) {
+            if v < *lo {
+                *lo = v;
+            }
+            if v > *hi {
+                *hi = v;
+            }
+        }
+    }
+
+    /// Smallest squared scaled distance from `q` to any point of the box.
+    fn min_dist2(&self, q: &[f64], scales: &[f64]) -> f64 {
+        let mut s = 0.0;
+        for j in 0..q.len() {
+            let gap = if q[j] < self.lo[j] {
+                self.lo[j] - q[j]
+            } else if q[j] > self.hi[j] {
+                q[j] - self.hi[j]
+            } else {
+                0.0
+            };
+            let t = scales[j] * gap;
+            s += t * t;
+        }
+        s
+    }
+
+    /// Widest dimension and its spread.
+    fn widest(&self) -> (usize, f64) {
+        let mut best = (0, -1.0);
+        for j in 0..self.lo.len() {
+            let w = self.hi[j] - self.lo[j];
+            if w > best.1 {
+                best = (j, w);
+            }
+        }
+        best
+    }
+}
+
+/// Squared scaled distance $\sum_j (m_j (x_j - q_j))^2$.
+#[inline]
+pub(crate) fn dist2(x: &[f64], q: &[f64], scales: &[f64]) -> f64 {
+    let mut s = 0.0;
+    for j in 0..q.len() {
+        let t = scales[j] * (x[j] - q[j]);
+        s += t * t;
+    }
+    s
+}
+
+#[derive(Debug, Clone)]
+enum Node {
+    Leaf {
+        bounds: Bounds,
+        indices: Vec<usize>,
+        /// The points' coordinates, row-major, in `indices` order: queries
+        /// scan them contiguously instead of gathering from the database.
+        coords: Vec<f64>,
+    },
+    Inner {
+        bounds: Bounds,
+        dim: usize,
+        /// Points with `x[dim] < split` go left, the others right.
+        split: f64,
+        left: Box<Node>,
+        right: Box<Node>,
+        count: usize,
+        /// `count` when this subtree was last built.
+        built: usize,
+    },
+}
+
+fn point(points: &[f64], d: usize, i: usize) -> &[f64] {
+    &points[i * d..(i + 1) * d]
+}
+
+impl Node {
+    fn count(&self) -> usize {
+        match self {
+            Node::Leaf { indices, .. } => indices.len(),
+            Node::Inner { count, .. } => *count,
+        }
+    }
+
+    fn bounds(&self) -> &Bounds {
+        match self {
+            Node::Leaf { bounds, .. } | Node::Inner { bounds, .. } => bounds,
+        }
+    }
+
+    fn depth(&self) -> usize {
+        match self {
+            Node::Leaf { .. } => 1,
+            Node::Inner { left, right, .. } => 1 + left.depth().max(right.depth()),
+        }
+    }
+
+    fn collect(&self, out: &mut Vec<usize>) {
+        match self {
+            Node::Leaf { indices, .. } => out.extend_from_slice(indices),
+            Node::Inner { left, right, .. } => {
+                left.collect(out);
+                right.collect(out);
+            }
+        }
+    }
+
+    /// Builds a balanced subtree over `indices` (nonempty).
+    fn build(mut indices: Vec<usize>, points: &[f64], d: usize) -> Node {
+        debug_assert!(!indices.is_empty());
+        let mut bounds = Bounds::of_point(point(points, d, indices[0]));
+        for &i in &indices[1..] {
+            bounds.expand(point(points, d, i));
+        }
+        let (dim, spread) = bounds.widest();
+        if indices.len() <= BUCKET || spread <= 0.0 {
+            let mut coords = Vec::with_capacity(indices.len() * d);
+            for &i in &indices {
+                coords.extend_from_slice(point(points, d, i));
+            }
+            return Node::Leaf {
+                bounds,
+                indices,
+                coords,
+            };
+        }
+        let coord = |i: usize| points[i * d + dim];
+        let mid = indices.len() / 2;
+        indices.select_nth_unstable_by(mid, |&a, &b| coord(a).total_cmp(&coord(b)));
+        let mut split = coord(indices[mid]);
+        if split <= bounds.lo[dim] {
+            // the median is the minimum: split just above it instead
+            split = indices
+                .iter()
+                .map(|&i| coord(i))
+                .filter(|&v| v > split)
+                .fold(f64::INFINITY, f64::min);
+        }
+        let (left, right): (Vec<usize>, Vec<usize>) = indices.into_iter().partition(|&i| coord(i) < split);
+        debug_assert!(!left.is_empty() && !right.is_empty());
+        let count = left.len() + right.len();
+        Node::Inner {
+            bounds,
+            dim,
+            split,
+            left: Box::new(Node::build(left, points, d)),
+            right: Box::new(Node::build(right, points, d)),
+            count,
+            built: count,
+        }
+    }
+
+    fn insert(&mut self, i: usize, points: &[f64], d: usize) {
+        let x = point(points, d, i);
+        let rebuild = match self {
+            Node::Leaf {
+                bounds,
+                indices,
+                coords,
+            } => {
+                bounds.expand(x);
+                indices.push(i);
+                coords.extend_from_slice(x);
+                indices.len() > BUCKET && bounds.widest().1 > 0.0
+            }
+            Node::Inner {
+                bounds,
+                dim,
+                split,
+                left,
+                right,
+                count,
+                built,
+            } => {
+                bounds.expand(x);
+                *count += 1;
+                if x[*dim] < *split {
+                    left.insert(i, points, d);
+                } else {
+                    right.insert(i, points, d);
+                }
+                let big = left.count().max(right.count()) as f64;
+                *count >= 2 * *built && big > ALPHA * *count as f64
+            }
+        };
+        if rebuild {
+            let mut indices = Vec::with_capacity(self.count());
+            self.collect(&mut indices);
+            *self = Node::build(indices, points, d);
+        }
+    }
+
+    fn within(&self, d: usize, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
+        if self.bounds().min_dist2(q, scales) >= r2 {
+            return;
+        }
+        match self {
+            Node::Leaf { indices, coords, .. } => {
+                for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
+                    let d2 = dist2(x, q, scales);
+                    if d2 < r2 {
+                        out.push((i, d2));
+                    }
+                }
+            }
+            Node::Inner { left, right, .. } => {
+                left.within(d, q, scales, r2, out);
+                right.within(d, q, scales, r2, out);
+            }
+        }
+    }
+
+    fn nearest(&self, d: usize, q: &[f64], scales: &[f64], k: usize, heap: &mut BinaryHeap<Candidate>) {
+        match self {
+            Node::Leaf { indices, coords, .. } => {
+                for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
+                    let d2 = dist2(x, q, scales);
+                    if heap.len() < k {
+                        heap.push(Candidate { d2, index: i });
+                    } else if heap.peek().is_some_and(|w| d2 < w.d2) {
+                        heap.pop();
+                        heap.push(Candidate { d2, index: i });
+                    }
+                }
+            }
+            Node::Inner { left, right, .. } => {
+                let dl = left.bounds().min_dist2(q, scales);
+                let dr = right.bounds().min_dist2(q, scales);
+                let (first, df, second, ds) = if dl <= dr {
+                    (left, dl, right, dr)
+                } else {
+                    (right, dr, left, dl)
+                };
+                for (child, dc) in [(first, df), (second, ds)] {
+                    let worst = if heap.len() < k {
+                        f64::INFINITY
+                    } else {
+                        heap.peek().map_or(f64::INFINITY, |w| w.d2)
+                    };
+                    if dc < worst {
+                        child.nearest(d, q, scales, k, heap);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A heap entry ordered by squared distance, then index.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub(crate) struct Candidate {
+    pub(crate) d2: f64,
+    pub(crate) index: usize,
+}
+
+impl Eq for Candidate {}
+
+impl PartialOrd for Candidate {
+    fn partial_cmp(&self, other: &Self) -> Option<Ordering> {
+        Some(self.cmp(other))
+    }
+}
+
+impl Ord for Candidate {
+    fn cmp(&self, other: &Self) -> Ordering {
+        self.d2.total_cmp(&other.d2).then(self.index.cmp(&other.index))
+    }
+}
+
+/// The tree: `None` while the database is empty.
+#[derive(Debug, Clone, Default)]
+pub(crate) struct KdTree {
+    root: Option<Node>,
+}
+
+impl KdTree {
+    /// Builds a balanced tree over points `0..n` of the flat array.
+    pub(crate) fn build(points: &[f64], d: usize) -> Self {
+        let n = points.len().checked_div(d).unwrap_or(0);
+        if n == 0 {
+            return Self { root: None };
+        }
+        Self {
+            root: Some(Node::build((0..n).collect(), points, d)),
+        }
+    }
+
+    /// Adds point `i` (already stored in `points`).
+    pub(crate) fn insert(&mut self, i: usize, points: &[f64], d: usize) {
+        match &mut self.root {
+            None => {
+                self.root = Some(Node::Leaf {
+                    bounds: Bounds::of_point(point(points, d, i)),
+                    indices: vec![i],
+                    coords: point(points, d, i).to_vec(),
+                });
+            }
+            Some(root) => root.insert(i, points, d),
+        }
+    }
+
+    /// Appends `(index, d^2)` for every point with `d^2 < r2`.
+    pub(crate) fn within(&self, d: usize, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
+        if let Some(root) = &self.root {
+            root.within(d, q, scales, r2, out);
+        }
+    }
+
+    /// The `k` nearest points as `(index, d^2)`, nearest first.
+    pub(crate) fn nearest(&self, d: usize, q: &[f64], scales: &[f64], k: usize) -> Vec<(usize, f64)> {
+        let mut heap = BinaryHeap::with_capacity(k + 1);
+        if let (Some(root), true) = (&self.root, k > 0) {
+            root.nearest(d, q, scales, k, &mut heap);
+        }
+        heap.into_sorted_vec().into_iter().map(|c| (c.index, c.d2)).collect()
+    }
+
+    /// Number of levels (0 for an empty tree).
+    pub(crate) fn depth(&self) -> usize {
+        self.root.as_ref().map_or(0, Node::depth)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn lcg(seed: &mut u64) -> f64 {
+        *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+        (*seed >> 11) as f64 / (1u64 << 53) as f64
+    }
+
+    #[test]
+    fn sorted_inserts_stay_shallow() {
+        let d = 1;
+        let n = 20_000;
+        let points: Vec<f64> = (0..n).map(|i| i as f64).collect();
+        let mut tree = KdTree::default();
+        for i in 0..n {
+            tree.insert(i, &points, d);
+        }
+        // a balanced tree has about log2(n / BUCKET) + 1 = 11 levels; sorted
+        // inserts (the worst case for a plain k-d tree: depth n / BUCKET)
+        // stay within a few levels of it
+        let balanced = KdTree::build(&points, d).depth();
+        assert!(tree.depth() <= balanced + 8, "depth {} vs {balanced}", tree.depth());
+        let mut out = Vec::new();
+        tree.within(d, &[100.0], &[1.0], 2.5 * 2.5, &mut out);
+        out.sort_by_key(|p| p.0);
+        let idx: Vec<usize> = out.iter().map(|p| p.0).collect();
+        assert_eq!(idx, vec![98, 99, 100, 101, 102]);
+    }
+
+    #[test]
+    fn duplicates_do_not_split_forever() {
+        let d = 2;
+        let points = vec![1.0; 2 * 500];
+        let mut tree = KdTree::default();
+        for i in 0..500 {
+            tree.insert(i, &points, d);
+        }
+        assert_eq!(tree.depth(), 1);
+        let near = tree.nearest(d, &[0.0, 0.0], &[1.0, 1.0], 3);
+        assert_eq!(near.len(), 3);
+    }
+
+    #[test]
+    fn random_knn_matches_brute_force() {
+        let d = 3;
+        let mut seed = 7;
+        let points: Vec<f64> = (0..3000).map(|_| lcg(&mut seed)).collect();
+        let mut tree = KdTree::default();
+        for i in 0..1000 {
+            tree.insert(i, &points, d);
+        }
+        let scales = [1.0, 0.0, 2.0];
+        let q = [0.3, 0.9, 0.5];
+        let got = tree.nearest(d, &q, &scales, 10);
+        let mut all: Vec<f64> = (0..1000)
+            .map(|i| dist2(&points[i * d..(i + 1) * d], &q, &scales))
+            .collect();
+        all.sort_by(f64::total_cmp);
+        let got_d: Vec<f64> = got.iter().map(|p| p.1).collect();
+        assert_eq!(got_d, all[..10].to_vec());
+    }
+}

@@ -1,0 +1,143 @@
+//! [proptest] strategies for data sets (enabled by the `proptest` feature).
+//! The crate's own property tests use them.
+//!
+//! Inputs lie in $[-1, 1]^d$ and may repeat (duplicate points are common in
+//! logged trajectories); outputs are exact functions of the inputs plus
+//! optional noise drawn by the strategy, so every case is reproducible from
+//! proptest's seed.
+
+use std::ops::Range;
+
+use proptest::collection::vec;
+use proptest::prelude::*;
+
+use crate::error::Result;
+use crate::model::LwrModel;
+use crate::settings::LwrSettings;
+
+/// A data set: inputs and outputs, one row per point.
+#[derive(Debug, Clone, PartialEq)]
+pub struct DataSet {
+    /// Input rows, each of length $d$.
+    pub inputs: Vec<Vec<f64>>,
+    /// Output rows, each of length $o$.
+    pub outputs: Vec<Vec<f64>>,
+}
+
+impl DataSet {
+    /// Number of inputs $d$ (0 for an empty set).
+    pub fn n_inputs(&self) -> usize {
+        self.inputs.first().map_or(0, Vec::len)
+    }
+
+    /// Number of outputs $o$ (0 for an empty set).
+    pub fn n_outputs(&self) -> usize {
+        self.outputs.first().map_or(0, Vec::len)
+    }
+
+    /// A model holding these points.
+    pub fn to_model(&self, settings: LwrSettings) -> Result<LwrModel> {
+        let mut m = LwrModel::new(self.n_inputs(), self.n_outputs(), settings)?;
+        m.insert_many(&self.inputs, &self.outputs)?;
+        Ok(m)
+    }
+}
+
+/// `n` input points in $[-1, 1]^d$; with `duplicates`, about one in five
+/// is a copy of an earlier point.
+pub fn inputs(d: usize, n: Range<usize>, duplicates: bool) -> impl Strategy<Value = Vec<Vec<f64>>> {
+    vec((vec(-1.0..1.0f64, d), 0..5u8, any::<prop::sample::Index>()), n).prop_map(move |rows| {
+        let mut out: Vec<Vec<f64>> = Vec::with_capacity(rows.len());
+        for (x, dup, idx) in rows {
+            if duplicates && dup == 0 && !out.is_empty() {
+                let prev = out[idx.index(out.len())].clone();
+                out.push(prev);
+            } else {
+                out.push(x);
+            }
+        }
+        out
+    })
+}
+
+/// Noise values in $[-a, a]$, one per point and output.
+fn noise(n: usize, o: usize, amplitude: f64) -> impl Strategy<Value = Vec<f64>> {
+    vec(-1.0..1.0f64, n * o).prop_map(move |v| v.into_iter().map(|e| e * amplitude).collect())
+}
+
+/// Outputs exactly linear in the inputs, $y = a + B x$ with random $a$, $B$
+/// (no noise): local linear and quadratic fits reproduce them exactly.
+pub fn linear_data(d: usize, o: usize, n: Range<usize>, duplicates: bool) -> impl Strategy<Value = DataSet> {
+    (inputs(d, n, duplicates), vec(-2.0..2.0f64, o * (d + 1))).prop_map(move |(xs, coef)| {
+        let outputs = xs
+            .iter()
+            .map(|x| {
+                (0..o)
+                    .map(|k| {
+                        let c = &coef[k * (d + 1)..(k + 1) * (d + 1)];
+                        c[0] + c[1..].iter().zip(x).map(|(a, b)| a * b).sum::<f64>()
+                    })
+                    .collect()
+            })
+            .collect();
+        DataSet { inputs: xs, outputs }
+    })
+}
+
+/// A smooth nonlinear target plus uniform noise of amplitude `noise_amp`:
+/// output $k$ is $\sin(\sum_j c_{kj} x_j) + \frac12 x_0^2$ with random $c$.
+pub fn smooth_data(
+    d: usize,
+    o: usize,
+    n: Range<usize>,
+    duplicates: bool,
+    noise_amp: f64,
+) -> impl Strategy<Value = DataSet> {
+    (inputs(d, n, duplicates), vec(-2.0..2.0f64, o * d)).prop_flat_map(move |(xs, coef)| {
+        let len = xs.len();
+        (Just(xs), Just(coef), noise(len, o, noise_amp)).prop_map(move |(xs, coef, e)| {
+            let outputs = xs
+                .iter()
+                .enumerate()
+                .map(|(i, x)| {
+                    (0..o)
+                        .map(|k| {
+                            let s: f64 = coef[k * d..(k + 1) * d].iter().zip(x).map(|(a, b)| a * b).sum();
+                            s.sin() + 0.5 * x[0] * x[0] + e[i * o + k]
+                        })
+                        .collect()
+                })
+                .collect();
+            DataSet { inputs: xs, outputs }
+        })
+    })
+}
+
+/// One output depending on the first `relevant` inputs only,
+/// $y = \sin(2 x_0) + \sum_{1 \le j < \text{relevant}} x_j^2$, plus `irrelevant`
+/// pure-noise inputs and output noise of amplitude `noise_amp`.
+pub fn irrelevant_input_data(
+    relevant: usize,
+    irrelevant: usize,
+    n: Range<usize>,
+    noise_amp: f64,
+) -> impl Strategy<Value = DataSet> {
+    let d = relevant + irrelevant;
+    inputs(d, n, false).prop_flat_map(move |xs| {
+        let len = xs.len();
+        (Just(xs), noise(len, 1, noise_amp)).prop_map(move |(xs, e)| {
+            let outputs = xs
+                .iter()
+                .zip(&e)
+                .map(|(x, e)| {
+                    let mut y = (2.0 * x[0]).sin() + e;
+                    for v in &x[1..relevant.max(1)] {
+                        y += v * v;
+                    }
+                    vec![y]
+                })
+                .collect();
+            DataSet { inputs: xs, outputs }
+        })
+    })
+}

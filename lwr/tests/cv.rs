@@ -1,0 +1,182 @@
+//! Leave-one-out cross-validation, metric tuning, save and load.
+
+use lwr::strategies::{irrelevant_input_data, smooth_data};
+use lwr::{Degree, Kernel, LwrModel, LwrSettings, TuneSettings};
+use proptest::prelude::*;
+use proptest::strategy::ValueTree;
+use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(32))]
+
+    /// The closed form $e_{(-i)} = (y_i - \hat y(x_i)) / (1 - L_{ii})$ equals
+    /// refitting at $x_i$ without point $i$.
+    #[test]
+    fn loo_closed_form_equals_refit(
+        data in smooth_data(2, 2, 8..40, true, 0.1),
+        kernel in prop_oneof![Just(Kernel::Gaussian), Just(Kernel::Tricube), Just(Kernel::Bisquare)],
+        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        bandwidth in 0.5..2.0f64,
+        ridge in prop_oneof![Just(0.0), 1e-3..1.0f64],
+    ) {
+        let settings = LwrSettings { kernel, degree, bandwidth, ridge, ..Default::default() };
+        let m = data.to_model(settings.clone()).expect("valid");
+        let loo = m.loo().expect("nonempty");
+        prop_assert_eq!(loo.residuals.len(), data.inputs.len() * 2);
+        let n = data.inputs.len();
+        for i in 0..n {
+            let mut rest = LwrModel::new(2, 2, settings.clone()).expect("valid");
+            for k in (0..n).filter(|&k| k != i) {
+                rest.insert(&data.inputs[k], &data.outputs[k]).expect("valid");
+            }
+            let Ok(p) = rest.predict(&data.inputs[i]) else { continue };
+            // the identity is exact for the same fit; skip regularised ones
+            let Ok(full) = m.predict(&data.inputs[i]) else { continue };
+            if p.status != lwr::FitStatus::Ok || full.status != lwr::FitStatus::Ok
+                || p.condition > 1e8 || full.condition > 1e8 || 1.0 - loo.leverages[i] < 1e-6 {
+                continue;
+            }
+            for o in 0..2 {
+                let closed = data.outputs[i][o] - loo.residuals[i * 2 + o];
+                prop_assert!((closed - p.mean[o]).abs() < 1e-7 * (1.0 + p.mean[o].abs()),
+                    "point {i} output {o}: closed form {closed} vs refit {}", p.mean[o]);
+            }
+        }
+        // PRESS is the sum of squared LOO residuals
+        let press0: f64 = (0..n).map(|i| loo.residuals[i * 2].powi(2)).sum();
+        prop_assert!((press0 - loo.press[0]).abs() <= 1e-12 * press0.max(1.0));
+        prop_assert!(loo.gcv.iter().all(|g| *g >= 0.0));
+    }
+}
+
+fn sample<T: std::fmt::Debug>(s: impl Strategy<Value = T>, seed: u8) -> T {
+    let mut runner = TestRunner::new_with_rng(Config::default(), TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]));
+    s.new_tree(&mut runner).expect("strategy generates").current()
+}
+
+#[test]
+fn tuning_drops_an_irrelevant_input() {
+    // y = sin(2 x0) + x1^2 + noise; x2 is pure noise
+    let data = sample(irrelevant_input_data(2, 1, 300..301, 0.05), 7);
+    let settings = LwrSettings {
+        bandwidth: 0.3,
+        ..Default::default()
+    };
+    let m = data.to_model(settings).expect("valid");
+    let result = m.tune(&TuneSettings::default()).expect("valid");
+    let s = &result.settings;
+    let eff: Vec<f64> = s.scales.iter().map(|m| m / s.bandwidth).collect();
+    println!(
+        "tuned h {:.3} scales {:?} (m/h {eff:?}), LOO nMSE {:.4} -> {:.4} in {} evals ({:?})",
+        s.bandwidth, s.scales, result.initial_objective, result.objective, result.evals, result.status
+    );
+    assert!(result.objective < result.initial_objective);
+    assert!(
+        eff[2] <= 0.05 * eff[0].min(eff[1]),
+        "irrelevant scale {} not dropped against {eff:?}",
+        eff[2]
+    );
+    assert!(eff[0] > 0.0 && eff[1] > 0.0, "a relevant input was dropped: {eff:?}");
+    assert_eq!(result.history.len(), result.evals);
+    assert!(result.history.iter().any(|h| h.accepted));
+}
+
+#[test]
+fn loo_of_isolated_points_is_penalised_not_rewarded() {
+    // a tiny bandwidth isolates every point: LOO must not report zero error
+    let data = sample(smooth_data(1, 1, 50..51, false, 0.0), 3);
+    let m = data
+        .to_model(LwrSettings {
+            bandwidth: 1e-6,
+            kernel: Kernel::Tricube,
+            ..Default::default()
+        })
+        .expect("valid");
+    let loo = m.loo().expect("nonempty");
+    assert_eq!(loo.n_undetermined, 50);
+    assert!((loo.normalized_mse - 1.0).abs() < 1e-9);
+}
+
+#[test]
+fn save_and_load_round_trip() {
+    let data = sample(smooth_data(3, 2, 100..101, true, 0.1), 5);
+    let settings = LwrSettings {
+        kernel: Kernel::Bisquare,
+        bandwidth: 0.9,
+        scales: vec![1.0, 0.5, 0.0],
+        degree: Degree::Quadratic,
+        ridge: 1e-3,
+        ..Default::default()
+    };
+    let m = data.to_model(settings).expect("valid");
+    let mut buf = Vec::new();
+    m.save(&mut buf).expect("serialises");
+    let back = LwrModel::load(buf.as_slice()).expect("deserialises");
+    assert_eq!(back.settings(), m.settings());
+    assert_eq!(back.database().inputs(), m.database().inputs());
+    for q in [[0.0, 0.0, 0.0], [0.3, -0.2, 0.9]] {
+        let (a, ja) = m.predict_with_jacobian(&q).expect("weighted");
+        let (b, jb) = back.predict_with_jacobian(&q).expect("weighted");
+        assert_eq!(format!("{a:?}"), format!("{b:?}"));
+        assert_eq!(ja, jb);
+    }
+    // corrupted input is a typed error, not a panic
+    assert!(LwrModel::from_json("{\"settings\": 3}").is_err());
+    let text = m
+        .to_json()
+        .expect("serialises")
+        .replace("\"bandwidth\":0.9", "\"bandwidth\":-1.0");
+    assert!(matches!(
+        LwrModel::from_json(&text),
+        Err(lwr::LwrError::InvalidParameter { name: "bandwidth", .. })
+    ));
+}
+
+#[test]
+fn loading_bad_points_gives_typed_errors() {
+    let text = r#"{"settings":{"kernel":"Gaussian","bandwidth":1.0,"scales":[],"degree":"Linear","ridge":0.0,"gaussian_cutoff":5.0,"confidence_level":0.95,"max_condition":1e12,"fallback_ridge":1e-8},
+        "database":{"n_inputs":2,"n_outputs":1,"inputs":[0.0,1.0,2.0],"outputs":[1.0]}}"#;
+    assert!(matches!(
+        LwrModel::from_json(text),
+        Err(lwr::LwrError::DimensionMismatch { .. })
+    ));
+    let ok = text.replace("[0.0,1.0,2.0]", "[0.0,1.0]");
+    let m = LwrModel::from_json(&ok).expect("valid model");
+    assert_eq!(m.len(), 1);
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(8))]
+
+    /// Tuning never ends worse than it started, and its history is consistent.
+    #[test]
+    fn tuning_never_increases_the_objective(data in smooth_data(2, 1, 20..40, true, 0.1)) {
+        let m = data
+            .to_model(LwrSettings { bandwidth: 0.5, ridge: 1e-6, ..Default::default() })
+            .expect("valid");
+        let r = m.tune(&TuneSettings { max_evals: 25, ..Default::default() }).expect("valid");
+        prop_assert!(r.objective <= r.initial_objective);
+        prop_assert!(r.evals <= 25 && r.evals == r.history.len());
+        let best_accepted = r
+            .history
+            .iter()
+            .rev()
+            .find(|h| h.accepted)
+            .map(|h| h.objective)
+            .expect("the start is accepted");
+        prop_assert_eq!(best_accepted, r.objective);
+        prop_assert!(r.settings.validate(2).is_ok());
+    }
+}
+
+#[test]
+fn database_from_flat_equals_inserts() {
+    let data = sample(smooth_data(2, 1, 200..201, true, 0.1), 9);
+    let flat_x: Vec<f64> = data.inputs.concat();
+    let flat_y: Vec<f64> = data.outputs.concat();
+    let db = lwr::Database::from_flat(2, 1, flat_x.clone(), flat_y).expect("valid");
+    let m_flat = LwrModel::from_database(db, LwrSettings::default()).expect("valid");
+    let m_ins = data.to_model(LwrSettings::default()).expect("valid");
+    assert_eq!(m_flat.predict(&[0.1, 0.2]), m_ins.predict(&[0.1, 0.2]));
+    assert!(lwr::Database::from_flat(2, 1, flat_x[..3].to_vec(), vec![0.0]).is_err());
+}
