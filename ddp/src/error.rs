@@ -1,0 +1,78 @@
+//! The crate's error type.
+
+/// Invalid input or invalid settings. A solver that stops without
+/// converging, or whose model blows up, is not an error: it returns its last
+/// good iterate with a [`DdpStatus`](crate::DdpStatus).
+#[derive(Debug, Clone, PartialEq, thiserror::Error)]
+#[non_exhaustive]
+pub enum DdpError {
+    /// Two sizes that must agree do not.
+    #[error("{what}: expected {expected}, got {actual}")]
+    DimensionMismatch {
+        /// What was measured.
+        what: &'static str,
+        /// Expected size.
+        expected: usize,
+        /// Actual size.
+        actual: usize,
+    },
+    /// A NaN or infinite value in the input.
+    #[error("{what}[{index}] is not finite ({value})")]
+    NotFinite {
+        /// Which input.
+        what: &'static str,
+        /// Position of the value (flattened, row-major for matrices).
+        index: usize,
+        /// The value.
+        value: f64,
+    },
+    /// A setting or parameter outside its valid range.
+    #[error("invalid {name}: {reason}")]
+    InvalidParameter {
+        /// Parameter name.
+        name: &'static str,
+        /// Why it is invalid.
+        reason: String,
+    },
+}
+
+/// The crate's result type.
+pub type Result<T, E = DdpError> = std::result::Result<T, E>;
+
+/// Checks that every value is finite.
+pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
+    match values.iter().position(|v| !v.is_finite()) {
+        Some(index) => Err(DdpError::NotFinite {
+            what,
+            index,
+            value: values[index],
+        }),
+        None => Ok(()),
+    }
+}
+
+/// Checks a length.
+pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
+    if expected == actual {
+        Ok(())
+    } else {
+        Err(DdpError::DimensionMismatch { what, expected, actual })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn finite_and_length_checks() {
+        assert!(check_finite("x", &[1.0, 2.0]).is_ok());
+        assert_eq!(
+            check_finite("x", &[1.0, f64::NAN]).map_err(|e| matches!(e, DdpError::NotFinite { index: 1, .. })),
+            Err(true)
+        );
+        assert!(check_len("u", 2, 2).is_ok());
+        let e = check_len("u", 2, 3).expect_err("mismatch");
+        assert_eq!(e.to_string(), "u: expected 2, got 3");
+    }
+}

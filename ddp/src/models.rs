@@ -1,0 +1,503 @@
+//! Built-in dynamics and costs: [`LinearDynamics`], [`QuadraticCost`], and
+//! two benchmark systems, [`Pendulum`] and [`CartPole`], discretised by
+//! semi-implicit Euler (the discretisation of Crocoddyl's
+//! `IntegratedActionModelEuler`).
+
+use faer::Mat;
+
+use crate::error::{DdpError, Result, check_finite, check_len};
+use crate::problem::{Cost, CostDerivatives, Dynamics};
+
+fn to_row_major(what: &'static str, a: &Mat<f64>) -> Result<Vec<f64>> {
+    let v: Vec<f64> = (0..a.nrows())
+        .flat_map(|i| (0..a.ncols()).map(move |j| a[(i, j)]))
+        .collect();
+    check_finite(what, &v)?;
+    Ok(v)
+}
+
+/// Linear dynamics $x_{k+1} = A x_k + B u_k$.
+///
+/// Its second derivatives are zero, so DDP and iLQR coincide on it.
+#[derive(Debug, Clone, PartialEq)]
+pub struct LinearDynamics {
+    n: usize,
+    m: usize,
+    a: Vec<f64>,
+    b: Vec<f64>,
+}
+
+impl LinearDynamics {
+    /// Dynamics from $A$ ($n \times n$) and $B$ ($n \times m$).
+    ///
+    /// # Errors
+    /// Wrong shapes, empty dimensions or non-finite entries.
+    pub fn new(a: &Mat<f64>, b: &Mat<f64>) -> Result<Self> {
+        let n = a.nrows();
+        check_len("A columns", n, a.ncols())?;
+        check_len("B rows", n, b.nrows())?;
+        if n == 0 || b.ncols() == 0 {
+            return Err(DdpError::InvalidParameter {
+                name: "LinearDynamics",
+                reason: "state and control dimensions must be positive".into(),
+            });
+        }
+        Ok(Self {
+            n,
+            m: b.ncols(),
+            a: to_row_major("A", a)?,
+            b: to_row_major("B", b)?,
+        })
+    }
+
+    /// $A$.
+    pub fn a(&self) -> Mat<f64> {
+        Mat::from_fn(self.n, self.n, |i, j| self.a[i * self.n + j])
+    }
+
+    /// $B$.
+    pub fn b(&self) -> Mat<f64> {
+        Mat::from_fn(self.n, self.m, |i, j| self.b[i * self.m + j])
+    }
+}
+
+impl Dynamics for LinearDynamics {
+    fn state_dim(&self) -> usize {
+        self.n
+    }
+    fn control_dim(&self) -> usize {
+        self.m
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+        for (i, out) in next.iter_mut().enumerate() {
+            let ax: f64 = self.a[i * self.n..(i + 1) * self.n]
+                .iter()
+                .zip(x)
+                .map(|(a, x)| a * x)
+                .sum();
+            let bu: f64 = self.b[i * self.m..(i + 1) * self.m]
+                .iter()
+                .zip(u)
+                .map(|(b, u)| b * u)
+                .sum();
+            *out = ax + bu;
+        }
+    }
+    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+        fx.copy_from_slice(&self.a);
+        fu.copy_from_slice(&self.b);
+    }
+    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64], _: &mut [f64]) -> bool {
+        true // all zero
+    }
+}
+
+/// Quadratic tracking cost
+/// $$\ell(x, u, k) = \tfrac12 (x - x^r_k)^\top Q (x - x^r_k) + \tfrac12 (u - u^r_k)^\top R (u - u^r_k),
+/// \qquad \ell_f(x) = \tfrac12 (x - x^r_N)^\top Q_f (x - x^r_N).$$
+///
+/// References default to zero; a per-step reference shorter than the
+/// horizon holds its last value. $Q$, $R$, $Q_f$ must be symmetric (not
+/// necessarily definite: the solver regularises).
+#[derive(Debug, Clone, PartialEq)]
+pub struct QuadraticCost {
+    n: usize,
+    m: usize,
+    q: Vec<f64>,
+    r: Vec<f64>,
+    qf: Vec<f64>,
+    x_ref: Vec<Vec<f64>>,
+    u_ref: Vec<Vec<f64>>,
+}
+
+fn check_symmetric(what: &'static str, a: &[f64], n: usize) -> Result<()> {
+    for i in 0..n {
+        for j in 0..i {
+            let (x, y) = (a[i * n + j], a[j * n + i]);
+            if (x - y).abs() > 1e-12 * (1.0 + x.abs().max(y.abs())) {
+                return Err(DdpError::InvalidParameter {
+                    name: what,
+                    reason: format!("not symmetric: entry ({i}, {j}) is {x}, ({j}, {i}) is {y}"),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+impl QuadraticCost {
+    /// A cost regulating to zero with weights $Q$ ($n \times n$), $R$
+    /// ($m \times m$) and $Q_f$ ($n \times n$).
+    ///
+    /// # Errors
+    /// Non-square, mismatched, asymmetric or non-finite weights.
+    pub fn new(q: &Mat<f64>, r: &Mat<f64>, qf: &Mat<f64>) -> Result<Self> {
+        let (n, m) = (q.nrows(), r.nrows());
+        check_len("Q columns", n, q.ncols())?;
+        check_len("R columns", m, r.ncols())?;
+        check_len("Q_f rows", n, qf.nrows())?;
+        check_len("Q_f columns", n, qf.ncols())?;
+        let (q, r, qf) = (to_row_major("Q", q)?, to_row_major("R", r)?, to_row_major("Q_f", qf)?);
+        check_symmetric("Q", &q, n)?;
+        check_symmetric("R", &r, m)?;
+        check_symmetric("Q_f", &qf, n)?;
+        Ok(Self {
+            n,
+            m,
+            q,
+            r,
+            qf,
+            x_ref: vec![vec![0.0; n]],
+            u_ref: vec![vec![0.0; m]],
+        })
+    }
+
+    /// Diagonal weights: $Q = \mathrm{diag}(q)$, $R = \mathrm{diag}(r)$, $Q_f = \mathrm{diag}(q_f)$.
+    ///
+    /// # Errors
+    /// Mismatched lengths or non-finite entries.
+    pub fn diagonal(q: &[f64], r: &[f64], qf: &[f64]) -> Result<Self> {
+        let diag = |d: &[f64]| Mat::from_fn(d.len(), d.len(), |i, j| if i == j { d[i] } else { 0.0 });
+        Self::new(&diag(q), &diag(r), &diag(qf))
+    }
+
+    /// A constant state target $x^r_k = x^r$ for every $k$ (terminal included).
+    ///
+    /// # Errors
+    /// Wrong size or non-finite entries.
+    pub fn with_state_target(self, target: &[f64]) -> Result<Self> {
+        self.with_state_reference(vec![target.to_vec()])
+    }
+
+    /// A per-step state reference $x^r_0, \dots, x^r_N$ (a shorter one holds
+    /// its last value).
+    ///
+    /// # Errors
+    /// An empty reference, wrong sizes or non-finite entries.
+    pub fn with_state_reference(mut self, reference: Vec<Vec<f64>>) -> Result<Self> {
+        check_reference("state reference", &reference, self.n)?;
+        self.x_ref = reference;
+        Ok(self)
+    }
+
+    /// A per-step control reference $u^r_0, \dots, u^r_{N-1}$ (a shorter one
+    /// holds its last value).
+    ///
+    /// # Errors
+    /// An empty reference, wrong sizes or non-finite entries.
+    pub fn with_control_reference(mut self, reference: Vec<Vec<f64>>) -> Result<Self> {
+        check_reference("control reference", &reference, self.m)?;
+        self.u_ref = reference;
+        Ok(self)
+    }
+
+    fn x_ref(&self, k: usize) -> &[f64] {
+        &self.x_ref[k.min(self.x_ref.len() - 1)]
+    }
+
+    fn u_ref(&self, k: usize) -> &[f64] {
+        &self.u_ref[k.min(self.u_ref.len() - 1)]
+    }
+
+    /// The terminal reference index used by [`Cost::terminal`] (the last
+    /// entry of the state reference).
+    fn x_ref_terminal(&self) -> &[f64] {
+        &self.x_ref[self.x_ref.len() - 1]
+    }
+}
+
+fn check_reference(what: &'static str, reference: &[Vec<f64>], dim: usize) -> Result<()> {
+    if reference.is_empty() {
+        return Err(DdpError::InvalidParameter {
+            name: what,
+            reason: "must hold at least one vector".into(),
+        });
+    }
+    for r in reference {
+        check_len(what, dim, r.len())?;
+        check_finite(what, r)?;
+    }
+    Ok(())
+}
+
+/// $\tfrac12 d^\top W d$ and, optionally, $W d$.
+fn quad(w: &[f64], x: &[f64], r: &[f64], grad: Option<&mut [f64]>) -> f64 {
+    let n = x.len();
+    let mut value = 0.0;
+    let mut g_local = [0.0; 16];
+    let mut g_heap;
+    let g: &mut [f64] = match grad {
+        Some(g) => g,
+        None if n <= 16 => &mut g_local[..n],
+        None => {
+            g_heap = vec![0.0; n];
+            &mut g_heap
+        }
+    };
+    for i in 0..n {
+        let wd: f64 = (0..n).map(|j| w[i * n + j] * (x[j] - r[j])).sum();
+        g[i] = wd;
+        value += 0.5 * (x[i] - r[i]) * wd;
+    }
+    value
+}
+
+impl Cost for QuadraticCost {
+    fn running(&self, k: usize, x: &[f64], u: &[f64]) -> f64 {
+        quad(&self.q, x, self.x_ref(k), None) + quad(&self.r, u, self.u_ref(k), None)
+    }
+    fn running_derivatives(&self, k: usize, x: &[f64], u: &[f64], d: &mut CostDerivatives) {
+        quad(&self.q, x, self.x_ref(k), Some(&mut d.lx));
+        quad(&self.r, u, self.u_ref(k), Some(&mut d.lu));
+        d.lxx.copy_from_slice(&self.q);
+        d.luu.copy_from_slice(&self.r);
+    }
+    fn terminal(&self, x: &[f64]) -> f64 {
+        quad(&self.qf, x, self.x_ref_terminal(), None)
+    }
+    fn terminal_derivatives(&self, x: &[f64], lx: &mut [f64], lxx: &mut [f64]) {
+        quad(&self.qf, x, self.x_ref_terminal(), Some(lx));
+        lxx.copy_from_slice(&self.qf);
+    }
+}
+
+/// A torque-driven pendulum, state $(\theta, \omega)$ with $\theta = 0$
+/// hanging down, control the torque $u$:
+/// $$\dot\omega = \frac{u - b\,\omega}{m l^2} - \frac{g}{l} \sin\theta,$$
+/// discretised by semi-implicit Euler: $\omega_{k+1} = \omega_k + \Delta t\,\dot\omega_k$,
+/// $\theta_{k+1} = \theta_k + \Delta t\,\omega_{k+1}$.
+///
+/// It has analytic second derivatives, so with
+/// [`DdpSettings::second_order`](crate::DdpSettings::second_order) DDP on it is full DDP.
+///
+/// | field | default |
+/// |---|---|
+/// | `mass` | 1 kg |
+/// | `length` | 1 m |
+/// | `damping` | 0 N m s |
+/// | `gravity` | 9.81 m/s² |
+/// | `dt` | 0.01 s |
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Pendulum {
+    /// Point mass $m$.
+    pub mass: f64,
+    /// Rod length $l$.
+    pub length: f64,
+    /// Viscous damping $b$.
+    pub damping: f64,
+    /// Gravity $g$.
+    pub gravity: f64,
+    /// Time step $\Delta t$.
+    pub dt: f64,
+}
+
+impl Default for Pendulum {
+    fn default() -> Self {
+        Self {
+            mass: 1.0,
+            length: 1.0,
+            damping: 0.0,
+            gravity: 9.81,
+            dt: 0.01,
+        }
+    }
+}
+
+impl Dynamics for Pendulum {
+    fn state_dim(&self) -> usize {
+        2
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+        let ml2 = self.mass * self.length * self.length;
+        let acc = (u[0] - self.damping * x[1]) / ml2 - self.gravity / self.length * x[0].sin();
+        next[1] = x[1] + self.dt * acc;
+        next[0] = x[0] + self.dt * next[1];
+    }
+    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+        let ml2 = self.mass * self.length * self.length;
+        let dt = self.dt;
+        let (a_th, a_w, a_u) = (-self.gravity / self.length * x[0].cos(), -self.damping / ml2, 1.0 / ml2);
+        // omega' row
+        fx[2] = dt * a_th;
+        fx[3] = 1.0 + dt * a_w;
+        fu[1] = dt * a_u;
+        // theta' = theta + dt omega'
+        fx[0] = 1.0 + dt * fx[2];
+        fx[1] = dt * fx[3];
+        fu[0] = dt * fu[1];
+    }
+    fn second_derivatives(
+        &self,
+        x: &[f64],
+        _u: &[f64],
+        v: &[f64],
+        fxx: &mut [f64],
+        _fux: &mut [f64],
+        _fuu: &mut [f64],
+    ) -> bool {
+        let a_thth = self.gravity / self.length * x[0].sin();
+        fxx[0] = (v[1] * self.dt + v[0] * self.dt * self.dt) * a_thth;
+        true
+    }
+}
+
+/// A cart-pole, state $(p, \theta, \dot p, \dot\theta)$ with $\theta = 0$
+/// hanging down, control the horizontal force $f$ on the cart (massless
+/// rod, point mass at its end, no friction): with
+/// $D = m_c + m_p \sin^2\theta$,
+/// $$\ddot p = \frac{f + m_p \sin\theta\,(l \dot\theta^2 + g \cos\theta)}{D}, \qquad
+/// \ddot\theta = \frac{-f \cos\theta - m_p l \dot\theta^2 \cos\theta \sin\theta - (m_c + m_p) g \sin\theta}{l D},$$
+/// discretised by semi-implicit Euler (velocities first, then positions with
+/// the new velocities). First derivatives only (the solver is iLQR on it).
+///
+/// | field | default |
+/// |---|---|
+/// | `cart_mass` | 1 kg |
+/// | `pole_mass` | 0.1 kg |
+/// | `length` | 0.5 m |
+/// | `gravity` | 9.81 m/s² |
+/// | `dt` | 0.01 s |
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct CartPole {
+    /// Cart mass $m_c$.
+    pub cart_mass: f64,
+    /// Pole (tip) mass $m_p$.
+    pub pole_mass: f64,
+    /// Pole length $l$.
+    pub length: f64,
+    /// Gravity $g$.
+    pub gravity: f64,
+    /// Time step $\Delta t$.
+    pub dt: f64,
+}
+
+impl Default for CartPole {
+    fn default() -> Self {
+        Self {
+            cart_mass: 1.0,
+            pole_mass: 0.1,
+            length: 0.5,
+            gravity: 9.81,
+            dt: 0.01,
+        }
+    }
+}
+
+impl CartPole {
+    /// Accelerations $(\ddot p, \ddot\theta)$ and their derivatives with
+    /// respect to $(\theta, \dot\theta, f)$.
+    fn accelerations(&self, theta: f64, omega: f64, f: f64) -> ([f64; 2], [[f64; 3]; 2]) {
+        let (mc, mp, l, g) = (self.cart_mass, self.pole_mass, self.length, self.gravity);
+        let (s, c) = theta.sin_cos();
+        let d = mc + mp * s * s;
+        let d_th = 2.0 * mp * s * c;
+        let n1 = f + mp * s * (l * omega * omega + g * c);
+        let n1_d = [
+            mp * (c * l * omega * omega + g * (c * c - s * s)),
+            2.0 * mp * s * l * omega,
+            1.0,
+        ];
+        let n2 = -f * c - mp * l * omega * omega * c * s - (mc + mp) * g * s;
+        let n2_d = [
+            f * s - mp * l * omega * omega * (c * c - s * s) - (mc + mp) * g * c,
+            -2.0 * mp * l * omega * c * s,
+            -c,
+        ];
+        let acc = [n1 / d, n2 / (l * d)];
+        let quotient = |nd: [f64; 3], nval: f64, scale: f64| {
+            [
+                (nd[0] * d - nval * d_th) / (d * d) / scale,
+                nd[1] / d / scale,
+                nd[2] / d / scale,
+            ]
+        };
+        (acc, [quotient(n1_d, n1, 1.0), quotient(n2_d, n2, l)])
+    }
+}
+
+impl Dynamics for CartPole {
+    fn state_dim(&self) -> usize {
+        4
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+        let (acc, _) = self.accelerations(x[1], x[3], u[0]);
+        next[2] = x[2] + self.dt * acc[0];
+        next[3] = x[3] + self.dt * acc[1];
+        next[0] = x[0] + self.dt * next[2];
+        next[1] = x[1] + self.dt * next[3];
+    }
+    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+        let (_, da) = self.accelerations(x[1], x[3], u[0]);
+        let dt = self.dt;
+        for i in 0..2 {
+            // velocity row 2 + i: v' = v + dt a(theta, omega, f)
+            let r = (2 + i) * 4;
+            fx[r] = 0.0;
+            fx[r + 1] = dt * da[i][0];
+            fx[r + 2] = if i == 0 { 1.0 } else { 0.0 };
+            fx[r + 3] = dt * da[i][1] + if i == 1 { 1.0 } else { 0.0 };
+            fu[2 + i] = dt * da[i][2];
+            // position row i: q' = q + dt v'
+            for j in 0..4 {
+                fx[i * 4 + j] = dt * fx[r + j] + if i == j { 1.0 } else { 0.0 };
+            }
+            fu[i] = dt * fu[2 + i];
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn linear_dynamics_steps_and_rejects_bad_shapes() {
+        let a = Mat::from_fn(2, 2, |i, j| [[1.0, 0.1], [0.0, 1.0]][i][j]);
+        let b = Mat::from_fn(2, 1, |i, _| [0.0, 0.1][i]);
+        let f = LinearDynamics::new(&a, &b).expect("valid");
+        let mut next = [0.0; 2];
+        f.step(&[1.0, 2.0], &[3.0], &mut next);
+        assert_eq!(next, [1.2, 2.3]);
+        assert!(LinearDynamics::new(&a, &Mat::zeros(3, 1)).is_err());
+        assert_eq!(f.a(), a);
+        assert_eq!(f.b(), b);
+    }
+
+    #[test]
+    fn quadratic_cost_values_and_validation() {
+        let c = QuadraticCost::diagonal(&[2.0, 0.0], &[4.0], &[6.0, 6.0])
+            .expect("valid")
+            .with_state_target(&[1.0, 0.0])
+            .expect("valid");
+        assert_eq!(c.running(0, &[2.0, 5.0], &[1.0]), 0.5 * 2.0 + 0.5 * 4.0);
+        assert_eq!(c.terminal(&[0.0, 1.0]), 0.5 * 6.0 * 2.0);
+        let asym = Mat::from_fn(2, 2, |i, j| if i < j { 1.0 } else { 0.0 });
+        assert!(QuadraticCost::new(&asym, &Mat::identity(1, 1), &Mat::identity(2, 2)).is_err());
+        assert!(c.clone().with_state_reference(vec![]).is_err());
+        assert!(c.with_control_reference(vec![vec![f64::NAN]]).is_err());
+    }
+
+    #[test]
+    fn pendulum_falls_under_gravity() {
+        let p = Pendulum::default();
+        let mut next = [0.0; 2];
+        p.step(&[1.0, 0.0], &[0.0], &mut next);
+        assert!(next[1] < 0.0 && next[0] < 1.0);
+    }
+
+    #[test]
+    fn cartpole_rests_hanging_down() {
+        let c = CartPole::default();
+        let mut next = [0.0; 4];
+        c.step(&[0.5, 0.0, 0.0, 0.0], &[0.0], &mut next);
+        assert_eq!(next, [0.5, 0.0, 0.0, 0.0]);
+        c.step(&[0.0, 0.0, 0.0, 0.0], &[1.0], &mut next);
+        assert!(next[2] > 0.0 && next[3] < 0.0, "{next:?}");
+    }
+}
