@@ -1,0 +1,185 @@
+//! What a learning run records: one [`TrialRecord`] per trial, gathered in a
+//! [`RunRecord`]. These are what the report, the CSV logs and the plots are
+//! made from, and what `--resume` reads back.
+
+use serde::{Deserialize, Serialize};
+
+use crate::demo::Demonstration;
+
+/// How a trial chose its commands.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TrialKind {
+    /// Replaying the demonstration's commands (trial 1).
+    Imitation,
+    /// Executing a plan made with the learned model.
+    Planned,
+}
+
+/// The planner's account of the plan a trial executed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct PlanSummary {
+    /// Planner name (`gauss-newton`, `powell`).
+    pub planner: String,
+    /// The solver's final status, as text.
+    pub status: String,
+    /// Final criterion (Eq. 3).
+    #[serde(with = "nullable")]
+    pub cost: f64,
+    /// Criterion at the start (the demonstration fitted by the bases).
+    #[serde(with = "nullable")]
+    pub initial_cost: f64,
+    /// Task part of the final criterion.
+    #[serde(with = "nullable")]
+    pub task: f64,
+    /// Inconsistency part, $\sum_k \lambda_k s^2 \lVert x_{k+1} - f(x_k, u_k) \rVert^2$.
+    #[serde(with = "nullable")]
+    pub inconsistency: f64,
+    /// Largest per-step mismatch between the plan and the learned model.
+    #[serde(with = "nullable")]
+    pub max_mismatch: f64,
+    /// Solver iterations.
+    pub iterations: usize,
+    /// Criterion evaluations.
+    pub evaluations: usize,
+    /// Wall time of the solve (s).
+    pub seconds: f64,
+    /// The planned states $(\theta, \dot\theta, x, \dot x)$ at the sample times.
+    #[serde(with = "nullable")]
+    pub states: Vec<[f64; 4]>,
+    /// The planned commands.
+    #[serde(with = "nullable")]
+    pub controls: Vec<f64>,
+}
+
+/// The learned model a trial's plan was made with.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelSummary {
+    /// Model kind (`lwr`, `parametric`).
+    pub kind: String,
+    /// Data points in the model.
+    pub n_points: usize,
+    /// Names of the inputs, in order.
+    pub inputs: Vec<String>,
+    /// Tuned per-input scales $m_j$ of the distance metric (LWR), relative to
+    /// the initial normalisation; 0 means the input was found irrelevant.
+    #[serde(with = "nullable")]
+    pub scales: Vec<f64>,
+    /// Tuned bandwidth $h$ (LWR).
+    #[serde(with = "nullable")]
+    pub bandwidth: f64,
+    /// Leave-one-out normalised mean squared error after tuning.
+    #[serde(with = "nullable")]
+    pub loo_nmse: f64,
+}
+
+/// One trial on the robot.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialRecord {
+    /// Trial number, from 1.
+    pub index: usize,
+    /// Imitation or planned.
+    pub kind: TrialKind,
+    /// Sample period (s).
+    pub dt: f64,
+    /// True states at every sample of the trial (swing-up window and balancing).
+    #[serde(with = "nullable")]
+    pub states: Vec<[f64; 4]>,
+    /// What the robot's sensors reported (the data it learns from).
+    #[serde(with = "nullable")]
+    pub observed: Vec<[f64; 4]>,
+    /// Commands sent, one per sample.
+    #[serde(with = "nullable")]
+    pub commands: Vec<f64>,
+    /// Sample at which the balancing controller took over, if it did.
+    pub caught_at: Option<usize>,
+    /// Largest $|\theta|$ reached (rad).
+    #[serde(with = "nullable")]
+    pub max_angle: f64,
+    /// Whether the trial succeeded (balanced upright at the end, hand in its workspace).
+    pub success: bool,
+    /// Why it failed, in words (empty on success).
+    pub failure: String,
+    /// The plan executed (planned trials).
+    pub plan: Option<PlanSummary>,
+    /// The model the plan was made with (planned trials).
+    pub model: Option<ModelSummary>,
+}
+
+/// A whole learning run.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The configuration, as TOML text.
+    pub config_toml: String,
+    /// The demonstration.
+    pub demonstration: Demonstration,
+    /// Trials in order.
+    pub trials: Vec<TrialRecord>,
+    /// The first successful trial, if any.
+    pub success_trial: Option<usize>,
+    /// Seconds of robot data used up to and including the first success (or all trials).
+    pub robot_seconds: f64,
+}
+
+/// Serde helpers for numbers that may be non-finite (a diverged plan, an
+/// undefined error): they are written as `null` (as `serde_json` does anyway)
+/// and `null` is read back as NaN, so a record with NaN in it round-trips.
+mod nullable {
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    /// A value made of `f64`s with a stand-in in which each may be `null`.
+    pub(super) trait Nullable: Sized {
+        /// The stand-in, with `Option<f64>` for each number.
+        type Repr: Serialize + for<'de> Deserialize<'de>;
+        /// Non-finite numbers become `None`.
+        fn to_repr(&self) -> Self::Repr;
+        /// `None` becomes NaN.
+        fn from_repr(r: Self::Repr) -> Self;
+    }
+
+    fn some(x: f64) -> Option<f64> {
+        x.is_finite().then_some(x)
+    }
+
+    fn value(x: Option<f64>) -> f64 {
+        x.unwrap_or(f64::NAN)
+    }
+
+    impl Nullable for f64 {
+        type Repr = Option<f64>;
+        fn to_repr(&self) -> Self::Repr {
+            some(*self)
+        }
+        fn from_repr(r: Self::Repr) -> Self {
+            value(r)
+        }
+    }
+
+    impl Nullable for Vec<f64> {
+        type Repr = Vec<Option<f64>>;
+        fn to_repr(&self) -> Self::Repr {
+            self.iter().copied().map(some).collect()
+        }
+        fn from_repr(r: Self::Repr) -> Self {
+            r.into_iter().map(value).collect()
+        }
+    }
+
+    impl Nullable for Vec<[f64; 4]> {
+        type Repr = Vec<[Option<f64>; 4]>;
+        fn to_repr(&self) -> Self::Repr {
+            self.iter().map(|s| s.map(some)).collect()
+        }
+        fn from_repr(r: Self::Repr) -> Self {
+            r.into_iter().map(|s| s.map(value)).collect()
+        }
+    }
+
+    pub(super) fn serialize<T: Nullable, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+        v.to_repr().serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, T: Nullable, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+        T::Repr::deserialize(d).map(T::from_repr)
+    }
+}
