@@ -2,6 +2,7 @@
 #![warn(missing_docs)]
 
 pub mod demo;
+pub mod fit_cmd;
 pub mod learn;
 pub mod lqr;
 pub mod model;

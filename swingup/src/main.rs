@@ -29,6 +29,10 @@ enum Command {
     /// Print the default configuration as TOML (every parameter; edit it
     /// and pass it back with `learn --config FILE`).
     Config,
+    /// Fit a locally weighted regression model to a CSV file: tune its
+    /// metric by leave-one-out cross-validation, report the tuned scale of
+    /// each input and, with a test file, the test error and predictions.
+    Fit(swingup::fit_cmd::FitArgs),
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -76,6 +80,7 @@ fn main() -> anyhow::Result<()> {
             Ok(())
         }
         Command::Learn(args) => learn(&args),
+        Command::Fit(args) => swingup::fit_cmd::fit_command(&args),
     }
 }
 

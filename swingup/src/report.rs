@@ -556,7 +556,8 @@ impl Panel {
             svg,
             r##"<text x="{:.1}" y="{:.1}" text-anchor="end" font-size="11" fill="#555">{}</text>"##,
             self.left + self.width - 4.0,
-            py - 4.0,
+            // above the line, or below it if too close to the frame
+            if py - self.top < 16.0 { py + 13.0 } else { py - 4.0 },
             xml(label)
         );
     }
@@ -706,7 +707,7 @@ pub fn figure3_svg(run: &RunRecord) -> String {
 /// Learning progress: the largest angle reached per trial (degrees; filled
 /// markers for successes, dashed lines at 90°, halfway, and 180°, upright),
 /// and below it the inconsistency of each planned trial's plan (log scale if
-/// the values span more than two decades; zero and non-finite values are
+/// the values span two decades or more; zero and non-finite values are
 /// left out). One `<circle>` per trial in the top panel.
 pub fn learning_svg(run: &RunRecord) -> String {
     let n = run.trials.len();
@@ -738,7 +739,7 @@ pub fn learning_svg(run: &RunRecord) -> String {
     let (pmin, pmax) = positive
         .iter()
         .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
-    let log_y = positive.len() >= 2 && pmax / pmin > 100.0;
+    let log_y = positive.len() >= 2 && pmax / pmin >= 100.0;
     let y = if log_y {
         (10f64.powf(pmin.log10().floor()), 10f64.powf(pmax.log10().ceil()))
     } else {

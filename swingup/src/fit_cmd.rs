@@ -1,0 +1,979 @@
+//! `swingup fit`: locally weighted regression on a CSV file, with the metric
+//! tuned by cross-validation.
+//!
+//! ```text
+//! swingup fit --train TRAIN.csv [--test TEST.csv] --target NAME [--target NAME ...]
+//!             [--out PRED.csv] [--json] [--kernel K] [--degree D] [--bandwidth H]
+//!             [--tune-evals N] [--level L]
+//! ```
+//!
+//! The files are plain comma-separated numbers under a header row of column
+//! names (no quoting). The inputs are every training column that is not a
+//! target. Each input $j$ starts with the metric scale $m_j = 1 / s_j$, $s_j$
+//! its standard deviation over the training rows, so that all inputs start
+//! equally important; [`lwr::LwrModel::tune`] then tunes the bandwidth $h$
+//! and every $m_j$ by minimising the leave-one-out error on the training
+//! data (a compass search in log space that can set $m_j = 0$).
+//!
+//! The summary ([`FitReport`], printed as text or with `--json` as JSON)
+//! gives the leave-one-out normalised MSE
+//! $\sum_i e_{(-i)}^2 / (n \operatorname{var} y)$ (1 is as good as predicting
+//! the mean), the tuned scale of each input relative to its normalisation,
+//! $m_j s_j$ (0: the weights ignore the input), the bandwidth, and, when the
+//! test file has target columns, the test normalised MSE
+//! $\sum_i (y_i - \hat y_i)^2 / (n \operatorname{var} y)$ with the variance
+//! over the test rows.
+//!
+//! With `--out` it writes one row per test row with, for each target `NAME`,
+//! the columns `NAME_pred,NAME_std,NAME_lo,NAME_hi`: the prediction, the
+//! standard error of the mean $\sqrt{\sigma^2 |l|^2}$
+//! ([`lwr::Prediction::std_error`]) and the prediction interval of a new
+//! observation at level `--level` (95 % by default),
+//! $\hat y \pm t \sqrt{\sigma^2 (1 + |l|^2)}$. A row the model cannot predict
+//! (no training point carries weight there) gets `NaN` in every column and is
+//! listed in the summary; a fit without degrees of freedom for a noise
+//! estimate gets `NaN` standard errors and infinite (`-inf`, `inf`) bounds.
+//!
+//! Bad files (missing columns, non-numeric, empty or non-finite cells, rows of
+//! the wrong length, no rows) give a [`FitError`] naming the file, the line,
+//! the data row and the column.
+
+use std::fmt::{self, Write as _};
+use std::fs;
+use std::path::{Path, PathBuf};
+
+use anyhow::Context as _;
+use lwr::{Degree, Kernel, LwrModel, LwrSettings, Prediction, TuneSettings, TuneStatus};
+use serde::Serialize;
+
+/// Arguments of `swingup fit`.
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitArgs {
+    /// Training data: CSV with a header row of column names.
+    #[arg(long, value_name = "TRAIN.csv")]
+    pub train: PathBuf,
+    /// Test data: CSV with (at least) the input columns; where it also has
+    /// the target columns the test error is reported.
+    #[arg(long, value_name = "TEST.csv")]
+    pub test: Option<PathBuf>,
+    /// A column to predict (repeat for several); every other training column
+    /// is an input.
+    #[arg(long = "target", value_name = "NAME", required = true)]
+    pub targets: Vec<String>,
+    /// Write the predictions for the test rows here: per target
+    /// `NAME_pred,NAME_std,NAME_lo,NAME_hi`.
+    #[arg(long, value_name = "PRED.csv", requires = "test")]
+    pub out: Option<PathBuf>,
+    /// Print the summary as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Weighting kernel.
+    #[arg(long, value_enum, default_value_t = KernelArg::Gaussian)]
+    pub kernel: KernelArg,
+    /// Degree of the local polynomial.
+    #[arg(long, value_enum, default_value_t = DegreeArg::Linear)]
+    pub degree: DegreeArg,
+    /// Initial bandwidth in units of the inputs' standard deviations
+    /// (default 0.5 for the Gaussian, 1.5 for the compact kernels).
+    #[arg(long, value_name = "H")]
+    pub bandwidth: Option<f64>,
+    /// Budget of leave-one-out evaluations for tuning the bandwidth and
+    /// metric (0: no tuning, use the initial metric).
+    #[arg(long, value_name = "N", default_value_t = 300)]
+    pub tune_evals: usize,
+    /// Level of the prediction intervals written with `--out`.
+    #[arg(long, value_name = "L", default_value_t = 0.95)]
+    pub level: f64,
+}
+
+impl FitArgs {
+    /// Arguments with the command line's defaults for a training file and
+    /// targets.
+    pub fn new(train: impl Into<PathBuf>, targets: &[&str]) -> Self {
+        Self {
+            train: train.into(),
+            test: None,
+            targets: targets.iter().map(|t| (*t).to_owned()).collect(),
+            out: None,
+            json: false,
+            kernel: KernelArg::Gaussian,
+            degree: DegreeArg::Linear,
+            bandwidth: None,
+            tune_evals: 300,
+            level: 0.95,
+        }
+    }
+}
+
+/// The kernels of [`lwr::Kernel`], as command-line values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KernelArg {
+    /// $e^{-u^2/2}$, truncated at 5 bandwidths.
+    Gaussian,
+    /// $(1 - u^3)^3$ on $u < 1$.
+    Tricube,
+    /// $1 - u^2$ on $u < 1$.
+    Epanechnikov,
+    /// $(1 - u^2)^2$ on $u < 1$.
+    Bisquare,
+}
+
+impl From<KernelArg> for Kernel {
+    fn from(k: KernelArg) -> Self {
+        match k {
+            KernelArg::Gaussian => Kernel::Gaussian,
+            KernelArg::Tricube => Kernel::Tricube,
+            KernelArg::Epanechnikov => Kernel::Epanechnikov,
+            KernelArg::Bisquare => Kernel::Bisquare,
+        }
+    }
+}
+
+/// The degrees of [`lwr::Degree`], as command-line values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DegreeArg {
+    /// Local constant (Nadaraya-Watson).
+    Constant,
+    /// Local linear.
+    Linear,
+    /// Local quadratic.
+    Quadratic,
+}
+
+impl From<DegreeArg> for Degree {
+    fn from(d: DegreeArg) -> Self {
+        match d {
+            DegreeArg::Constant => Degree::Constant,
+            DegreeArg::Linear => Degree::Linear,
+            DegreeArg::Quadratic => Degree::Quadratic,
+        }
+    }
+}
+
+/// A bad data file or bad arguments of `swingup fit`.
+///
+/// Lines count from 1 with the header on line 1 (blank lines are skipped but
+/// counted); data rows count from 1 with the first row under the header;
+/// columns count from 1.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum FitError {
+    /// The file could not be read.
+    #[error("{file}: cannot read the file: {source}")]
+    Io {
+        /// The file.
+        file: PathBuf,
+        /// The cause.
+        source: std::io::Error,
+    },
+    /// The file has no header row.
+    #[error("{file}: the file is empty (expected a header row of column names, then rows of numbers)")]
+    Empty {
+        /// The file.
+        file: PathBuf,
+    },
+    /// The file has a header but no data rows.
+    #[error("{file}: no data rows under the header (line {line})")]
+    NoRows {
+        /// The file.
+        file: PathBuf,
+        /// Line of the header.
+        line: usize,
+    },
+    /// An empty or repeated column name.
+    #[error("{file}: header (line {line}), column {column}: {reason}")]
+    BadHeader {
+        /// The file.
+        file: PathBuf,
+        /// Line of the header.
+        line: usize,
+        /// Column number, from 1.
+        column: usize,
+        /// What is wrong.
+        reason: String,
+    },
+    /// A row with more or fewer cells than the header has columns.
+    #[error("{file}: line {line} (data row {row}) has {actual} cells but the header has {expected} columns ({detail})")]
+    Ragged {
+        /// The file.
+        file: PathBuf,
+        /// Line in the file.
+        line: usize,
+        /// Data row, from 1.
+        row: usize,
+        /// Number of columns of the header.
+        expected: usize,
+        /// Number of cells in the row.
+        actual: usize,
+        /// Which column is missing or extra.
+        detail: String,
+    },
+    /// A cell that is not a number.
+    #[error("{file}: line {line} (data row {row}), column {column} '{name}': {reason}")]
+    BadCell {
+        /// The file.
+        file: PathBuf,
+        /// Line in the file.
+        line: usize,
+        /// Data row, from 1.
+        row: usize,
+        /// Column number, from 1.
+        column: usize,
+        /// Column name.
+        name: String,
+        /// What is wrong with the cell.
+        reason: String,
+    },
+    /// A column the command needs is not in the file.
+    #[error("{file}: header (line {line}): no column '{name}' ({role}); the columns are {available}")]
+    MissingColumn {
+        /// The file.
+        file: PathBuf,
+        /// Line of the header.
+        line: usize,
+        /// The missing column.
+        name: String,
+        /// What the column is for ("target", "input").
+        role: &'static str,
+        /// The file's columns, comma-separated.
+        available: String,
+    },
+    /// A test column that is neither an input nor a target of the training data.
+    #[error("{file}: header (line {line}), column {column} '{name}': not a column of the training file {train}")]
+    UnknownColumn {
+        /// The test file.
+        file: PathBuf,
+        /// Line of the header.
+        line: usize,
+        /// Column number, from 1.
+        column: usize,
+        /// Column name.
+        name: String,
+        /// The training file.
+        train: PathBuf,
+    },
+    /// An input that takes one value only: it cannot be normalised and the
+    /// local fit could not use it.
+    #[error("{file}: column {column} '{name}' is constant ({value}) over all rows; remove it")]
+    ConstantInput {
+        /// The file.
+        file: PathBuf,
+        /// Column number, from 1.
+        column: usize,
+        /// Column name.
+        name: String,
+        /// Its only value.
+        value: f64,
+    },
+    /// Every training column is a target.
+    #[error("{file}: every column is a target; at least one input column is needed")]
+    NoInputs {
+        /// The file.
+        file: PathBuf,
+    },
+    /// An argument outside its range.
+    #[error("invalid argument {name}: {reason}")]
+    InvalidArgument {
+        /// The argument.
+        name: &'static str,
+        /// Why.
+        reason: String,
+    },
+}
+
+/// A numeric table read from a CSV file.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Table {
+    /// The file it came from.
+    pub file: PathBuf,
+    /// Column names, from the header.
+    pub names: Vec<String>,
+    /// Rows of finite numbers, each as long as `names`.
+    pub rows: Vec<Vec<f64>>,
+    /// Line in the file of the header.
+    pub header_line: usize,
+    /// Line in the file of each row.
+    pub lines: Vec<usize>,
+}
+
+impl Table {
+    /// Reads a CSV file: a header row of distinct, nonempty column names,
+    /// then at least one row of as many finite numbers, comma-separated,
+    /// without quoting. Blank lines are skipped; cells are trimmed.
+    pub fn read(path: &Path) -> Result<Self, FitError> {
+        let text = fs::read_to_string(path).map_err(|source| FitError::Io {
+            file: path.to_path_buf(),
+            source,
+        })?;
+        Self::parse(&text, path)
+    }
+
+    /// Parses CSV text as [`read`](Self::read) does; `file` names it in errors.
+    pub fn parse(text: &str, file: &Path) -> Result<Self, FitError> {
+        let file = file.to_path_buf();
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
+        let mut lines = text
+            .lines()
+            .enumerate()
+            .map(|(i, l)| (i + 1, l))
+            .filter(|(_, l)| !l.trim().is_empty());
+        let Some((header_line, header)) = lines.next() else {
+            return Err(FitError::Empty { file });
+        };
+        let names: Vec<String> = header.split(',').map(|s| s.trim().to_owned()).collect();
+        for (j, name) in names.iter().enumerate() {
+            let reason = if name.is_empty() {
+                Some("empty column name".to_owned())
+            } else if let Some(first) = names[..j].iter().position(|n| n == name) {
+                Some(format!("column name '{name}' repeats column {}", first + 1))
+            } else if name.parse::<f64>().is_ok() {
+                Some(format!(
+                    "'{name}' is a number: the first line must be a header of column names"
+                ))
+            } else {
+                None
+            };
+            if let Some(reason) = reason {
+                return Err(FitError::BadHeader {
+                    file,
+                    line: header_line,
+                    column: j + 1,
+                    reason,
+                });
+            }
+        }
+        let mut rows = Vec::new();
+        let mut row_lines = Vec::new();
+        for (row_index, (line, text)) in lines.enumerate() {
+            let row = row_index + 1;
+            let cells: Vec<&str> = text.split(',').map(str::trim).collect();
+            if cells.len() != names.len() {
+                let detail = if cells.len() < names.len() {
+                    format!("column {} '{}' is missing", cells.len() + 1, names[cells.len()])
+                } else {
+                    format!("column {} is extra", names.len() + 1)
+                };
+                return Err(FitError::Ragged {
+                    file,
+                    line,
+                    row,
+                    expected: names.len(),
+                    actual: cells.len(),
+                    detail,
+                });
+            }
+            let mut values = Vec::with_capacity(cells.len());
+            for (j, cell) in cells.iter().enumerate() {
+                let reason = match cell.parse::<f64>() {
+                    _ if cell.is_empty() => Some("empty cell".to_owned()),
+                    Ok(v) if v.is_finite() => {
+                        values.push(v);
+                        None
+                    }
+                    Ok(_) => Some(format!("'{cell}' is not a finite number")),
+                    Err(_) => Some(format!("cannot read '{cell}' as a number")),
+                };
+                if let Some(reason) = reason {
+                    return Err(FitError::BadCell {
+                        file,
+                        line,
+                        row,
+                        column: j + 1,
+                        name: names[j].clone(),
+                        reason,
+                    });
+                }
+            }
+            rows.push(values);
+            row_lines.push(line);
+        }
+        if rows.is_empty() {
+            return Err(FitError::NoRows {
+                file,
+                line: header_line,
+            });
+        }
+        Ok(Self {
+            file,
+            names,
+            rows,
+            header_line,
+            lines: row_lines,
+        })
+    }
+
+    /// Index of the column `name`, or a [`FitError::MissingColumn`].
+    fn column(&self, name: &str, role: &'static str) -> Result<usize, FitError> {
+        self.names
+            .iter()
+            .position(|n| n == name)
+            .ok_or_else(|| FitError::MissingColumn {
+                file: self.file.clone(),
+                line: self.header_line,
+                name: name.to_owned(),
+                role,
+                available: self.names.join(", "),
+            })
+    }
+}
+
+/// One input's normalisation and tuned metric scale.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct InputScale {
+    /// Column name.
+    pub name: String,
+    /// Its standard deviation $s_j$ over the training rows (the normalisation).
+    pub spread: f64,
+    /// Tuned scale relative to the normalisation, $m_j s_j$ (1 before
+    /// tuning; 0: the weights ignore this input).
+    pub scale: f64,
+    /// Tuned metric scale $m_j$ in the input's own units.
+    pub metric_scale: f64,
+}
+
+impl InputScale {
+    /// The kernel's bandwidth along this input in standard deviations,
+    /// $h / (m_j s_j)$ (infinite for a zero scale).
+    pub fn width(&self, bandwidth: f64) -> f64 {
+        if self.scale > 0.0 {
+            bandwidth / self.scale
+        } else {
+            f64::INFINITY
+        }
+    }
+}
+
+/// The error on the test rows for one target.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TargetError {
+    /// Target name.
+    pub name: String,
+    /// $\sum_i (y_i - \hat y_i)^2 / (n \operatorname{var} y)$ over the
+    /// predicted test rows (NaN if the target is constant there).
+    pub nmse: f64,
+    /// Root mean squared error.
+    pub rmse: f64,
+    /// Fraction of the predicted rows whose value lies in the prediction
+    /// interval.
+    pub coverage: f64,
+}
+
+/// The outcome on the test file.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct TestReport {
+    /// The test file.
+    pub file: PathBuf,
+    /// Number of test rows.
+    pub n_rows: usize,
+    /// Number of rows predicted (the others had no training data nearby).
+    pub n_predicted: usize,
+    /// Predicted rows whose fit left no degrees of freedom for a noise
+    /// estimate in some target (NaN standard error, infinite interval).
+    pub n_without_interval: usize,
+    /// Data rows (from 1) that could not be predicted, with the reason.
+    pub unpredicted: Vec<(usize, String)>,
+    /// Mean over the targets present in the test file of their normalised MSE
+    /// (`None` if the test file has no target column or nothing was predicted).
+    pub nmse: Option<f64>,
+    /// Per target present in the test file.
+    pub targets: Vec<TargetError>,
+}
+
+/// Everything `swingup fit` found, as printed.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct FitReport {
+    /// The training file.
+    pub train_file: PathBuf,
+    /// Number of training rows.
+    pub n_train: usize,
+    /// Target names, in the order given.
+    pub targets: Vec<String>,
+    /// Inputs in file order, with their tuned scales.
+    pub inputs: Vec<InputScale>,
+    /// Kernel.
+    pub kernel: KernelArg,
+    /// Degree of the local polynomial.
+    pub degree: DegreeArg,
+    /// Tuned bandwidth $h$ (in standard deviations of the inputs, for scale 1).
+    pub bandwidth: f64,
+    /// Leave-one-out normalised MSE before tuning (mean over targets).
+    pub initial_loo_nmse: f64,
+    /// Leave-one-out normalised MSE after tuning (mean over targets).
+    pub loo_nmse: f64,
+    /// Leave-one-out normalised MSE after tuning, per target.
+    pub loo_nmse_per_target: Vec<f64>,
+    /// Leave-one-out evaluations used by tuning (0 without tuning).
+    pub tune_evals: usize,
+    /// Whether tuning converged (`None` without tuning).
+    pub tune_converged: Option<bool>,
+    /// The results on the test file, if one was given.
+    pub test: Option<TestReport>,
+    /// The predictions file, if one was written.
+    pub out_file: Option<PathBuf>,
+    /// Level of the prediction intervals.
+    pub level: f64,
+}
+
+fn mean_var(values: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let n = values.clone().count() as f64;
+    let mean = values.clone().sum::<f64>() / n;
+    let var = values.map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
+    (mean, var)
+}
+
+fn check_args(args: &FitArgs) -> Result<(), FitError> {
+    if args.targets.is_empty() {
+        return Err(FitError::InvalidArgument {
+            name: "--target",
+            reason: "give at least one target column".into(),
+        });
+    }
+    for (i, t) in args.targets.iter().enumerate() {
+        if args.targets[..i].contains(t) {
+            return Err(FitError::InvalidArgument {
+                name: "--target",
+                reason: format!("'{t}' is given twice"),
+            });
+        }
+    }
+    if let Some(h) = args.bandwidth
+        && !(h.is_finite() && h > 0.0)
+    {
+        return Err(FitError::InvalidArgument {
+            name: "--bandwidth",
+            reason: format!("must be finite and positive, got {h}"),
+        });
+    }
+    if !(args.level > 0.0 && args.level < 1.0) {
+        return Err(FitError::InvalidArgument {
+            name: "--level",
+            reason: format!("must be in (0, 1), got {}", args.level),
+        });
+    }
+    if args.out.is_some() && args.test.is_none() {
+        return Err(FitError::InvalidArgument {
+            name: "--out",
+            reason: "needs --test (the predictions are for the test rows)".into(),
+        });
+    }
+    Ok(())
+}
+
+/// Fits, tunes and tests as `swingup fit` does, writes `--out` if given, and
+/// returns the summary without printing it.
+///
+/// Errors: a [`FitError`] for bad arguments or files (downcast the
+/// `anyhow::Error` to inspect it), an [`lwr::LwrError`] if the model cannot
+/// be built or tuned, or an I/O error writing `--out`.
+pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
+    check_args(args)?;
+    let train = Table::read(&args.train)?;
+    let target_cols = args
+        .targets
+        .iter()
+        .map(|t| train.column(t, "target"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let input_cols: Vec<usize> = (0..train.names.len()).filter(|j| !target_cols.contains(j)).collect();
+    if input_cols.is_empty() {
+        return Err(FitError::NoInputs {
+            file: train.file.clone(),
+        }
+        .into());
+    }
+    let xs: Vec<Vec<f64>> = train
+        .rows
+        .iter()
+        .map(|r| input_cols.iter().map(|&j| r[j]).collect())
+        .collect();
+    let ys: Vec<Vec<f64>> = train
+        .rows
+        .iter()
+        .map(|r| target_cols.iter().map(|&j| r[j]).collect())
+        .collect();
+
+    let mut spreads = Vec::with_capacity(input_cols.len());
+    for &j in &input_cols {
+        let (_, var) = mean_var(train.rows.iter().map(|r| r[j]));
+        let sd = var.sqrt();
+        if !(sd > 0.0 && sd.is_finite()) {
+            return Err(FitError::ConstantInput {
+                file: train.file.clone(),
+                column: j + 1,
+                name: train.names[j].clone(),
+                value: train.rows[0][j],
+            }
+            .into());
+        }
+        spreads.push(sd);
+    }
+
+    let kernel = Kernel::from(args.kernel);
+    let bandwidth = args.bandwidth.unwrap_or(match kernel {
+        Kernel::Gaussian => 0.5,
+        _ => 1.5,
+    });
+    let settings = LwrSettings {
+        kernel,
+        degree: args.degree.into(),
+        bandwidth,
+        scales: spreads.iter().map(|s| 1.0 / s).collect(),
+        confidence_level: args.level,
+        ..Default::default()
+    };
+    let mut model = LwrModel::new(input_cols.len(), target_cols.len(), settings)
+        .with_context(|| format!("{}: building the model", train.file.display()))?;
+    model
+        .insert_many(&xs, &ys)
+        .with_context(|| format!("{}: storing the training rows", train.file.display()))?;
+
+    let (initial_loo_nmse, tune_evals, tune_converged) = if args.tune_evals > 0 {
+        let tuned = model
+            .tune(&TuneSettings {
+                max_evals: args.tune_evals,
+                ..Default::default()
+            })
+            .with_context(|| format!("{}: tuning the metric", train.file.display()))?;
+        let converged = tuned.status == TuneStatus::Converged;
+        model.set_settings(tuned.settings)?;
+        (tuned.initial_objective, tuned.evals, Some(converged))
+    } else {
+        (f64::NAN, 0, None)
+    };
+    let loo = model
+        .loo()
+        .with_context(|| format!("{}: leave-one-out cross-validation", train.file.display()))?;
+    let n = train.rows.len() as f64;
+    let loo_nmse_per_target: Vec<f64> = (0..target_cols.len())
+        .map(|o| {
+            let (_, var) = mean_var(ys.iter().map(|y| y[o]));
+            loo.press[o] / (n * var)
+        })
+        .collect();
+    let initial_loo_nmse = if initial_loo_nmse.is_nan() {
+        loo.normalized_mse
+    } else {
+        initial_loo_nmse
+    };
+    let tuned = model.settings();
+    let scales = tuned.scales_for(input_cols.len());
+    let inputs = input_cols
+        .iter()
+        .zip(&spreads)
+        .zip(&scales)
+        .map(|((&j, &spread), &m)| InputScale {
+            name: train.names[j].clone(),
+            spread,
+            scale: m * spread,
+            metric_scale: m,
+        })
+        .collect();
+
+    let mut report = FitReport {
+        train_file: train.file.clone(),
+        n_train: train.rows.len(),
+        targets: args.targets.clone(),
+        inputs,
+        kernel: args.kernel,
+        degree: args.degree,
+        bandwidth: tuned.bandwidth,
+        initial_loo_nmse,
+        loo_nmse: loo.normalized_mse,
+        loo_nmse_per_target,
+        tune_evals,
+        tune_converged,
+        test: None,
+        out_file: None,
+        level: args.level,
+    };
+
+    if let Some(test_path) = &args.test {
+        let test = Table::read(test_path)?;
+        let (report_test, predictions) = run_test(&model, &train, &input_cols, &args.targets, &test)?;
+        if let Some(out) = &args.out {
+            write_predictions(out, &args.targets, &predictions)?;
+            report.out_file = Some(out.clone());
+        }
+        report.test = Some(report_test);
+    }
+    Ok(report)
+}
+
+type RowPrediction = Result<Prediction, String>;
+
+fn run_test(
+    model: &LwrModel,
+    train: &Table,
+    input_cols: &[usize],
+    targets: &[String],
+    test: &Table,
+) -> Result<(TestReport, Vec<RowPrediction>), FitError> {
+    let test_inputs = input_cols
+        .iter()
+        .map(|&j| test.column(&train.names[j], "input"))
+        .collect::<Result<Vec<_>, _>>()?;
+    // target index in the model, column in the test file
+    let test_targets: Vec<(usize, usize)> = targets
+        .iter()
+        .enumerate()
+        .filter_map(|(o, t)| test.names.iter().position(|n| n == t).map(|j| (o, j)))
+        .collect();
+    for (j, name) in test.names.iter().enumerate() {
+        if !test_inputs.contains(&j) && !test_targets.iter().any(|&(_, c)| c == j) {
+            return Err(FitError::UnknownColumn {
+                file: test.file.clone(),
+                line: test.header_line,
+                column: j + 1,
+                name: name.clone(),
+                train: train.file.clone(),
+            });
+        }
+    }
+    let queries: Vec<Vec<f64>> = test
+        .rows
+        .iter()
+        .map(|r| test_inputs.iter().map(|&j| r[j]).collect())
+        .collect();
+    let predictions: Vec<RowPrediction> = model
+        .predict_batch(&queries)
+        .into_iter()
+        .map(|p| p.map_err(|e| e.to_string()))
+        .collect();
+    let unpredicted: Vec<(usize, String)> = predictions
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| p.as_ref().err().map(|e| (i + 1, e.clone())))
+        .collect();
+    let predicted: Vec<(&Vec<f64>, &Prediction)> = test
+        .rows
+        .iter()
+        .zip(&predictions)
+        .filter_map(|(r, p)| p.as_ref().ok().map(|p| (r, p)))
+        .collect();
+    let mut errors = Vec::new();
+    if !predicted.is_empty() {
+        for &(o, j) in &test_targets {
+            let (_, var) = mean_var(predicted.iter().map(|(r, _)| r[j]));
+            let m = predicted.len() as f64;
+            let sse: f64 = predicted.iter().map(|(r, p)| (r[j] - p.mean[o]).powi(2)).sum();
+            let inside = predicted
+                .iter()
+                .filter(|(r, p)| {
+                    p.prediction_interval(o)
+                        .is_some_and(|(lo, hi)| lo <= r[j] && r[j] <= hi)
+                })
+                .count();
+            errors.push(TargetError {
+                name: targets[o].clone(),
+                nmse: if var > 0.0 { sse / (m * var) } else { f64::NAN },
+                rmse: (sse / m).sqrt(),
+                coverage: inside as f64 / m,
+            });
+        }
+    }
+    let nmse = (!errors.is_empty()).then(|| errors.iter().map(|e| e.nmse).sum::<f64>() / errors.len() as f64);
+    let report = TestReport {
+        file: test.file.clone(),
+        n_rows: test.rows.len(),
+        n_predicted: predicted.len(),
+        n_without_interval: predicted
+            .iter()
+            .filter(|(_, p)| p.prediction_half_width.iter().any(|w| !w.is_finite()))
+            .count(),
+        unpredicted,
+        nmse,
+        targets: errors,
+    };
+    Ok((report, predictions))
+}
+
+fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPrediction]) -> anyhow::Result<()> {
+    let mut text = String::new();
+    let header: Vec<String> = targets
+        .iter()
+        .map(|t| format!("{t}_pred,{t}_std,{t}_lo,{t}_hi"))
+        .collect();
+    text.push_str(&header.join(","));
+    text.push('\n');
+    for p in predictions {
+        let cells: Vec<String> = (0..targets.len())
+            .map(|o| match p {
+                Ok(p) => {
+                    let (mean, half) = (p.mean[o], p.prediction_half_width[o]);
+                    format!("{mean},{},{},{}", p.std_error[o], mean - half, mean + half)
+                }
+                Err(_) => "NaN,NaN,NaN,NaN".to_owned(),
+            })
+            .collect();
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    fs::write(out, text).with_context(|| format!("{}: writing the predictions", out.display()))
+}
+
+fn fmt_num(v: f64) -> String {
+    if v.is_finite() {
+        format!("{v:.4}")
+    } else {
+        format!("{v}")
+    }
+}
+
+impl fmt::Display for FitReport {
+    /// The text summary `swingup fit` prints.
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        let mut s = String::new();
+        writeln!(
+            s,
+            "training: {} rows from {}; {} input(s), target(s) {}",
+            self.n_train,
+            self.train_file.display(),
+            self.inputs.len(),
+            self.targets.join(", ")
+        )?;
+        let tuning = match self.tune_converged {
+            Some(true) => format!(
+                "metric tuned by leave-one-out cross-validation ({} evaluations, converged)",
+                self.tune_evals
+            ),
+            Some(false) => format!(
+                "metric tuned by leave-one-out cross-validation ({} evaluations, budget exhausted: raise --tune-evals)",
+                self.tune_evals
+            ),
+            None => "metric not tuned (--tune-evals 0)".to_owned(),
+        };
+        writeln!(s, "kernel {:?}, degree {:?}; {tuning}", self.kernel, self.degree)?;
+        writeln!(
+            s,
+            "LOO normalised MSE: {} (untuned {})",
+            fmt_num(self.loo_nmse),
+            fmt_num(self.initial_loo_nmse)
+        )?;
+        if self.targets.len() > 1 {
+            for (t, e) in self.targets.iter().zip(&self.loo_nmse_per_target) {
+                writeln!(s, "  {t}: {}", fmt_num(*e))?;
+            }
+        }
+        writeln!(
+            s,
+            "bandwidth h = {} (in standard deviations at scale 1)",
+            fmt_num(self.bandwidth)
+        )?;
+        let w = self.inputs.iter().map(|i| i.name.len()).max().unwrap_or(5).max(5);
+        writeln!(
+            s,
+            "  {:<w$}  {:>12}  {:>10}  {:>12}",
+            "input", "spread (sd)", "scale", "width (sd)"
+        )?;
+        for i in &self.inputs {
+            let note = if i.scale == 0.0 {
+                "  (ignored by the weights)"
+            } else {
+                ""
+            };
+            writeln!(
+                s,
+                "  {:<w$}  {:>12.4e}  {:>10.4}  {:>12}{note}",
+                i.name,
+                i.spread,
+                i.scale,
+                fmt_num(i.width(self.bandwidth))
+            )?;
+        }
+        if let Some(t) = &self.test {
+            writeln!(
+                s,
+                "test: {} rows from {}, {} predicted",
+                t.n_rows,
+                t.file.display(),
+                t.n_predicted
+            )?;
+            if t.n_without_interval > 0 {
+                writeln!(
+                    s,
+                    "  {} predicted rows have too few local degrees of freedom for an interval (NaN std, infinite bounds)",
+                    t.n_without_interval
+                )?;
+            }
+            for (row, why) in t.unpredicted.iter().take(5) {
+                writeln!(s, "  data row {row} not predicted: {why}")?;
+            }
+            if t.unpredicted.len() > 5 {
+                writeln!(s, "  ... and {} more rows not predicted", t.unpredicted.len() - 5)?;
+            }
+            match t.nmse {
+                Some(e) => writeln!(s, "test normalised MSE: {}", fmt_num(e))?,
+                None => writeln!(s, "test normalised MSE: - (no target column in the test file)")?,
+            }
+            for e in &t.targets {
+                writeln!(
+                    s,
+                    "  {}: nMSE {}, RMSE {}, {:.0} % prediction interval covers {:.1} %",
+                    e.name,
+                    fmt_num(e.nmse),
+                    fmt_num(e.rmse),
+                    100.0 * self.level,
+                    100.0 * e.coverage
+                )?;
+            }
+        }
+        if let Some(out) = &self.out_file {
+            writeln!(s, "predictions written to {}", out.display())?;
+        }
+        f.write_str(&s)
+    }
+}
+
+/// Runs `swingup fit`: [`fit_report`], then prints the summary as text or,
+/// with `--json`, as JSON (non-finite numbers as `null`).
+pub fn fit_command(args: &FitArgs) -> anyhow::Result<()> {
+    let report = fit_report(args)?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{report}");
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn parse(text: &str) -> Result<Table, FitError> {
+        Table::parse(text, Path::new("t.csv"))
+    }
+
+    #[test]
+    fn parses_plain_csv() {
+        let t = parse("a, b\r\n1,2\n\n 3 ,4e-1\n").expect("valid");
+        assert_eq!(t.names, ["a", "b"]);
+        assert_eq!(t.rows, [vec![1.0, 2.0], vec![3.0, 0.4]]);
+        assert_eq!(t.lines, [2, 4]);
+    }
+
+    #[test]
+    fn names_line_row_and_column() {
+        let e = parse("a,b\n1,2\n3,x\n").expect_err("bad cell").to_string();
+        assert!(e.contains("line 3 (data row 2), column 2 'b'"), "{e}");
+        let e = parse("a,b\n1,inf\n").expect_err("inf").to_string();
+        assert!(e.contains("column 2 'b'") && e.contains("not a finite"), "{e}");
+        let e = parse("a,b\n1\n").expect_err("short").to_string();
+        assert!(
+            e.contains("line 2 (data row 1)") && e.contains("column 2 'b' is missing"),
+            "{e}"
+        );
+        assert!(matches!(parse(" \n"), Err(FitError::Empty { .. })));
+        assert!(matches!(parse("a,b\n"), Err(FitError::NoRows { .. })));
+        assert!(matches!(
+            parse("a,a\n1,2\n"),
+            Err(FitError::BadHeader { column: 2, .. })
+        ));
+        assert!(matches!(
+            parse("1,2\n1,2\n"),
+            Err(FitError::BadHeader { column: 1, .. })
+        ));
+        assert!(matches!(parse("a,\n1,2\n"), Err(FitError::BadHeader { column: 2, .. })));
+    }
+}
