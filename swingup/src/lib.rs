@@ -1,4 +1,36 @@
-//! The pendulum swing-up learned from a demonstration (Atkeson 1997, section 4), simulated.
+//! The pendulum swing-up learned from a demonstration (Atkeson 1997,
+//! section 4), simulated; the library behind the `swingup` program.
+//!
+//! A pendulum hangs from a hand that moves horizontally,
+//! $\ddot\theta = -(g/l)\sin\theta - (a/l)\cos\theta - b\dot\theta$, $\ddot x = a$
+//! ([`plant`]). A "human" plant demonstrates a swing-up ([`demo`]); the robot,
+//! a different plant with noisy sensors, imitates it, then learns a locally
+//! weighted regression model of its own dynamics ([`model`]) and plans with
+//! the paper's Eq. 3 ([`learn`]) until an LQR ([`lqr`]) can catch and
+//! balance the pendulum. [`record`] and [`report`] hold and write what a run
+//! saw; [`fit_cmd`] is the `swingup fit` subcommand.
+//!
+//! # Example
+//!
+//! ```
+//! use swingup::demo::{HumanSwingup, demonstrate};
+//! use swingup::plant::{Plant, PlantParams, PlantState, from_upright};
+//!
+//! // the human's demonstration: 150 samples of swing-up at 60 Hz, then balancing
+//! let (demo, run) = demonstrate(&PlantParams::human(), &HumanSwingup::default(), 150, 120).expect("lqr");
+//! assert_eq!(demo.controls.len(), 150);
+//! assert!(from_upright(run.last().expect("states")[0]).abs() < 0.2);
+//!
+//! // replayed open loop on the robot, it does not get halfway up (claim C1)
+//! let robot = Plant::new(PlantParams::robot());
+//! let mut state = PlantState::hanging();
+//! let mut highest: f64 = 0.0;
+//! for &u in &demo.controls {
+//!     state = robot.step(&state, u);
+//!     highest = highest.max(state.s[0].abs());
+//! }
+//! assert!(highest < std::f64::consts::FRAC_PI_2);
+//! ```
 #![warn(missing_docs)]
 
 pub mod demo;
