@@ -38,19 +38,8 @@ import sys
 import tempfile
 import time
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-VENV = ROOT / ".venv-ref"
+from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
 NOISE = 0.1
-
-
-def ensure_venv():
-    py = VENV / "bin" / "python"
-    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
-        return
-    if not py.exists():
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
-    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
 
 
 def make_data(n, n_test, seed):
@@ -140,7 +129,7 @@ def fmt_time(s):
 
 
 def main():
-    ensure_venv()
+    ensure_venv(__file__)
     import numpy as np
 
     args = sys.argv[1:]

@@ -15,24 +15,11 @@ difference between the two solutions. The `trivial` problem (a 10-D
 separable quadratic) measures the overhead per evaluation.
 """
 import json
-import os
-import pathlib
 import subprocess
 import sys
 import timeit
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-VENV = ROOT / ".venv-ref"
-
-
-def ensure_venv():
-    py = VENV / "bin" / "python"
-    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
-        return
-    if not py.exists():
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
-    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
+from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
 
 
 def median_time(f):
@@ -75,7 +62,7 @@ def problems():
 
 
 def main():
-    ensure_venv()
+    ensure_venv(__file__)
     import numpy as np
     from scipy.optimize import minimize
 

@@ -15,24 +15,11 @@ Compared operations (same inputs on both sides, see splines/examples/timing.rs):
                          vs splines::wavelet (allocating API, and the planned allocation-free one)
 """
 import json
-import os
-import pathlib
 import subprocess
 import sys
 import timeit
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-VENV = ROOT / ".venv-ref"
-
-
-def ensure_venv():
-    py = VENV / "bin" / "python"
-    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
-        return
-    if not py.exists():
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
-    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
+from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
 
 
 def median_time(f):
@@ -83,7 +70,7 @@ def python_results(n):
 
 
 def main():
-    ensure_venv()
+    ensure_venv(__file__)
     sizes = [int(a) for a in sys.argv[1:]] or [100, 1000, 10000, 100000]
     cmd = ["cargo", "run", "--quiet", "--release", "-p", "splines", "--example", "timing", "--", *map(str, sizes)]
     rust = [json.loads(line) for line in subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout.splitlines() if line.startswith("{")]

@@ -16,25 +16,12 @@ trajopt, and the final costs with their relative difference. Different
 solvers can stop at different local minima; the cost column shows it.
 """
 import json
-import os
-import pathlib
 import subprocess
 import sys
 import time
 
-ROOT = pathlib.Path(__file__).resolve().parents[1]
-VENV = ROOT / ".venv-ref"
+from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
 DT = 1.0 / 60.0
-
-
-def ensure_venv():
-    py = VENV / "bin" / "python"
-    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
-        return
-    if not py.exists():
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
-    os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
 
 
 def problem(horizon, lam):
@@ -157,7 +144,7 @@ def solve_casadi(p):
 
 
 def main():
-    ensure_venv()
+    ensure_venv(__file__)
     args = sys.argv[1:]
     lam = 1e2
     if args[:1] == ["--lambda"]:
