@@ -106,6 +106,11 @@ pub enum GaussNewtonStatus {
     ConvergedCost,
     /// The iteration cap was reached.
     MaxIterations,
+    /// Steps kept failing until the damping made them negligible, while the
+    /// gradient is not small: the residuals are not smooth enough here for
+    /// their linearisation to predict them (a rough learned model, or a
+    /// Jacobian that does not match the residuals). Not a converged point.
+    Stalled,
     /// The residuals or Jacobian became non-finite at every trial step, or
     /// the normal equations could not be factorised even with damping.
     NumericalError,
@@ -307,7 +312,14 @@ impl GaussNewton {
                 let step_norm = (0..n_p).map(|j| step[(j, 0)].powi(2)).sum::<f64>().sqrt();
                 let theta_norm = sum_sq(&theta).sqrt();
                 if step_norm <= s.tol_step * (theta_norm + s.tol_step) {
-                    status = GaussNewtonStatus::ConvergedStep;
+                    // a negligible step is convergence only if the damping did
+                    // not force it: with mu >= 1 the damping term outweighs the
+                    // curvature and the gradient is still large
+                    status = if mu < 1.0 {
+                        GaussNewtonStatus::ConvergedStep
+                    } else {
+                        GaussNewtonStatus::Stalled
+                    };
                     break 'outer;
                 }
                 for j in 0..n_p {

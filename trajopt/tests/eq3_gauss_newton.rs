@@ -464,3 +464,35 @@ fn powell_and_gauss_newton_agree_on_a_small_eq3_problem() {
         gn.cost
     );
 }
+
+#[test]
+fn a_jacobian_that_contradicts_the_residuals_stalls_not_converges() {
+    /// r(theta) = theta - 1, with a Jacobian of the wrong sign: every step is uphill.
+    struct Lying;
+    impl LeastSquaresProblem for Lying {
+        fn n_params(&self) -> usize {
+            1
+        }
+        fn n_residuals(&self) -> usize {
+            1
+        }
+        fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+            r[0] = theta[0] - 1.0;
+            Ok(())
+        }
+        fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+            SymbolicSparseRowMat::new_checked(1, 1, vec![0, 1], None, vec![0])
+        }
+        fn jacobian_values(&self, _theta: &[f64], values: &mut [f64]) -> Result<()> {
+            values[0] = -1.0;
+            Ok(())
+        }
+    }
+    let res = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("settings")
+        .solve(&Lying, &[3.0])
+        .expect("solve");
+    assert_eq!(res.status, trajopt::GaussNewtonStatus::Stalled);
+    assert!(!res.status.converged());
+    assert_eq!(res.theta, vec![3.0], "no step was accepted");
+}
