@@ -2,10 +2,10 @@
 swing-ups (`ddp::problems`) over horizons 100 to 5000: iterations, total
 solve time and time per iteration, from one run of each.
 
-Setting up and running (from the repository root):
-  python3 -m venv .venv-ref
-  .venv-ref/bin/pip install crocoddyl pin==4.0.0 libpinocchio==4.0.0
-  OMP_NUM_THREADS=1 .venv-ref/bin/python scripts/compare_ddp.py [repeats]
+Running (from the repository root): `python3 scripts/compare_ddp.py [repeats]`.
+It re-executes itself in .venv-ref (created from scripts/requirements.txt,
+which pins crocoddyl 3.2.1, pin 4.0.0 and libpinocchio 4.0.0: newer pins
+give a pinocchio whose forward dynamics silently return zero acceleration).
 
 Also Crocoddyl's own unicycle benchmark (its native ActionModelUnicycle,
 horizons 20 / 100 / 1000), whose model is so cheap that it measures the
@@ -28,6 +28,9 @@ import sys
 import time
 
 os.environ["OMP_NUM_THREADS"] = "1"
+from _venv import ensure_venv  # noqa: E402  (scripts/ is on sys.path)
+
+ensure_venv(__file__)
 sys.path.insert(0, str(pathlib.Path(__file__).resolve().parent / "golden"))
 import crocoddyl  # noqa: E402
 import numpy as np  # noqa: E402
@@ -95,7 +98,7 @@ def croc_solve(make, horizon, repeats, maxiter=200):
 
 
 def ours(repeats):
-    cmd = ["cargo", "run", "--release", "-q", "-p", "ddp", "--example", "timing", "--", str(repeats)]
+    cmd = ["cargo", "run", "--release", "-q", "-p", "ddp", "--example", "ddp_timing", "--", str(repeats)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     return {(r["system"], r["horizon"]): r for r in map(json.loads, out.strip().splitlines())}
 
