@@ -10,16 +10,11 @@ use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_m
 use trajopt::powell::{Powell, PowellSettings};
 
 fn rosenbrock(x: &[f64]) -> trajopt::Result<f64> {
-    Ok(x.windows(2)
-        .map(|w| 100.0 * (w[1] - w[0] * w[0]).powi(2) + (1.0 - w[0]).powi(2))
-        .sum())
+    Ok(trajopt::problems::rosenbrock(x))
 }
 
 fn powell_singular(x: &[f64]) -> trajopt::Result<f64> {
-    Ok((x[0] + 10.0 * x[1]).powi(2)
-        + 5.0 * (x[2] - x[3]).powi(2)
-        + (x[1] - 2.0 * x[2]).powi(4)
-        + 10.0 * (x[0] - x[3]).powi(4))
+    Ok(trajopt::problems::powell_singular(x))
 }
 
 /// A separable quadratic: as cheap as an objective gets.

@@ -15,18 +15,7 @@ use std::time::Instant;
 
 use trajopt::powell::{Powell, PowellSettings};
 
-fn rosenbrock(x: &[f64]) -> f64 {
-    x.windows(2)
-        .map(|w| 100.0 * (w[1] - w[0] * w[0]).powi(2) + (1.0 - w[0]).powi(2))
-        .sum()
-}
-
-fn powell_singular(x: &[f64]) -> f64 {
-    (x[0] + 10.0 * x[1]).powi(2)
-        + 5.0 * (x[2] - x[3]).powi(2)
-        + (x[1] - 2.0 * x[2]).powi(4)
-        + 10.0 * (x[0] - x[3]).powi(4)
-}
+use trajopt::problems::{powell_singular, rosenbrock};
 
 /// $\sum_i (i + 1) (x_i - c_i)^2 + \sum_i 0.5 (x_i - c_i)(x_{i+1} - c_{i+1})$, c_i = i / 10.
 fn quadratic(x: &[f64]) -> f64 {

@@ -10,18 +10,7 @@ use proptest::prelude::*;
 use trajopt::TrajoptError;
 use trajopt::powell::{Objective, Powell, PowellArgmin, PowellSettings, PowellStatus};
 
-fn rosenbrock(x: &[f64]) -> f64 {
-    x.windows(2)
-        .map(|w| 100.0 * (w[1] - w[0] * w[0]).powi(2) + (1.0 - w[0]).powi(2))
-        .sum()
-}
-
-fn powell_singular(x: &[f64]) -> f64 {
-    (x[0] + 10.0 * x[1]).powi(2)
-        + 5.0 * (x[2] - x[3]).powi(2)
-        + (x[1] - 2.0 * x[2]).powi(4)
-        + 10.0 * (x[0] - x[3]).powi(4)
-}
+use trajopt::problems::{powell_singular, rosenbrock};
 
 /// Counts evaluations and records when the best value first reached a target.
 struct Recorder<F> {
