@@ -71,19 +71,23 @@ impl LearnedModel {
     /// instead of extrapolating a local fit made from a handful of points.
     /// The Jacobian is exact where the weight is 0 or 1 and treats the
     /// weight as constant in the blend.
-    fn predict(&self, z: &[f64; 5]) -> ([f64; 2], [[f64; 5]; 2]) {
+    fn predict(&self, z: &[f64; 5], with_jacobian: bool) -> ([f64; 2], [[f64; 5]; 2]) {
         let lin_mean: [f64; 2] =
             std::array::from_fn(|o| self.linear[o][0] + (0..5).map(|c| self.linear[o][c + 1] * z[c]).sum::<f64>());
         let lin_jac: [[f64; 5]; 2] = std::array::from_fn(|o| std::array::from_fn(|c| self.linear[o][c + 1]));
-        let local = self.lwr.predict_with_jacobian(z).ok().and_then(|(p, j)| {
+        // the Jacobian costs a second pass over the neighbours: only when asked
+        let fitted = if with_jacobian {
+            self.lwr.predict_with_jacobian(z).ok().map(|(p, j)| (p, Some(j)))
+        } else {
+            self.lwr.predict(z).ok().map(|p| (p, None))
+        };
+        let local = fitted.and_then(|(p, j)| {
+            let jac: [[f64; 5]; 2] =
+                std::array::from_fn(|o| std::array::from_fn(|c| j.as_ref().map_or(0.0, |j| j[(o, c)])));
             let usable = matches!(p.status, lwr::FitStatus::Ok | lwr::FitStatus::Regularized)
                 && p.mean.iter().all(|v| v.is_finite())
-                && (0..2).all(|o| (0..5).all(|c| j[(o, c)].is_finite()));
-            usable.then(|| {
-                let mean: [f64; 2] = [p.mean[0], p.mean[1]];
-                let jac: [[f64; 5]; 2] = std::array::from_fn(|o| std::array::from_fn(|c| j[(o, c)]));
-                (mean, jac, p.n_lwr)
-            })
+                && jac.iter().flatten().all(|v| v.is_finite());
+            usable.then(|| ([p.mean[0], p.mean[1]], jac, p.n_lwr))
         });
         match local {
             Some((mean, jac, n_lwr)) => {
@@ -149,7 +153,7 @@ impl trajopt::Model for LearnedModel {
 
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
         let z = [x[0], x[1], x[2], x[3], u[0]];
-        let (d, _) = self.predict(&z);
+        let (d, _) = self.predict(&z, false);
         let (w1, v1) = (x[1] + d[0], x[3] + d[1]);
         next[1] = w1;
         next[0] = x[0] + 0.5 * self.dt * (x[1] + w1);
@@ -160,7 +164,7 @@ impl trajopt::Model for LearnedModel {
 
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
         let z = [x[0], x[1], x[2], x[3], u[0]];
-        let (_, j) = self.predict(&z);
+        let (_, j) = self.predict(&z, true);
         let h = 0.5 * self.dt;
         // d(omega')/dz = e_omega + J0 ; d(v')/dz = e_v + J1
         let dw: [f64; 5] = std::array::from_fn(|c| j[0][c] + if c == 1 { 1.0 } else { 0.0 });
