@@ -158,7 +158,8 @@ def main():
         rows = []
         bw = ", ".join("inf" if b is None else f"{b:.3g}" for b in ours["bandwidths"])
         rows.append(("lwr", dict(tune=ours["tune_s"], query=ours["query_s"], cv=ours["loo_nmse"], test=ours["test_nmse"], failed=ours["n_failed"],
-                                 note=f"{ours['threads']} threads, {ours['tune_evals']} LOO evals, bw {bw}; batch {fmt_time(ours['batch_query_s'])}/query")))
+                                 note=f"{ours['threads']} threads, {ours['tune_evals']} LOO evals ({ours.get('tune_evals_stopped_early', 0)} stopped early), "
+                                      f"bw {bw}; batch {fmt_time(ours['batch_query_s'])}/query")))
         if ours1 is not ours:
             rows.append(("lwr 1 thread", dict(tune=ours1["tune_s"], query=ours1["query_s"], cv=ours1["loo_nmse"], test=ours1["test_nmse"],
                                               failed=ours1["n_failed"], note="RAYON_NUM_THREADS=1")))

@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the LWR model over database sizes.
 //!
 //! `cargo bench -p lwr`: single queries (with confidence, and with the
-//! Jacobian), parallel batches, inserts, leave-one-out and tuning, for
+//! Jacobian), parallel batches, inserts, leave-one-out and tuning (with and
+//! without stopping hopeless evaluations early), for
 //! $10^3$ to $10^5$ uniform points in 2 and 5 dimensions. The tricube
 //! bandwidth is chosen so that about 50 points carry weight at every size,
 //! so a query should grow like $\log n$ (tree descent) plus a constant fit.
@@ -160,6 +161,26 @@ fn cross_validation(c: &mut Criterion) {
         ..Default::default()
     };
     group.bench_function("n500_d2_30evals", |b| b.iter(|| m.tune(&tune).expect("valid")));
+    // the same search with and without stopping hopeless evaluations early
+    // (same result either way)
+    for n in [500, 2_000] {
+        let m = model(n, 2);
+        for stop_early in [true, false] {
+            let tune = TuneSettings {
+                max_evals: 30,
+                stop_early,
+                ..Default::default()
+            };
+            let name = if stop_early {
+                "d2_30evals_stop_early"
+            } else {
+                "d2_30evals_full"
+            };
+            group.bench_with_input(BenchmarkId::new(name, n), &tune, |b, tune| {
+                b.iter(|| m.tune(tune).expect("valid"))
+            });
+        }
+    }
     group.finish();
 }
 

@@ -9,7 +9,8 @@
 //! from the metric $m_j = 1 / s_j$ ($s_j$ the inputs' standard deviations)
 //! and $h = 0.5$, and tuned with [`LwrModel::tune`] (bandwidth and every
 //! scale, default [`TuneSettings`]). Prints one JSON object on one line:
-//! build, tune, LOO and query timings (seconds), the tuned bandwidths in the
+//! build, tune, LOO and query timings (seconds), the number of tuning
+//! evaluations (and how many of them stopped early), the tuned bandwidths in the
 //! inputs' units ($h / m_j$, the analogue of `KernelReg`'s `bw`), and the
 //! leave-one-out and test normalised MSE.
 
@@ -56,6 +57,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let t = Instant::now();
     let tuned = model.tune(&TuneSettings::default())?;
     let tune = t.elapsed().as_secs_f64();
+    let n_stopped = tuned.history.iter().filter(|s| !s.complete).count();
     model.set_settings(tuned.settings)?;
 
     let t = Instant::now();
@@ -101,6 +103,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
         "build_s": build,
         "tune_s": tune,
         "tune_evals": tuned.evals,
+        "tune_evals_stopped_early": n_stopped,
         "loo_s": loo_time,
         "query_s": query,
         "batch_query_s": batch_query,

@@ -1,10 +1,13 @@
 //! Leave-one-out cross-validation in closed form, and tuning of the
 //! bandwidth and metric by minimising it.
 
+use std::collections::HashMap;
+
 use rayon::prelude::*;
 
 use crate::error::{LwrError, Result};
-use crate::fit::Want;
+use crate::fit::{LocalFit, Scratch, Want, fit_found};
+use crate::kdtree::{Leaf, dist2};
 use crate::model::LwrModel;
 use crate::settings::LwrSettings;
 
@@ -16,6 +19,219 @@ const MIN_ONE_MINUS_LEVERAGE: f64 = 1e-8;
 
 /// Per point: fitted values, LOO residuals, leverage, undetermined, regularised.
 type PointLoo = (Vec<f64>, Vec<f64>, f64, bool, bool);
+
+/// Number of blocks of points between the early-stopping checks of a tuning
+/// evaluation.
+const N_BLOCKS: usize = 32;
+
+/// Smallest number of points in a block.
+const MIN_BLOCK: usize = 64;
+
+/// Relative margin by which a partial sum must exceed the acceptance bound
+/// before an evaluation is stopped: far above the rounding of the sums
+/// ($n \epsilon_{mach} \approx 10^{-10}$ at $n = 10^6$).
+const BOUND_MARGIN: f64 = 1e-9;
+
+/// Signature of [`scan_any`] and [`scan_fixed`].
+type Scan = fn(&[usize], &[f64], &[f64], &[f64], f64, &mut Vec<(usize, f64)>);
+
+/// Appends `(index, d^2)` for every candidate (indices and row-major
+/// inputs) with $d^2 <$ `r2` from `q`, in the candidates' order.
+fn scan_any(candidates: &[usize], coords: &[f64], q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
+    for (&c, x) in candidates.iter().zip(coords.chunks_exact(q.len())) {
+        let d2 = dist2(x, q, scales);
+        if d2 < r2 {
+            out.push((c, d2));
+        }
+    }
+}
+
+/// [`scan_any`] for `D` inputs known at compile time (bitwise the same
+/// distances: the same operations in the same order).
+fn scan_fixed<const D: usize>(
+    candidates: &[usize],
+    coords: &[f64],
+    q: &[f64],
+    scales: &[f64],
+    r2: f64,
+    out: &mut Vec<(usize, f64)>,
+) {
+    let (Ok(q), Ok(scales)) = (<&[f64; D]>::try_from(q), <&[f64; D]>::try_from(scales)) else {
+        return scan_any(candidates, coords, q, scales, r2, out);
+    };
+    for (&c, x) in candidates.iter().zip(coords.chunks_exact(D)) {
+        let mut d2 = 0.0;
+        for j in 0..D {
+            let t = scales[j] * (x[j] - q[j]);
+            d2 += t * t;
+        }
+        if d2 < r2 {
+            out.push((c, d2));
+        }
+    }
+}
+
+/// Buffers of the leave-one-out fits of one leaf.
+#[derive(Default)]
+struct LeafScratch {
+    /// Indices of the points within the support of the leaf's box, sorted.
+    candidates: Vec<usize>,
+    /// Their inputs, row-major.
+    coords: Vec<f64>,
+    /// The fit's buffers.
+    fit: Scratch,
+}
+
+/// An objective evaluation that may have stopped early.
+#[derive(Debug, Clone, Copy, PartialEq)]
+enum Objective {
+    /// The exact objective.
+    Exact(f64),
+    /// A lower bound, already above the acceptance bound.
+    Above(f64),
+}
+
+/// What every point's leave-one-out residual needs: validated settings and
+/// the outputs' mean and variance.
+struct LooContext<'a> {
+    settings: &'a LwrSettings,
+    scales: Vec<f64>,
+    n: usize,
+    o: usize,
+    mean: Vec<f64>,
+    var: Vec<f64>,
+}
+
+impl<'a> LooContext<'a> {
+    fn new(model: &LwrModel, settings: &'a LwrSettings) -> Result<Self> {
+        let db = model.database();
+        settings.validate(db.n_inputs())?;
+        if db.is_empty() {
+            return Err(LwrError::EmptyDatabase);
+        }
+        let scales = settings.scales_for(db.n_inputs());
+        let n = db.len();
+        let o = db.n_outputs();
+        let mut mean = vec![0.0; o];
+        for i in 0..n {
+            for (m, y) in mean.iter_mut().zip(&db.outputs()[i * o..(i + 1) * o]) {
+                *m += y / n as f64;
+            }
+        }
+        let mut var = vec![0.0; o];
+        for i in 0..n {
+            for ((v, y), m) in var.iter_mut().zip(&db.outputs()[i * o..(i + 1) * o]).zip(&mean) {
+                *v += (y - m) * (y - m) / n as f64;
+            }
+        }
+        for v in &mut var {
+            if *v <= 0.0 {
+                *v = 1.0;
+            }
+        }
+        Ok(Self {
+            settings,
+            scales,
+            n,
+            o,
+            mean,
+            var,
+        })
+    }
+
+    /// Leave-one-out outcome of point `i` from its fit at $x_i$.
+    fn outcome(&self, model: &LwrModel, i: usize, fit: Result<LocalFit>) -> PointLoo {
+        let o = self.o;
+        let y = &model.database().outputs()[i * o..(i + 1) * o];
+        let mean = &self.mean;
+        match fit {
+            Ok(fit) => {
+                let lii = fit.s[0];
+                let fitted = fit.beta[..o].to_vec();
+                let one_minus = 1.0 - lii;
+                if one_minus >= MIN_ONE_MINUS_LEVERAGE {
+                    let e = y.iter().zip(&fitted).map(|(y, f)| (y - f) / one_minus).collect();
+                    (fitted, e, lii, false, fit.regularized)
+                } else {
+                    let e = y.iter().zip(mean).map(|(y, m)| y - m).collect();
+                    (fitted, e, lii, true, fit.regularized)
+                }
+            }
+            Err(_) => {
+                let e = y.iter().zip(mean).map(|(y, m)| y - m).collect();
+                (mean.clone(), e, 1.0, true, false)
+            }
+        }
+    }
+
+    /// Leave-one-out outcomes of the points of one leaf, as `(index,
+    /// outcome)`.
+    ///
+    /// The queries are the leaf's own points, so their neighbours are found
+    /// together: one tree search collects every point within the support of
+    /// the leaf's bounding box (a superset of each query's neighbours), sorted
+    /// by index once; each query then filters that list by its own distance.
+    /// The neighbour lists are exactly those of a tree search per query, in
+    /// the same (index) order, so every fit is bitwise that of a single
+    /// query at $x_i$, without a search and a sort per query.
+    fn leaf(&self, model: &LwrModel, leaf: &Leaf<'_>, scratch: &mut LeafScratch) -> Vec<(usize, PointLoo)> {
+        let db = model.database();
+        let d = db.n_inputs();
+        let radius = self.settings.support_radius();
+        let r2 = radius * radius;
+        let LeafScratch {
+            candidates,
+            coords,
+            fit,
+        } = scratch;
+        candidates.clear();
+        db.within_box(leaf.lo, leaf.hi, &self.scales, r2, candidates);
+        candidates.sort_unstable();
+        coords.clear();
+        for &c in candidates.iter() {
+            coords.extend_from_slice(&db.inputs()[c * d..(c + 1) * d]);
+        }
+        let mut out = Vec::with_capacity(leaf.indices.len());
+        let scan: Scan = match d {
+            1 => scan_fixed::<1>,
+            2 => scan_fixed::<2>,
+            3 => scan_fixed::<3>,
+            4 => scan_fixed::<4>,
+            5 => scan_fixed::<5>,
+            6 => scan_fixed::<6>,
+            7 => scan_fixed::<7>,
+            8 => scan_fixed::<8>,
+            _ => scan_any,
+        };
+        for (&i, q) in leaf.indices.iter().zip(leaf.coords.chunks_exact(d)) {
+            fit.found.clear();
+            scan(candidates, coords, q, &self.scales, r2, &mut fit.found);
+            let result = fit_found(db, self.settings, &self.scales, q, Want::default(), fit);
+            out.push((i, self.outcome(model, i, result)));
+        }
+        out
+    }
+
+    /// Leave-one-out outcomes of the points of `leaves`, in parallel over
+    /// the leaves, in the leaves' order.
+    fn leaves(&self, model: &LwrModel, leaves: &[Leaf<'_>]) -> Vec<(usize, PointLoo)> {
+        let per_leaf: Vec<Vec<(usize, PointLoo)>> = leaves
+            .par_iter()
+            .map_init(LeafScratch::default, |scratch, leaf| self.leaf(model, leaf, scratch))
+            .collect();
+        per_leaf.into_iter().flatten().collect()
+    }
+
+    /// Mean over outputs of PRESS$/(n \operatorname{var} y_o)$.
+    fn normalized_mse(&self, press: &[f64]) -> f64 {
+        let nf = self.n as f64;
+        let mut f = 0.0;
+        for (p, v) in press.iter().zip(&self.var) {
+            f += p / (nf * v) / self.o as f64;
+        }
+        f
+    }
+}
 
 /// Leave-one-out residuals over the whole database and their summaries.
 ///
@@ -65,6 +281,7 @@ pub struct LooResult {
 /// | `initial_factor` | 4 | first multiplicative step |
 /// | `min_factor` | 1.05 | stop when the step falls below this factor |
 /// | `max_evals` | 300 | budget of leave-one-out evaluations |
+/// | `stop_early` | true | stop an evaluation once it certainly cannot be accepted |
 #[derive(Debug, Clone, PartialEq)]
 pub struct TuneSettings {
     /// Search over the bandwidth.
@@ -82,6 +299,13 @@ pub struct TuneSettings {
     pub min_factor: f64,
     /// Largest number of objective evaluations.
     pub max_evals: usize,
+    /// Stop an evaluation as soon as the partial sum of its leave-one-out
+    /// errors exceeds what the search would accept (the search takes the
+    /// same path and returns the same result either way; only the history
+    /// records lower bounds for the stopped evaluations, see
+    /// [`TuneStep::complete`]). Bad trial metrics, which are often the ones
+    /// with the widest neighbourhoods, then cost a fraction of a full pass.
+    pub stop_early: bool,
 }
 
 impl Default for TuneSettings {
@@ -94,6 +318,7 @@ impl Default for TuneSettings {
             initial_factor: 4.0,
             min_factor: 1.05,
             max_evals: 300,
+            stop_early: true,
         }
     }
 }
@@ -149,10 +374,16 @@ pub struct TuneStep {
     pub bandwidth: f64,
     /// Scales tried.
     pub scales: Vec<f64>,
-    /// Its normalised leave-one-out MSE (infinite if the evaluation failed).
+    /// Its normalised leave-one-out MSE (infinite if the evaluation failed);
+    /// a lower bound when `complete` is false.
     pub objective: f64,
     /// Whether the search moved there.
     pub accepted: bool,
+    /// Whether `objective` is the full leave-one-out MSE. False for an
+    /// evaluation stopped early (see [`TuneSettings::stop_early`]) because
+    /// it was certainly too high to be accepted: `objective` is then a lower
+    /// bound that already exceeds the acceptance threshold.
+    pub complete: bool,
 }
 
 /// The outcome of [`LwrModel::tune`].
@@ -175,7 +406,15 @@ pub struct TuneResult {
 
 impl LwrModel {
     /// Leave-one-out cross-validation of the current settings over the
-    /// whole database (parallel over points). See [`LooResult`].
+    /// whole database. See [`LooResult`].
+    ///
+    /// The points are fitted leaf by leaf of the k-d tree, in parallel over
+    /// the leaves: one tree search finds every point within the kernel's
+    /// support of the leaf's bounding box, sorted by index once, and each of
+    /// the leaf's points then keeps those within its own support. The fits
+    /// are bitwise those of single queries at $x_i$ (the same neighbours,
+    /// summed in the same order), without a tree search and a sort per
+    /// point.
     ///
     /// ```
     /// # use lwr::{LwrModel, LwrSettings};
@@ -197,53 +436,14 @@ impl LwrModel {
     /// [`loo`](Self::loo) for other settings (validated), without changing
     /// the model.
     pub fn loo_with(&self, settings: &LwrSettings) -> Result<LooResult> {
+        let ctx = LooContext::new(self, settings)?;
+        let n = ctx.n;
+        let o = ctx.o;
         let db = self.database();
-        settings.validate(db.n_inputs())?;
-        if db.is_empty() {
-            return Err(LwrError::EmptyDatabase);
+        let mut per_point: Vec<Option<PointLoo>> = vec![None; n];
+        for (i, point) in ctx.leaves(self, &db.leaves()) {
+            per_point[i] = Some(point);
         }
-        let scales = settings.scales_for(db.n_inputs());
-        let n = db.len();
-        let o = db.n_outputs();
-        let mut mean = vec![0.0; o];
-        for i in 0..n {
-            for (m, y) in mean.iter_mut().zip(&db.outputs()[i * o..(i + 1) * o]) {
-                *m += y / n as f64;
-            }
-        }
-        let mut var = vec![0.0; o];
-        for i in 0..n {
-            for ((v, y), m) in var.iter_mut().zip(&db.outputs()[i * o..(i + 1) * o]).zip(&mean) {
-                *v += (y - m) * (y - m) / n as f64;
-            }
-        }
-
-        // per point: (fitted, residuals, leverage, undetermined, regularized)
-        let per_point: Vec<PointLoo> = (0..n)
-            .into_par_iter()
-            .map(|i| {
-                let x = &db.inputs()[i * db.n_inputs()..(i + 1) * db.n_inputs()];
-                let y = &db.outputs()[i * o..(i + 1) * o];
-                match self.fit_with(settings, &scales, x, Want::default()) {
-                    Ok(fit) => {
-                        let lii = fit.s[0];
-                        let fitted = fit.beta[..o].to_vec();
-                        let one_minus = 1.0 - lii;
-                        if one_minus >= MIN_ONE_MINUS_LEVERAGE {
-                            let e = y.iter().zip(&fitted).map(|(y, f)| (y - f) / one_minus).collect();
-                            (fitted, e, lii, false, fit.regularized)
-                        } else {
-                            let e = y.iter().zip(&mean).map(|(y, m)| y - m).collect();
-                            (fitted, e, lii, true, fit.regularized)
-                        }
-                    }
-                    Err(_) => {
-                        let e = y.iter().zip(&mean).map(|(y, m)| y - m).collect();
-                        (mean.clone(), e, 1.0, true, false)
-                    }
-                }
-            })
-            .collect();
 
         let mut res = LooResult {
             residuals: Vec::with_capacity(n * o),
@@ -258,7 +458,11 @@ impl LwrModel {
         };
         let mut rss = vec![0.0; o];
         let mut trace = 0.0;
-        for (i, (fitted, e, lii, undetermined, regularized)) in per_point.into_iter().enumerate() {
+        for (i, point) in per_point.into_iter().enumerate() {
+            debug_assert!(point.is_some(), "every point is in one leaf");
+            let Some((fitted, e, lii, undetermined, regularized)) = point else {
+                continue;
+            };
             let y = &db.outputs()[i * o..(i + 1) * o];
             for oo in 0..o {
                 res.press[oo] += e[oo] * e[oo];
@@ -272,13 +476,66 @@ impl LwrModel {
             res.leverages.push(lii);
         }
         let nf = n as f64;
-        for oo in 0..o {
-            res.gcv[oo] = nf * rss[oo] / (nf - trace).powi(2);
-            res.mse += res.press[oo] / nf / o as f64;
-            let v = if var[oo] > 0.0 { var[oo] } else { 1.0 };
-            res.normalized_mse += res.press[oo] / (nf * v) / o as f64;
+        for ((gcv, rss), press) in res.gcv.iter_mut().zip(&rss).zip(&res.press) {
+            *gcv = nf * rss / (nf - trace).powi(2);
+            res.mse += press / nf / o as f64;
         }
+        res.normalized_mse = ctx.normalized_mse(&res.press);
         Ok(res)
+    }
+
+    /// The tuning objective [`LooResult::normalized_mse`] for `settings`,
+    /// or, when it is certainly above `bound`, possibly only a lower bound
+    /// on it, found without visiting every point.
+    ///
+    /// The points are visited in up to [`N_BLOCKS`] blocks of tree leaves
+    /// (block $b$ of $B$ holds the leaves $b, b + B, b + 2B, \dots$ from left
+    /// to right, so every block samples the whole input space), each block in
+    /// parallel over its leaves; after each block the partial sum of the
+    /// nonnegative per-point terms is compared with the bound. The
+    /// partial sum is a lower bound on the objective up to rounding (a
+    /// relative $n \epsilon_{mach}$), so the evaluation stops only when it
+    /// exceeds `bound` by the relative margin [`BOUND_MARGIN`]: a stopped
+    /// evaluation is one whose exact objective is above `bound`, and a
+    /// completed one returns bitwise the value of
+    /// [`loo_with`](Self::loo_with). Deterministic: the blocks and their
+    /// sums do not depend on the number of threads (where a stopped
+    /// evaluation stops depends on the tree's shape, its decision does not).
+    fn loo_objective(&self, settings: &LwrSettings, bound: f64) -> Result<Objective> {
+        let ctx = LooContext::new(self, settings)?;
+        let (n, o) = (ctx.n, ctx.o);
+        let leaves = self.database().leaves();
+        let n_blocks = if bound.is_finite() {
+            N_BLOCKS.min(n.div_ceil(MIN_BLOCK)).min(leaves.len()).max(1)
+        } else {
+            1
+        };
+        let mut residuals = vec![0.0; n * o];
+        let nf = n as f64;
+        let weights: Vec<f64> = ctx.var.iter().map(|&v| 1.0 / (nf * v) / o as f64).collect();
+        let mut partial = 0.0;
+        let mut block_leaves = Vec::with_capacity(leaves.len().div_ceil(n_blocks));
+        for block in 0..n_blocks {
+            block_leaves.clear();
+            block_leaves.extend(leaves.iter().skip(block).step_by(n_blocks).copied());
+            for (i, (_, e, ..)) in ctx.leaves(self, &block_leaves) {
+                for (oo, e) in e.into_iter().enumerate() {
+                    partial += e * e * weights[oo];
+                    residuals[i * o + oo] = e;
+                }
+            }
+            if block + 1 < n_blocks && partial > bound * (1.0 + BOUND_MARGIN) && partial > f64::MIN_POSITIVE {
+                return Ok(Objective::Above(partial));
+            }
+        }
+        // the sums of loo_with, in the same order
+        let mut press = vec![0.0; o];
+        for e in residuals.chunks_exact(o) {
+            for (p, e) in press.iter_mut().zip(e) {
+                *p += e * e;
+            }
+        }
+        Ok(Objective::Exact(ctx.normalized_mse(&press)))
     }
 
     /// Tunes the bandwidth $h$ and the metric scales $m_j$ by minimising the
@@ -296,6 +553,15 @@ impl LwrModel {
     /// square root of the factor; the search stops below `min_factor` or
     /// after `max_evals` evaluations. Deterministic; finds a local minimum
     /// along the coordinates.
+    ///
+    /// Speed: each evaluation is a full leave-one-out pass, fitted leaf by
+    /// leaf of the tree (see [`loo`](Self::loo)). With `stop_early` (the
+    /// default) a trial is abandoned as soon as the partial sum of its
+    /// leave-one-out errors, over blocks of points spread across the data,
+    /// exceeds what the search would accept; this changes neither the path
+    /// nor the result (only the history of the abandoned trials, see
+    /// [`TuneStep::complete`]) and makes the bad trials, which tend to be the
+    /// ones with the widest neighbourhoods, cheap.
     ///
     /// Only $m_j / h$ matters, so the result is one of a family of equivalent
     /// settings. Returns the tuned settings and the history; the model is not
@@ -322,23 +588,51 @@ impl LwrModel {
         let mut x: Vec<f64> = std::iter::once(base.bandwidth).chain(base.scales_for(d)).collect();
         let mut last_nonzero: Vec<f64> = x.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect();
         let mut history = Vec::new();
-        let eval = |x: &[f64], history: &mut Vec<TuneStep>| -> f64 {
-            let s = LwrSettings {
-                bandwidth: x[0],
-                scales: x[1..].to_vec(),
-                ..base.clone()
+        // evaluates at x; with `stop_early`, stops once the objective is
+        // certainly above `bound`, the largest value the caller would accept.
+        // The search revisits some settings (a dropped input tried back on,
+        // a coordinate retried after the others moved back): the outcomes
+        // are kept, keyed by the exact bits of x, and reused when they still
+        // answer the question (an exact value, or a lower bound above the
+        // new bound); a revisit still counts as an evaluation, so the path
+        // is the same with or without the cache.
+        let mut cache: HashMap<Vec<u64>, Objective> = HashMap::new();
+        let mut eval = |x: &[f64], bound: f64, history: &mut Vec<TuneStep>| -> f64 {
+            let bound = if tune.stop_early { bound } else { f64::INFINITY };
+            let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+            let known = match cache.get(&key) {
+                Some(&Objective::Exact(f)) => Some(Objective::Exact(f)),
+                Some(&Objective::Above(f)) if f > bound * (1.0 + BOUND_MARGIN) => Some(Objective::Above(f)),
+                _ => None,
             };
-            let f = self.loo_with(&s).map_or(f64::INFINITY, |r| r.normalized_mse);
-            let f = if f.is_nan() { f64::INFINITY } else { f };
+            let outcome = known.unwrap_or_else(|| {
+                let s = LwrSettings {
+                    bandwidth: x[0],
+                    scales: x[1..].to_vec(),
+                    ..base.clone()
+                };
+                let outcome = match self.loo_objective(&s, bound) {
+                    Ok(Objective::Exact(f)) if !f.is_nan() => Objective::Exact(f),
+                    Ok(Objective::Above(f)) => Objective::Above(f),
+                    Ok(Objective::Exact(_)) | Err(_) => Objective::Exact(f64::INFINITY),
+                };
+                cache.insert(key, outcome);
+                outcome
+            });
+            let (f, complete) = match outcome {
+                Objective::Exact(f) => (f, true),
+                Objective::Above(f) => (f, false),
+            };
             history.push(TuneStep {
                 bandwidth: x[0],
                 scales: x[1..].to_vec(),
                 objective: f,
                 accepted: false,
+                complete,
             });
             f
         };
-        let mut f = eval(&x, &mut history);
+        let mut f = eval(&x, f64::INFINITY, &mut history);
         if let Some(h) = history.last_mut() {
             h.accepted = true;
         }
@@ -364,7 +658,7 @@ impl LwrModel {
                     // try turning a dropped input back on
                     let mut y = x.clone();
                     y[c] = last_nonzero[c];
-                    let fy = eval(&y, &mut history);
+                    let fy = eval(&y, f * (1.0 - tune.zero_tolerance), &mut history);
                     if fy < f * (1.0 - tune.zero_tolerance) {
                         x = y;
                         f = fy;
@@ -384,7 +678,7 @@ impl LwrModel {
                         }
                         let mut y = x.clone();
                         y[c] *= dir;
-                        let fy = eval(&y, &mut history);
+                        let fy = eval(&y, f * (1.0 - MIN_IMPROVEMENT), &mut history);
                         if fy < f * (1.0 - MIN_IMPROVEMENT) {
                             x = y;
                             f = fy;
@@ -408,7 +702,7 @@ impl LwrModel {
                     }
                     let mut y = x.clone();
                     y[c] = 0.0;
-                    let fy = eval(&y, &mut history);
+                    let fy = eval(&y, f * (1.0 + tune.zero_tolerance), &mut history);
                     if fy <= f * (1.0 + tune.zero_tolerance) {
                         last_nonzero[c] = x[c];
                         x = y;
@@ -437,5 +731,57 @@ impl LwrModel {
             evals,
             status,
         })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn model(n: usize) -> LwrModel {
+        let mut seed = 5u64;
+        let mut rand = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let settings = LwrSettings {
+            bandwidth: 0.2,
+            ..Default::default()
+        };
+        let mut m = LwrModel::new(2, 2, settings).expect("valid");
+        for _ in 0..n {
+            let x = [rand(), rand()];
+            let y = [(3.0 * x[0]).sin() + 0.1 * rand(), x[1] * x[1] + 0.1 * rand()];
+            m.insert(&x, &y).expect("finite");
+        }
+        m
+    }
+
+    #[test]
+    fn objective_is_exact_or_a_lower_bound_above_the_bound() {
+        let m = model(1000);
+        for s in [
+            m.settings().clone(),
+            LwrSettings {
+                bandwidth: 0.05,
+                scales: vec![1.0, 0.0],
+                ..Default::default()
+            },
+        ] {
+            let exact = m.loo_with(&s).expect("nonempty").normalized_mse;
+            // no bound, or a bound the objective is below: bitwise loo_with
+            assert_eq!(m.loo_objective(&s, f64::INFINITY), Ok(Objective::Exact(exact)));
+            assert_eq!(m.loo_objective(&s, exact * 1.01), Ok(Objective::Exact(exact)));
+            // a bound well below: stopped, with a lower bound above the bound
+            match m.loo_objective(&s, 0.3 * exact).expect("valid") {
+                Objective::Above(lb) => assert!(lb > 0.3 * exact && lb <= exact * (1.0 + 1e-12), "{lb} vs {exact}"),
+                Objective::Exact(f) => panic!("not stopped early: {f}"),
+            }
+            // just below the objective: never a wrong answer either way
+            match m.loo_objective(&s, exact * (1.0 - 1e-6)).expect("valid") {
+                Objective::Above(lb) => assert!(lb <= exact * (1.0 + 1e-12)),
+                Objective::Exact(f) => assert_eq!(f, exact),
+            }
+        }
     }
 }

@@ -3,7 +3,7 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{LwrError, Result, check_finite, check_len};
-use crate::kdtree::{KdTree, dist2};
+use crate::kdtree::{KdTree, Leaf, dist2};
 
 /// A stored point found by a query: its index in the database and its scaled
 /// distance $d = \sqrt{\sum_j m_j^2 (x_j - q_j)^2}$ to the query.
@@ -234,6 +234,17 @@ impl Database {
     /// Unchecked radius query: `(index, d^2)` with `d^2 < r2`, any order.
     pub(crate) fn within_sq(&self, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
         self.tree.within(self.n_inputs, q, scales, r2, out);
+    }
+
+    /// The tree's leaves (every point in exactly one).
+    pub(crate) fn leaves(&self) -> Vec<Leaf<'_>> {
+        self.tree.leaves()
+    }
+
+    /// Unchecked box query: indices of the points with squared scaled
+    /// distance below `r2` from the box `[lo, hi]`, any order.
+    pub(crate) fn within_box(&self, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
+        self.tree.within_box(self.n_inputs, lo, hi, scales, r2, out);
     }
 
     /// Unchecked k-nearest query: `(index, d^2)`, nearest first.

@@ -4,7 +4,7 @@
 
 use crate::database::Database;
 use crate::error::{LwrError, Result};
-use crate::settings::{Degree, LwrSettings};
+use crate::settings::{Degree, Kernel, LwrSettings};
 
 /// What to compute beyond the coefficients.
 #[derive(Debug, Clone, Copy, Default)]
@@ -42,6 +42,7 @@ pub(crate) struct LocalFit {
 }
 
 /// Writes the design row $z$ for input `x` at query `q`.
+#[inline]
 fn design_row(degree: Degree, x: &[f64], q: &[f64], z: &mut [f64]) {
     z[0] = 1.0;
     if degree == Degree::Constant {
@@ -197,8 +198,87 @@ fn factorise(a: &[f64], p: usize, settings: &LwrSettings) -> Result<(Factor, f64
     }
 }
 
-/// Fits at `q`. The caller has validated `settings`, `scales` (length $d$)
-/// and `q`.
+/// Signature of [`accumulate_linear`].
+type AccumulateLinear =
+    fn(&[(usize, f64)], &[f64], &[f64], usize, &[f64], f64, Kernel, &mut [f64], &mut [f64]) -> (f64, usize);
+
+/// The first pass of [`fit_found`] for a local linear fit in `D` inputs
+/// without confidence or Jacobian: adds $k_i z_i z_i^\top$ (lower triangle,
+/// packed by rows) to `a_lower` and $k_i z_i y_i^\top$ to `b` for every
+/// neighbour with positive weight, and returns $\sum_i k_i$ and the number of
+/// such neighbours. The same operations in the same order as the general
+/// loop (bitwise the same sums), with the loop bounds known at compile time.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn accumulate_linear<const D: usize>(
+    found: &[(usize, f64)],
+    inputs: &[f64],
+    outputs: &[f64],
+    o: usize,
+    q: &[f64],
+    h: f64,
+    kernel: Kernel,
+    a_lower: &mut [f64],
+    b: &mut [f64],
+) -> (f64, usize) {
+    let q: &[f64; D] = match q.try_into() {
+        Ok(q) => q,
+        Err(_) => return (0.0, 0),
+    };
+    debug_assert_eq!(a_lower.len(), (D + 1) * (D + 2) / 2);
+    debug_assert_eq!(b.len(), (D + 1) * o);
+    let mut sum_w = 0.0;
+    let mut n = 0;
+    let mut z = [1.0; 9];
+    for &(i, d2) in found {
+        let u = d2.sqrt() / h;
+        let k = kernel.value(u);
+        if k <= 0.0 {
+            continue;
+        }
+        n += 1;
+        let x = &inputs[i * D..(i + 1) * D];
+        for j in 0..D {
+            z[1 + j] = x[j] - q[j];
+        }
+        let y = &outputs[i * o..(i + 1) * o];
+        sum_w += k;
+        let mut t = 0;
+        for r in 0..=D {
+            let kz = k * z[r];
+            for c in 0..=r {
+                a_lower[t + c] += kz * z[c];
+            }
+            t += r + 1;
+            for (bo, yo) in b[r * o..(r + 1) * o].iter_mut().zip(y) {
+                *bo += kz * yo;
+            }
+        }
+    }
+    (sum_w, n)
+}
+
+/// Reusable buffers of a local fit, so that a query allocates only its
+/// small results: one per thread for single queries, one per rayon job in
+/// leave-one-out.
+#[derive(Debug, Default)]
+pub(crate) struct Scratch {
+    /// `(index, d^2)` of the points within the support, in index order.
+    pub(crate) found: Vec<(usize, f64)>,
+    /// `(index, k, u)` of the points with positive weight (second pass only).
+    nb: Vec<(usize, f64, f64)>,
+    /// Design rows of the weighted points (second pass only).
+    zs: Vec<f64>,
+    /// One design row (first pass without a second one).
+    z: Vec<f64>,
+}
+
+thread_local! {
+    static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
+}
+
+/// Fits at `q` with this thread's scratch buffers. The caller has validated
+/// `settings`, `scales` (length $d$) and `q`.
 pub(crate) fn local_fit(
     db: &Database,
     settings: &LwrSettings,
@@ -206,9 +286,51 @@ pub(crate) fn local_fit(
     q: &[f64],
     want: Want,
 ) -> Result<LocalFit> {
+    SCRATCH.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => local_fit_in(db, settings, scales, q, want, &mut s),
+        // re-entered on this thread (not done by this crate): fresh buffers
+        Err(_) => local_fit_in(db, settings, scales, q, want, &mut Scratch::default()),
+    })
+}
+
+/// Fits at `q` with the given scratch buffers: finds the neighbours with the
+/// tree, sorts them by index and calls [`fit_found`].
+pub(crate) fn local_fit_in(
+    db: &Database,
+    settings: &LwrSettings,
+    scales: &[f64],
+    q: &[f64],
+    want: Want,
+    scratch: &mut Scratch,
+) -> Result<LocalFit> {
     if db.is_empty() {
         return Err(LwrError::EmptyDatabase);
     }
+    let radius = settings.support_radius();
+    scratch.found.clear();
+    db.within_sq(q, scales, radius * radius, &mut scratch.found);
+    scratch.found.sort_unstable_by_key(|&(i, _)| i);
+    fit_found(db, settings, scales, q, want, scratch)
+}
+
+/// Fits at `q` over the neighbours in `scratch.found`: every point with
+/// $d^2 <$ (support radius)$^2$, as `(index, d^2)` in increasing index
+/// order. The caller has validated `settings`, `scales` and `q`.
+///
+/// The sums run over the neighbours in index order, so that the result does
+/// not depend on the tree's shape or on how the neighbours were found (a
+/// model saved and loaded, or built in another insertion order, gives
+/// bitwise the same predictions, and leave-one-out the same fits as
+/// [`local_fit`]).
+pub(crate) fn fit_found(
+    db: &Database,
+    settings: &LwrSettings,
+    scales: &[f64],
+    q: &[f64],
+    want: Want,
+    scratch: &mut Scratch,
+) -> Result<LocalFit> {
+    debug_assert!(scratch.found.windows(2).all(|w| w[0].0 < w[1].0));
     let d = db.n_inputs();
     let o = db.n_outputs();
     let degree = settings.degree;
@@ -216,21 +338,87 @@ pub(crate) fn local_fit(
     let h = settings.bandwidth;
     let kernel = settings.kernel;
     let radius = settings.support_radius();
+    let second_pass = want.confidence || want.jacobian;
 
-    // neighbours and weights, in index order so that the sums do not depend
-    // on the tree's shape
-    let mut found = Vec::new();
-    db.within_sq(q, scales, radius * radius, &mut found);
-    found.sort_unstable_by_key(|&(i, _)| i);
-    let mut nb: Vec<(usize, f64, f64)> = Vec::with_capacity(found.len());
-    for (i, d2) in found {
+    let Scratch { found, nb, zs, z } = scratch;
+    nb.clear();
+    zs.clear();
+    z.clear();
+    z.resize(p, 0.0);
+
+    // weights and normal equations in one pass
+    let inputs = db.inputs();
+    let outputs = db.outputs();
+    let n_lower = p * (p + 1) / 2;
+    let mut a_lower = vec![0.0; n_lower];
+    let mut b = vec![0.0; p * o];
+    let mut b2_lower = if want.confidence {
+        vec![0.0; n_lower]
+    } else {
+        Vec::new()
+    };
+    let mut sum_w = 0.0;
+    let mut n_neighbors = 0;
+    let fast = !second_pass && degree == Degree::Linear;
+    let accumulate: Option<AccumulateLinear> = match d {
+        _ if !fast => None,
+        1 => Some(accumulate_linear::<1>),
+        2 => Some(accumulate_linear::<2>),
+        3 => Some(accumulate_linear::<3>),
+        4 => Some(accumulate_linear::<4>),
+        5 => Some(accumulate_linear::<5>),
+        6 => Some(accumulate_linear::<6>),
+        7 => Some(accumulate_linear::<7>),
+        8 => Some(accumulate_linear::<8>),
+        _ => None,
+    };
+    if let Some(accumulate) = accumulate {
+        (sum_w, n_neighbors) = accumulate(found, inputs, outputs, o, q, h, kernel, &mut a_lower, &mut b);
+    }
+    for &(i, d2) in found.iter().filter(|_| accumulate.is_none()) {
         let u = d2.sqrt() / h;
         let k = kernel.value(u);
-        if k > 0.0 {
+        if k <= 0.0 {
+            continue;
+        }
+        n_neighbors += 1;
+        let x = &inputs[i * d..(i + 1) * d];
+        let y = &outputs[i * o..(i + 1) * o];
+        let z: &[f64] = if second_pass {
             nb.push((i, k, u));
+            let start = zs.len();
+            zs.resize(start + p, 0.0);
+            design_row(degree, x, q, &mut zs[start..]);
+            &zs[start..]
+        } else {
+            design_row(degree, x, q, z);
+            z
+        };
+        sum_w += k;
+        // lower triangles packed row by row: the same products in the same
+        // order as a loop over (r, c <= r), without index arithmetic
+        let mut lower = a_lower.iter_mut();
+        for (r, (&zr, b_row)) in z.iter().zip(b.chunks_exact_mut(o)).enumerate() {
+            let kz = k * zr;
+            // z first: zip stops without taking a triangle entry too many
+            for (zc, acc) in z[..=r].iter().zip(lower.by_ref()) {
+                *acc += kz * zc;
+            }
+            for (bo, yo) in b_row.iter_mut().zip(y) {
+                *bo += kz * yo;
+            }
+        }
+        if want.confidence {
+            let mut lower = b2_lower.iter_mut();
+            for (r, &zr) in z.iter().enumerate() {
+                let kkz = k * (k * zr);
+                for (zc, acc) in z[..=r].iter().zip(lower.by_ref()) {
+                    *acc += kkz * zc;
+                }
+            }
         }
     }
-    if nb.is_empty() {
+    if n_neighbors == 0 {
         let nearest = db
             .nearest_sq(q, scales, 1)
             .first()
@@ -240,45 +428,24 @@ pub(crate) fn local_fit(
             support: radius,
         });
     }
-
-    // normal equations
     let mut a = vec![0.0; p * p];
-    let mut b = vec![0.0; p * o];
     let mut b2 = if want.confidence { vec![0.0; p * p] } else { Vec::new() };
-    let mut zs = vec![0.0; nb.len() * p];
-    let mut sum_w = 0.0;
-    for (row, &(i, k, _)) in nb.iter().enumerate() {
-        let x = &db.inputs()[i * d..(i + 1) * d];
-        let y = &db.outputs()[i * o..(i + 1) * o];
-        let z = &mut zs[row * p..(row + 1) * p];
-        design_row(degree, x, q, z);
-        sum_w += k;
-        for r in 0..p {
-            let kz = k * z[r];
-            for c in 0..=r {
-                a[r * p + c] += kz * z[c];
-            }
-            for (bo, yo) in b[r * o..(r + 1) * o].iter_mut().zip(y) {
-                *bo += kz * yo;
-            }
-            if want.confidence {
-                let kkz = k * kz;
-                for c in 0..=r {
-                    b2[r * p + c] += kkz * z[c];
-                }
-            }
-        }
-    }
+    let mut t = 0;
     for r in 0..p {
-        for c in 0..r {
-            a[c * p + r] = a[r * p + c];
+        for c in 0..=r {
+            a[r * p + c] = a_lower[t];
+            a[c * p + r] = a_lower[t];
             if want.confidence {
-                b2[c * p + r] = b2[r * p + c];
+                b2[r * p + c] = b2_lower[t];
+                b2[c * p + r] = b2_lower[t];
             }
+            t += 1;
         }
-        if r > 0 {
-            a[r * p + r] += settings.ridge;
-        }
+        a[r * p + r] += if r > 0 {
+            settings.ridge
+        } else {
+            settings.intercept_ridge
+        };
     }
     let (factor, condition, regularized) = factorise(&a, p, settings)?;
 
@@ -302,7 +469,7 @@ pub(crate) fn local_fit(
         p,
         beta,
         s,
-        n_neighbors: nb.len(),
+        n_neighbors,
         sum_w,
         condition,
         regularized,
@@ -311,7 +478,7 @@ pub(crate) fn local_fit(
         wrss: Vec::new(),
         jacobian: Vec::new(),
     };
-    if !(want.confidence || want.jacobian) {
+    if !second_pass {
         return Ok(fit);
     }
 
@@ -338,7 +505,7 @@ pub(crate) fn local_fit(
     let mut delta = vec![0.0; d];
     for (row, &(i, k, u)) in nb.iter().enumerate() {
         let z = &zs[row * p..(row + 1) * p];
-        let y = &db.outputs()[i * o..(i + 1) * o];
+        let y = &outputs[i * o..(i + 1) * o];
         let zs_i: f64 = z.iter().zip(&fit.s).map(|(a, b)| a * b).sum();
         for (oo, (res, yo)) in resid.iter_mut().zip(y).enumerate() {
             let pred: f64 = z.iter().enumerate().map(|(r, zr)| zr * fit.beta[r * o + oo]).sum();
@@ -351,7 +518,7 @@ pub(crate) fn local_fit(
             }
         }
         if want.jacobian {
-            let x = &db.inputs()[i * d..(i + 1) * d];
+            let x = &inputs[i * d..(i + 1) * d];
             for j in 0..d {
                 delta[j] = x[j] - q[j];
             }
@@ -385,6 +552,40 @@ mod tests {
         assert!((b[0] - 0.5).abs() < 1e-15 && b[1].abs() < 1e-15);
         let mut singular = vec![1.0, 1.0, 1.0, 1.0];
         assert!(cholesky(&mut singular, 2).is_none());
+    }
+
+    #[test]
+    fn linear_fast_path_equals_general_loop() {
+        // predict_mean takes the compile-time-sized path for d <= 8, predict
+        // (which wants confidence) the general one: bitwise the same mean
+        let mut seed = 3u64;
+        let mut rand = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        for d in 1..=9 {
+            for kernel in [Kernel::Gaussian, Kernel::Tricube] {
+                let settings = LwrSettings {
+                    kernel,
+                    bandwidth: 0.4 * d as f64,
+                    ridge: 1e-3,
+                    ..Default::default()
+                };
+                let mut m = crate::LwrModel::new(d, 2, settings).expect("valid");
+                for _ in 0..300 {
+                    let x: Vec<f64> = (0..d).map(|_| rand()).collect();
+                    let y = [x.iter().map(|v| v.sin()).sum::<f64>(), rand()];
+                    m.insert(&x, &y).expect("finite");
+                }
+                for _ in 0..10 {
+                    let q: Vec<f64> = (0..d).map(|_| 0.8 * rand()).collect();
+                    let (Ok(mean), Ok(p)) = (m.predict_mean(&q), m.predict(&q)) else {
+                        continue;
+                    };
+                    assert_eq!(mean, p.mean, "d {d}, {kernel:?}");
+                }
+            }
+        }
     }
 
     #[test]

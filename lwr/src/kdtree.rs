@@ -73,6 +73,24 @@ impl Bounds {
         s
     }
 
+    /// Smallest squared scaled distance between any point of this box and
+    /// any point of the box `[lo, hi]`.
+    fn min_dist2_box(&self, lo: &[f64], hi: &[f64], scales: &[f64]) -> f64 {
+        let mut s = 0.0;
+        for j in 0..lo.len() {
+            let gap = if hi[j] < self.lo[j] {
+                self.lo[j] - hi[j]
+            } else if lo[j] > self.hi[j] {
+                lo[j] - self.hi[j]
+            } else {
+                0.0
+            };
+            let t = scales[j] * gap;
+            s += t * t;
+        }
+        s
+    }
+
     /// Widest dimension and its spread.
     fn widest(&self) -> (usize, f64) {
         let mut best = (0, -1.0);
@@ -259,6 +277,59 @@ impl Node {
         }
     }
 
+    fn leaves<'a>(&'a self, out: &mut Vec<Leaf<'a>>) {
+        match self {
+            Node::Leaf {
+                bounds,
+                indices,
+                coords,
+            } => out.push(Leaf {
+                indices,
+                coords,
+                lo: &bounds.lo,
+                hi: &bounds.hi,
+            }),
+            Node::Inner { left, right, .. } => {
+                left.leaves(out);
+                right.leaves(out);
+            }
+        }
+    }
+
+    fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
+        if self.bounds().min_dist2_box(lo, hi, scales) >= r2 {
+            return;
+        }
+        match self {
+            Node::Leaf { indices, coords, .. } => {
+                let point_box = |x: &[f64]| {
+                    let mut s = 0.0;
+                    for j in 0..d {
+                        let gap = if x[j] < lo[j] {
+                            lo[j] - x[j]
+                        } else if x[j] > hi[j] {
+                            x[j] - hi[j]
+                        } else {
+                            0.0
+                        };
+                        let t = scales[j] * gap;
+                        s += t * t;
+                    }
+                    s
+                };
+                for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
+                    if point_box(x) < r2 {
+                        out.push(i);
+                    }
+                }
+            }
+            Node::Inner { left, right, .. } => {
+                left.within_box(d, lo, hi, scales, r2, out);
+                right.within_box(d, lo, hi, scales, r2, out);
+            }
+        }
+    }
+
     fn nearest(&self, d: usize, q: &[f64], scales: &[f64], k: usize, heap: &mut BinaryHeap<Candidate>) {
         match self {
             Node::Leaf { indices, coords, .. } => {
@@ -293,6 +364,16 @@ impl Node {
             }
         }
     }
+}
+
+/// A leaf of the tree: its points (indices and row-major coordinates) and
+/// their bounding box.
+#[derive(Debug, Clone, Copy)]
+pub(crate) struct Leaf<'a> {
+    pub(crate) indices: &'a [usize],
+    pub(crate) coords: &'a [f64],
+    pub(crate) lo: &'a [f64],
+    pub(crate) hi: &'a [f64],
 }
 
 /// A heap entry ordered by squared distance, then index.
@@ -364,6 +445,26 @@ impl KdTree {
         heap.into_sorted_vec().into_iter().map(|c| (c.index, c.d2)).collect()
     }
 
+    /// Every leaf, left to right.
+    pub(crate) fn leaves(&self) -> Vec<Leaf<'_>> {
+        let mut out = Vec::new();
+        if let Some(root) = &self.root {
+            root.leaves(&mut out);
+        }
+        out
+    }
+
+    /// Appends the index of every point whose squared scaled distance to the
+    /// box `[lo, hi]` is below `r2`: a superset of the points within
+    /// $\sqrt{r_2}$ of any query in the box. The box distance of a point is
+    /// at most its distance to any query in the box also in floating point
+    /// (rounding is monotone), so no neighbour of such a query is missed.
+    pub(crate) fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
+        if let Some(root) = &self.root {
+            root.within_box(d, lo, hi, scales, r2, out);
+        }
+    }
+
     /// Number of levels (0 for an empty tree).
     pub(crate) fn depth(&self) -> usize {
         self.root.as_ref().map_or(0, Node::depth)
@@ -411,6 +512,33 @@ mod tests {
         assert_eq!(tree.depth(), 1);
         let near = tree.nearest(d, &[0.0, 0.0], &[1.0, 1.0], 3);
         assert_eq!(near.len(), 3);
+    }
+
+    #[test]
+    fn box_candidates_contain_every_neighbour_of_the_leaf() {
+        let d = 3;
+        let mut seed = 11;
+        let n = 2000;
+        // a coarse grid with duplicates and a zero scale: ties at the radius
+        let points: Vec<f64> = (0..n * d).map(|_| (lcg(&mut seed) * 8.0).floor() / 8.0).collect();
+        let tree = KdTree::build(&points, d);
+        let scales = [1.0, 0.0, 2.0];
+        for r2 in [0.0, 0.125 * 0.125, 0.25 * 0.25, 1.0] {
+            for leaf in tree.leaves() {
+                let mut cands = Vec::new();
+                tree.within_box(d, leaf.lo, leaf.hi, &scales, r2, &mut cands);
+                cands.sort_unstable();
+                for q in leaf.coords.chunks_exact(d) {
+                    for i in 0..n {
+                        if dist2(&points[i * d..(i + 1) * d], q, &scales) < r2 {
+                            assert!(cands.binary_search(&i).is_ok(), "point {i} missed at r2 {r2}");
+                        }
+                    }
+                }
+            }
+        }
+        let total: usize = tree.leaves().iter().map(|l| l.indices.len()).sum();
+        assert_eq!(total, n);
     }
 
     #[test]

@@ -53,7 +53,7 @@ impl Kernel {
     }
 
     /// $K'(u) / u$ for $u \ge 0$ (finite at $u = 0$ for every kernel).
-    pub(crate) fn slope_over_u(self, u: f64) -> f64 {
+    pub fn slope_over_u(self, u: f64) -> f64 {
         match self {
             Kernel::Gaussian => -(-0.5 * u * u).exp(),
             Kernel::Tricube if u < 1.0 => {
@@ -110,6 +110,7 @@ impl Degree {
 /// | `scales` | `[]` (all 1) | $m_j \ge 0$, length $d$ or empty | metric $d_i^2 = \sum_j m_j^2 (x_{ij} - q_j)^2$; $m_j = 0$ ignores input $j$ in the weights |
 /// | `degree` | `Linear` | | local constant, linear or quadratic model |
 /// | `ridge` | 0 | $\ge 0$ | $\lambda$ added to the diagonal of $Z^\top K Z$ except the intercept's |
+/// | `intercept_ridge` | 0 | $\ge 0$ | $\lambda_0$ added to the intercept's diagonal entry: shrinks the prediction towards 0 where the total weight $\sum_i k_i$ is not large against it (a prior mean of 0, e.g. for residuals of a global model) |
 /// | `gaussian_cutoff` | 5 | $> 0$ | Gaussian truncated at $u = c$ |
 /// | `confidence_level` | 0.95 | $(0, 1)$ | level of the confidence and prediction intervals |
 /// | `max_condition` | $10^{10}$ | $> 1$ | largest accepted condition estimate of the (diagonally scaled) normal matrix |
@@ -130,6 +131,12 @@ pub struct LwrSettings {
     pub degree: Degree,
     /// Ridge $\lambda \ge 0$ on every coefficient but the intercept.
     pub ridge: f64,
+    /// Ridge $\lambda_0 \ge 0$ on the intercept. With it, and `ridge` on the
+    /// slopes, the local model shrinks smoothly to 0 as the data thin out,
+    /// instead of extrapolating a fit made from a few far points. Models
+    /// saved before it existed load with 0.
+    #[serde(default)]
+    pub intercept_ridge: f64,
     /// Truncation of the Gaussian kernel, in bandwidths.
     pub gaussian_cutoff: f64,
     /// Level of the intervals, in $(0, 1)$.
@@ -148,6 +155,7 @@ impl Default for LwrSettings {
             scales: Vec::new(),
             degree: Degree::Linear,
             ridge: 0.0,
+            intercept_ridge: 0.0,
             gaussian_cutoff: 5.0,
             confidence_level: 0.95,
             max_condition: 1e10,
@@ -184,6 +192,12 @@ impl LwrSettings {
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
             return Err(invalid("ridge", format!("must be finite and >= 0, got {}", self.ridge)));
+        }
+        if !(self.intercept_ridge.is_finite() && self.intercept_ridge >= 0.0) {
+            return Err(invalid(
+                "intercept_ridge",
+                format!("must be finite and >= 0, got {}", self.intercept_ridge),
+            ));
         }
         if !(self.gaussian_cutoff.is_finite() && self.gaussian_cutoff > 0.0) {
             return Err(invalid(

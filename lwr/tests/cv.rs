@@ -180,3 +180,109 @@ fn database_from_flat_equals_inserts() {
     assert_eq!(m_flat.predict(&[0.1, 0.2]), m_ins.predict(&[0.1, 0.2]));
     assert!(lwr::Database::from_flat(2, 1, flat_x[..3].to_vec(), vec![0.0]).is_err());
 }
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    /// Leave-one-out fits all the points of a tree leaf from one shared
+    /// candidate list; each fit must be bitwise the single query at $x_i$
+    /// (the same neighbours, summed in the same order). Sizes above one
+    /// leaf, 1 to 9 inputs (the compile-time-sized paths and the general
+    /// one), duplicates, zero scales and compact kernels (points exactly at
+    /// the support's edge) included.
+    #[test]
+    fn loo_fits_equal_single_queries(
+        (data, scales) in (1usize..=9).prop_flat_map(|d| (
+            smooth_data(d, 2, 40..160, true, 0.1),
+            proptest::collection::vec(prop_oneof![Just(0.0), Just(1.0), 0.3..3.0f64], d),
+        )),
+        kernel in prop_oneof![Just(Kernel::Gaussian), Just(Kernel::Tricube), Just(Kernel::Epanechnikov)],
+        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        bandwidth in 0.2..1.5f64,
+    ) {
+        let bandwidth = bandwidth * (data.n_inputs() as f64).sqrt();
+        let settings = LwrSettings { kernel, degree, bandwidth, scales, ridge: 1e-6, ..Default::default() };
+        let m = data.to_model(settings).expect("valid");
+        let loo = m.loo().expect("nonempty");
+        for (i, x) in data.inputs.iter().enumerate() {
+            match m.predict_mean(x) {
+                Ok(mean) => prop_assert_eq!(&loo.fitted[i * 2..i * 2 + 2], &mean[..], "point {}", i),
+                Err(_) => prop_assert_eq!(loo.leverages[i], 1.0),
+            }
+        }
+    }
+}
+
+/// Stopping hopeless evaluations early changes neither the path nor the
+/// result of the search: the same settings, objective and accepted steps;
+/// every completed evaluation has bitwise the same objective, and every
+/// stopped one a lower bound on the full objective that already exceeds
+/// what the search would have accepted.
+#[test]
+fn stopping_early_leaves_tuning_unchanged() {
+    for (seed, n) in [(3u8, 400), (5, 250)] {
+        let data = sample(irrelevant_input_data(2, 1, n..n + 1, 0.05), seed);
+        let m = data
+            .to_model(LwrSettings {
+                bandwidth: 0.3,
+                ..Default::default()
+            })
+            .expect("valid");
+        let tune = TuneSettings {
+            max_evals: 120,
+            ..Default::default()
+        };
+        let fast = m.tune(&tune).expect("valid");
+        let full = m
+            .tune(&TuneSettings {
+                stop_early: false,
+                ..tune.clone()
+            })
+            .expect("valid");
+        assert_eq!(fast.settings, full.settings);
+        assert_eq!(fast.objective, full.objective);
+        assert_eq!(fast.initial_objective, full.initial_objective);
+        assert_eq!((fast.evals, fast.status), (full.evals, full.status));
+        assert!(full.history.iter().all(|s| s.complete));
+        let mut n_stopped = 0;
+        for (a, b) in fast.history.iter().zip(&full.history) {
+            assert_eq!(
+                (a.bandwidth, &a.scales, a.accepted),
+                (b.bandwidth, &b.scales, b.accepted)
+            );
+            if a.complete {
+                assert_eq!(a.objective, b.objective);
+            } else {
+                n_stopped += 1;
+                assert!(!a.accepted);
+                assert!(
+                    a.objective <= b.objective * (1.0 + 1e-12),
+                    "{} > {}",
+                    a.objective,
+                    b.objective
+                );
+            }
+        }
+        // the test would be empty if nothing stopped early
+        assert!(n_stopped > 0, "no evaluation stopped early");
+        // every objective, including the revisited settings answered from
+        // the search's cache, is that of a fresh leave-one-out pass
+        let mut seen = std::collections::HashSet::new();
+        let mut n_revisits = 0;
+        for step in &full.history {
+            let s = LwrSettings {
+                bandwidth: step.bandwidth,
+                scales: step.scales.clone(),
+                ..m.settings().clone()
+            };
+            let key: Vec<u64> = s.scales.iter().chain([&s.bandwidth]).map(|v| v.to_bits()).collect();
+            n_revisits += usize::from(!seen.insert(key));
+            assert_eq!(step.objective, m.loo_with(&s).expect("valid").normalized_mse);
+        }
+        assert!(n_revisits > 0, "no setting was revisited");
+        println!(
+            "n {n}: {n_stopped} of {} evaluations stopped early, {n_revisits} revisits",
+            fast.evals
+        );
+    }
+}

@@ -77,10 +77,11 @@ proptest! {
         bandwidth in 0.5..2.0f64,
         scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 2),
         ridge in prop_oneof![Just(0.0), 1e-3..1e-1f64],
+        intercept_ridge in prop_oneof![Just(0.0), 1e-2..2.0f64],
         q in proptest::collection::vec(-0.7..0.7f64, 2),
     ) {
         let settings = LwrSettings {
-            kernel, degree, bandwidth, scales: scales.clone(), ridge,
+            kernel, degree, bandwidth, scales: scales.clone(), ridge, intercept_ridge,
             gaussian_cutoff: 40.0, // no truncation: the Gaussian fit is smooth
             ..Default::default()
         };
@@ -108,6 +109,44 @@ proptest! {
             }
         }
     }
+}
+
+/// The intercept ridge is a prior mean of 0 with the weight of
+/// `intercept_ridge` points: a local constant fit of data all equal to $c$
+/// predicts $c \sum_i k_i / (\sum_i k_i + \lambda_0)$, which goes to 0
+/// where the data thin out and to $c$ where they are dense.
+#[test]
+fn intercept_ridge_shrinks_towards_zero_by_the_total_weight() {
+    let lambda0 = 0.7;
+    let settings = LwrSettings {
+        degree: Degree::Constant,
+        kernel: Kernel::Gaussian,
+        bandwidth: 0.3,
+        gaussian_cutoff: 40.0,
+        intercept_ridge: lambda0,
+        ..Default::default()
+    };
+    let mut m = LwrModel::new(1, 1, settings).expect("valid");
+    let c = 5.0;
+    for i in 0..20 {
+        m.insert(&[i as f64 * 0.05], &[c]).expect("valid");
+    }
+    let mut previous = f64::INFINITY;
+    for q in [0.5, 1.2, 1.6, 2.0, 3.0] {
+        let p = m.predict(&[q]).expect("weighted");
+        let want = c * p.n_lwr / (p.n_lwr + lambda0);
+        assert!((p.mean[0] - want).abs() < 1e-12 * c, "at {q}: {} vs {want}", p.mean[0]);
+        assert!(p.mean[0] < previous, "the shrinkage grows away from the data");
+        previous = p.mean[0];
+    }
+    assert!(m.predict(&[0.5]).expect("dense").mean[0] > 0.9 * c);
+    assert!(m.predict(&[3.0]).expect("far").mean[0] < 0.01 * c);
+    // a negative intercept ridge is refused
+    let bad = LwrSettings {
+        intercept_ridge: -1.0,
+        ..Default::default()
+    };
+    assert!(LwrModel::new(1, 1, bad).is_err());
 }
 
 #[test]
