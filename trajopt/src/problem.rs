@@ -61,6 +61,34 @@ pub trait Model {
     }
 }
 
+/// A reference to a model is a model, so that one model can serve several
+/// problems (a continuation, a comparison of planners).
+impl<M: Model + ?Sized> Model for &M {
+    fn state_dim(&self) -> usize {
+        (**self).state_dim()
+    }
+
+    fn control_dim(&self) -> usize {
+        (**self).control_dim()
+    }
+
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        (**self).step(x, u, next)
+    }
+
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        (**self).jacobians(x, u, fx, fu)
+    }
+
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        (**self).jacobian_structure(fx, fu)
+    }
+
+    fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
+        (**self).confidence(x, u)
+    }
+}
+
 /// A stage cost in residual form, $c_k(x, u) = \lVert r^c_k(x, u) \rVert^2$.
 pub trait StageCost {
     /// Number of residuals per stage (the same for every stage).
@@ -463,6 +491,31 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     /// The horizon $N$ (number of steps).
     pub fn horizon(&self) -> usize {
         self.horizon
+    }
+
+    /// Replaces the consistency weights, keeping everything else: for a
+    /// continuation in $\lambda$, each solve warm-started from the last.
+    /// The Jacobian's pattern is rebuilt (a $\lambda_k$ of zero drops its
+    /// rows' model entries), so a solver must be restarted afterwards.
+    ///
+    /// ```
+    /// # use faer::Mat;
+    /// # use splines::BSplineBasis;
+    /// # use trajopt::{Eq3Problem, Lambda, TrackingCost, models::LinearModel};
+    /// let model = LinearModel::new(Mat::identity(1, 1), Mat::identity(1, 1))?;
+    /// let cost = TrackingCost::new(Mat::zeros(5, 1), Mat::zeros(4, 1), &[1.0], &[1.0], &[1.0])?;
+    /// let basis = BSplineBasis::clamped_uniform(5, 3, 0.0, 4.0)?;
+    /// let times = [0.0, 1.0, 2.0, 3.0, 4.0];
+    /// let mut p = Eq3Problem::new(model, cost, &basis, &basis, &times, Lambda::Constant(1.0))?;
+    /// p.set_lambda(Lambda::Constant(10.0))?;
+    /// assert_eq!(p.lambda(), &[10.0; 4]);
+    /// assert!(p.set_lambda(Lambda::Constant(-1.0)).is_err());
+    /// # Ok::<(), Box<dyn std::error::Error>>(())
+    /// ```
+    pub fn set_lambda(&mut self, lambda: Lambda) -> Result<()> {
+        self.lambda = lambda.resolve(self.horizon)?;
+        self.pattern = self.build_pattern();
+        Ok(())
     }
 
     /// The per-step consistency weights $\lambda_k$.
