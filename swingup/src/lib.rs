@@ -8,7 +8,9 @@
 //! weighted regression model of its own dynamics ([`model`]) and plans with
 //! the paper's Eq. 3 ([`learn`]) until an LQR ([`lqr`]) can catch and
 //! balance the pendulum. [`record`] and [`report`] hold and write what a run
-//! saw; [`fit_cmd`] is the `swingup fit` subcommand.
+//! saw; [`fit_cmd`] is the `swingup fit` subcommand. For the planner-by-model
+//! comparison (claim C6): a learned parametric model ([`parametric`]), the
+//! true model ([`truth`]) and a DDP planner ([`ddp_plan`]).
 //!
 //! # Example
 //!
@@ -33,11 +35,16 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod cost;
+pub mod ddp_plan;
 pub mod demo;
+pub mod experiments;
 pub mod fit_cmd;
 pub mod learn;
 pub mod lqr;
 pub mod model;
+pub mod parametric;
 pub mod plant;
 pub mod record;
 pub mod report;
+pub mod truth;

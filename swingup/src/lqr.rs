@@ -46,38 +46,22 @@ impl Lqr {
                 }
             }
         }
-        // value iteration on the Riccati difference equation, symmetrised,
-        // until P stops changing
+        // value iteration on the Riccati difference equation until P stops changing
         let mut p = [[0.0; 4]; 4];
         for i in 0..4 {
             p[i][i] = q[i];
         }
         for _ in 0..200_000 {
-            let pb: [f64; 4] = std::array::from_fn(|i| (0..4).map(|j| p[i][j] * b[j]).sum());
-            let s = r + (0..4).map(|i| b[i] * pb[i]).sum::<f64>();
-            // K = (R + B'PB)^-1 B'PA
-            let k: [f64; 4] = std::array::from_fn(|c| (0..4).map(|i| pb[i] * a[i][c]).sum::<f64>() / s);
-            // P' = Q + A'PA - K' s K
-            let pa: [[f64; 4]; 4] =
-                std::array::from_fn(|i| std::array::from_fn(|c| (0..4).map(|j| p[i][j] * a[j][c]).sum()));
-            let mut next = [[0.0; 4]; 4];
+            let (k, next) = riccati_step(&p, &a, &b, &q, r);
             let mut change: f64 = 0.0;
             let mut size: f64 = 0.0;
             for i in 0..4 {
                 for c in 0..4 {
-                    let v = (0..4).map(|j| a[j][i] * pa[j][c]).sum::<f64>() - k[i] * s * k[c]
-                        + if i == c { q[i] } else { 0.0 };
-                    next[i][c] = v;
+                    change = change.max((next[i][c] - p[i][c]).abs());
+                    size = size.max(next[i][c].abs());
                 }
             }
-            for i in 0..4 {
-                for c in 0..4 {
-                    let v = 0.5 * (next[i][c] + next[c][i]);
-                    change = change.max((v - p[i][c]).abs());
-                    size = size.max(v.abs());
-                    p[i][c] = v;
-                }
-            }
+            p = next;
             if !size.is_finite() {
                 return None;
             }
@@ -93,6 +77,62 @@ impl Lqr {
         let e = [from_upright(s[0]), s[1], s[2], s[3]];
         -(0..4).map(|i| self.gain[i] * e[i]).sum::<f64>()
     }
+}
+
+/// One step of the Riccati difference equation: the gain
+/// $K = (r + B^\top P B)^{-1} B^\top P A$ and the symmetrised
+/// $P' = Q + A^\top P A - K^\top (r + B^\top P B) K$.
+fn riccati_step(p: &[[f64; 4]; 4], a: &[[f64; 4]; 4], b: &[f64; 4], q: &[f64; 4], r: f64) -> ([f64; 4], [[f64; 4]; 4]) {
+    let pb: [f64; 4] = std::array::from_fn(|i| (0..4).map(|j| p[i][j] * b[j]).sum());
+    let s = r + (0..4).map(|i| b[i] * pb[i]).sum::<f64>();
+    let k: [f64; 4] = std::array::from_fn(|c| (0..4).map(|i| pb[i] * a[i][c]).sum::<f64>() / s);
+    let pa: [[f64; 4]; 4] = std::array::from_fn(|i| std::array::from_fn(|c| (0..4).map(|j| p[i][j] * a[j][c]).sum()));
+    let raw: [[f64; 4]; 4] = std::array::from_fn(|i| {
+        std::array::from_fn(|c| {
+            (0..4).map(|j| a[j][i] * pa[j][c]).sum::<f64>() - k[i] * s * k[c] + if i == c { q[i] } else { 0.0 }
+        })
+    });
+    // symmetrised
+    let next = std::array::from_fn(|i| std::array::from_fn(|c| 0.5 * (raw[i][c] + raw[c][i])));
+    (k, next)
+}
+
+/// Time-varying LQR gains along a planned trajectory (the paper's Eq. 2
+/// local linear policy $u = u^*_k - K_k (x - x^*_k)$): the model's
+/// Jacobians $A_k, B_k$ at $(x^*_k, u^*_k)$ and a backward Riccati pass with
+/// $Q = \mathrm{diag}(q)$, $R = r$ and terminal weight $Q$. `None` if the
+/// model fails or the pass is not finite.
+pub fn tracking_gains(
+    model: &impl trajopt::Model,
+    states: &[[f64; 4]],
+    controls: &[f64],
+    q: [f64; 4],
+    r: f64,
+) -> Option<Vec<[f64; 4]>> {
+    let n = controls.len();
+    if states.len() != n + 1 {
+        return None;
+    }
+    let mut p = [[0.0; 4]; 4];
+    for i in 0..4 {
+        p[i][i] = q[i];
+    }
+    let mut gains = vec![[0.0; 4]; n];
+    let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
+    for k in (0..n).rev() {
+        if !matches!(model.jacobians(&states[k], &[controls[k]], &mut fx, &mut fu), Ok(true)) {
+            return None;
+        }
+        let a: [[f64; 4]; 4] = std::array::from_fn(|i| std::array::from_fn(|c| fx[i * 4 + c]));
+        let b: [f64; 4] = std::array::from_fn(|i| fu[i]);
+        let (g, next) = riccati_step(&p, &a, &b, &q, r);
+        if !(g.iter().all(|v| v.is_finite()) && next.iter().flatten().all(|v| v.is_finite())) {
+            return None;
+        }
+        gains[k] = g;
+        p = next;
+    }
+    Some(gains)
 }
 
 #[cfg(test)]

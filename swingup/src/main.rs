@@ -7,7 +7,8 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use swingup::learn::{Config, run};
+use swingup::experiments::{Experiment, ExperimentSettings, run_experiments};
+use swingup::learn::{BasisKind, Config, ModelKind, Solver, run};
 use swingup::record::{TrialKind, TrialRecord};
 use swingup::report;
 
@@ -29,6 +30,10 @@ enum Command {
     /// Print the default configuration as TOML (every parameter; edit it
     /// and pass it back with `learn --config FILE`).
     Config,
+    /// Run the experiments behind the paper's claims (C1-C8): grids of
+    /// learning runs over seeds, in parallel; writes experiments.json and
+    /// experiments.md (the claims table first).
+    Experiments(ExperimentsArgs),
     /// Fit a locally weighted regression model to a CSV file: tune its
     /// metric by leave-one-out cross-validation, report the tuned scale of
     /// each input and, with a test file, the test error and predictions.
@@ -47,6 +52,18 @@ struct LearnArgs {
     /// Number of trials before giving up (the first one imitates).
     #[arg(long)]
     max_trials: Option<usize>,
+    /// The planner: Eq. 3 by Gauss-Newton or by Powell's method (the
+    /// paper's), or differential dynamic programming through the model.
+    #[arg(long, value_enum)]
+    planner: Option<Solver>,
+    /// The learned model: locally weighted regression (the paper's), least
+    /// squares on the pendulum's physical features, or the true dynamics.
+    #[arg(long, value_enum)]
+    model: Option<ModelKind>,
+    /// The trajectory basis of the Eq. 3 planners: cubic B-splines or
+    /// Daubechies-4 wavelets.
+    #[arg(long, value_enum)]
+    basis: Option<BasisKind>,
     /// TOML configuration file (see `swingup config`); command-line options override it.
     #[arg(long)]
     config: Option<PathBuf>,
@@ -59,12 +76,37 @@ struct LearnArgs {
     resume: bool,
 }
 
+#[derive(Debug, Clone, clap::Args)]
+struct ExperimentsArgs {
+    /// Experiments to run (all when none is given).
+    #[arg(value_enum)]
+    which: Vec<Experiment>,
+    /// The reduced grid (2 seeds, 4 trials, 3 lambdas): a quick check.
+    #[arg(long)]
+    quick: bool,
+    /// Seeds per variant (overrides the grid's).
+    #[arg(long)]
+    seeds: Option<u64>,
+    /// Trial cap per run (overrides the grid's).
+    #[arg(long)]
+    max_trials: Option<usize>,
+    /// The model of the learning and lambda experiments (the paper's: lwr).
+    #[arg(long, value_enum)]
+    model: Option<ModelKind>,
+    /// Output directory.
+    #[arg(long, default_value = "runs/experiments")]
+    out: PathBuf,
+}
+
 impl Default for LearnArgs {
     fn default() -> Self {
         Self {
             seed: None,
             lambda: None,
             max_trials: None,
+            planner: None,
+            model: None,
+            basis: None,
             config: None,
             out: PathBuf::from("runs/swingup"),
             resume: false,
@@ -81,6 +123,7 @@ fn main() -> anyhow::Result<()> {
         }
         Command::Learn(args) => learn(&args),
         Command::Fit(args) => swingup::fit_cmd::fit_command(&args),
+        Command::Experiments(args) => experiments(&args),
     }
 }
 
@@ -100,6 +143,15 @@ fn load_config(args: &LearnArgs) -> anyhow::Result<Config> {
     }
     if let Some(n) = args.max_trials {
         cfg.max_trials = n;
+    }
+    if let Some(solver) = args.planner {
+        cfg.planner.solver = solver;
+    }
+    if let Some(kind) = args.model {
+        cfg.model.kind = kind;
+    }
+    if let Some(basis) = args.basis {
+        cfg.planner.basis = basis;
     }
     cfg.validate()?;
     Ok(cfg)
@@ -123,11 +175,14 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     };
     std::fs::write(out.join("config.toml"), toml::to_string(&cfg)?)?;
     println!(
-        "swingup: robot l = {} m, b = {} /s, hand lag {} s; human l = {} m; lambda = {:e}; up to {} trials; seed {}",
+        "swingup: robot l = {} m, b = {} /s, hand lag {} s; human l = {} m; model {}, planner {}, basis {}, lambda = {:e}; up to {} trials; seed {}",
         cfg.robot.length,
         cfg.robot.damping,
         cfg.robot.lag,
         cfg.human.length,
+        value_name(cfg.model.kind),
+        value_name(cfg.planner.solver),
+        value_name(cfg.planner.basis),
         cfg.planner.lambda,
         cfg.max_trials,
         cfg.seed
@@ -156,6 +211,81 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
+    let mut settings = if args.quick {
+        ExperimentSettings::quick()
+    } else {
+        ExperimentSettings::full()
+    };
+    if let Some(n) = args.seeds {
+        anyhow::ensure!(n >= 1, "--seeds must be at least 1");
+        settings.seeds = n;
+        settings.powell_seeds = settings.powell_seeds.min(n);
+    }
+    if let Some(n) = args.max_trials {
+        anyhow::ensure!(n >= 1, "--max-trials must be at least 1");
+        settings.max_trials = n;
+    }
+    if let Some(m) = args.model {
+        settings.model = m;
+    }
+    let which = if args.which.is_empty() {
+        vec![
+            Experiment::Learning,
+            Experiment::Lambda,
+            Experiment::Planners,
+            Experiment::Beyond,
+        ]
+    } else {
+        args.which.clone()
+    };
+    let out = &args.out;
+    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    println!(
+        "experiments {:?}: {} seeds, up to {} trials per run, on {} threads; writing to {}",
+        which,
+        settings.seeds,
+        settings.max_trials,
+        rayon::current_num_threads(),
+        out.display()
+    );
+    let report = run_experiments(&which, &settings, &|done, total, r| {
+        println!(
+            "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
+            r.experiment,
+            r.variant,
+            r.seed,
+            r.success_trial
+                .map_or("no success".into(), |t| format!("success at trial {t}")),
+            r.seconds
+        );
+    })?;
+    let json = serde_json::to_string_pretty(&report)?;
+    write_atomic(&out.join("experiments.json"), &json)?;
+    write_atomic(&out.join("experiments.md"), &swingup::experiments::markdown(&report))?;
+    println!("\n{}", swingup::experiments::claims_table(&report.claims));
+    println!(
+        "wrote {} and {} ({:.0} s)",
+        out.join("experiments.json").display(),
+        out.join("experiments.md").display(),
+        report.seconds
+    );
+    Ok(())
+}
+
+fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
+    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
+    Ok(())
+}
+
+/// The command-line spelling of an option's value.
+fn value_name(v: impl clap::ValueEnum) -> String {
+    v.to_possible_value()
+        .map_or_else(String::new, |p| p.get_name().to_string())
 }
 
 /// A resumed run must use the configuration its trials were made with.

@@ -1,20 +1,22 @@
-//! The robot's learned model, as a `trajopt` dynamics model.
+//! The robot's models of its own dynamics, as `trajopt` models and `ddp`
+//! dynamics.
 //!
-//! As in the paper, the model does not know the task's structure: a
-//! locally weighted regression predicts the per-sample change of the
-//! pendulum's angular velocity and of the hand's velocity,
-//! $(\Delta\dot\theta, \Delta\dot x) = g(\theta, \dot\theta, x, \dot x, u)$, from
-//! everything the robot observed. Positions follow by the trapezoid rule,
-//! $\theta_{k+1} = \theta_k + \tfrac{\Delta t}{2}(\dot\theta_k + \dot\theta_{k+1})$
-//! and likewise for $x$ (kinematics, known). The hand's velocity is
-//! learned too: the robot's hand lags its command, so $\Delta\dot x = u\,\Delta t$
-//! does not hold.
+//! As in the paper, the hand's kinematics are known and the pendulum's are
+//! learned: a regression $g$ predicts the per-sample change of the
+//! pendulum's angular velocity, $\dot\theta_{k+1} - \dot\theta_k = g(\theta_k,
+//! \dot\theta_k, x_k, \dot x_k, u_k)$, from everything the robot observed; the
+//! angle follows by the trapezoid rule,
+//! $\theta_{k+1} = \theta_k + \tfrac{\Delta t}{2}(\dot\theta_k + \dot\theta_{k+1})$,
+//! and the hand by exact zero-order-hold kinematics,
+//! $\dot x_{k+1} = \dot x_k + u_k \Delta t$,
+//! $x_{k+1} = x_k + \dot x_k \Delta t + u_k \Delta t^2 / 2$
+//! ([`KnownHand`]). The hand kinematics are exact for a robot whose hand does
+//! what it is told (`lag = 0`, the default robot); with a lag they are not,
+//! and the hand servo hides part of the error.
 //!
-//! Where no stored point carries kernel weight, the LWR has no answer; the
-//! model then falls back on a global linear least-squares fit of the same
-//! data (documented fallback, counted in [`LearnedModel::fallbacks`]), so
-//! that a planner exploring far from the data still gets a finite, smooth,
-//! if crude, prediction.
+//! Two regressions: [`LwrRegression`], locally weighted regression on all
+//! inputs (the paper's nonparametric model), and the parametric model of
+//! [`crate::parametric`].
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
@@ -25,124 +27,67 @@ use lwr::LwrModel;
 /// Names of the model inputs, in order.
 pub const INPUTS: [&str; 5] = ["theta", "theta_dot", "x", "x_dot", "u"];
 
-/// A learned model $f(s, u)$ for the planner; see the [module docs](self).
+/// A learned regression of the pendulum's per-sample change of angular
+/// velocity on $z = (\theta, \dot\theta, x, \dot x, u)$.
+pub trait PendulumRegression {
+    /// $g(z)$ and, when `jacobian` is given, $\partial g / \partial z$ written into it.
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64;
+
+    /// The model's support at $z$ (effective number of data points), if it has one.
+    fn support(&self, z: &[f64; 5]) -> Option<f64> {
+        let _ = z;
+        None
+    }
+}
+
+/// A full model $f(s, u)$ of the robot: a [`PendulumRegression`] for the
+/// pendulum, known kinematics for the hand; see the [module docs](self).
 #[derive(Debug)]
-pub struct LearnedModel {
-    lwr: LwrModel,
-    /// Global linear fallback: rows = outputs, columns = [1, inputs].
-    linear: [[f64; 6]; 2],
-    dt: f64,
-    fallbacks: AtomicUsize,
+pub struct KnownHand<G> {
+    /// The pendulum's regression.
+    pub regression: G,
+    /// Sample period (s).
+    pub dt: f64,
 }
 
-impl LearnedModel {
-    /// Wraps a fitted LWR model (5 inputs, 2 outputs) and fits the fallback
-    /// to the same data.
-    pub fn new(lwr: LwrModel, dt: f64) -> anyhow::Result<Self> {
-        anyhow::ensure!(
-            lwr.database().n_inputs() == 5 && lwr.database().n_outputs() == 2,
-            "the model needs 5 inputs and 2 outputs"
-        );
-        anyhow::ensure!(!lwr.database().is_empty(), "the model has no data");
-        let linear = global_linear_fit(&lwr)?;
-        Ok(Self {
-            lwr,
-            linear,
-            dt,
-            fallbacks: AtomicUsize::new(0),
-        })
+impl<G: PendulumRegression> KnownHand<G> {
+    /// Wraps a regression.
+    pub fn new(regression: G, dt: f64) -> Self {
+        Self { regression, dt }
     }
 
-    /// The LWR model.
-    pub fn lwr(&self) -> &LwrModel {
-        &self.lwr
+    fn next(&self, x: &[f64], u: f64, next: &mut [f64]) {
+        let w1 = x[1] + self.regression.delta_omega(&[x[0], x[1], x[2], x[3], u], None);
+        let dt = self.dt;
+        next[0] = x[0] + 0.5 * dt * (x[1] + w1);
+        next[1] = w1;
+        next[2] = x[2] + dt * x[3] + 0.5 * dt * dt * u;
+        next[3] = x[3] + dt * u;
     }
 
-    /// How many predictions used the global linear fallback.
-    pub fn fallbacks(&self) -> usize {
-        self.fallbacks.load(Ordering::Relaxed)
-    }
-
-    /// $(\Delta\dot\theta, \Delta\dot x)$ and their Jacobian (2 × 5) at `z`:
-    /// the LWR prediction where its support $n_{lwr}$ (effective number of
-    /// points) is at least [`FULL_SUPPORT`], the global linear fit where it
-    /// is below [`NO_SUPPORT`], and a smoothstep blend in between, so that
-    /// predictions fade to the crude global model where data run out
-    /// instead of extrapolating a local fit made from a handful of points.
-    /// The Jacobian is exact where the weight is 0 or 1 and treats the
-    /// weight as constant in the blend.
-    fn predict(&self, z: &[f64; 5], with_jacobian: bool) -> ([f64; 2], [[f64; 5]; 2]) {
-        let lin_mean: [f64; 2] =
-            std::array::from_fn(|o| self.linear[o][0] + (0..5).map(|c| self.linear[o][c + 1] * z[c]).sum::<f64>());
-        let lin_jac: [[f64; 5]; 2] = std::array::from_fn(|o| std::array::from_fn(|c| self.linear[o][c + 1]));
-        // the Jacobian costs a second pass over the neighbours: only when asked
-        let fitted = if with_jacobian {
-            self.lwr.predict_with_jacobian(z).ok().map(|(p, j)| (p, Some(j)))
-        } else {
-            self.lwr.predict(z).ok().map(|p| (p, None))
-        };
-        let local = fitted.and_then(|(p, j)| {
-            let jac: [[f64; 5]; 2] =
-                std::array::from_fn(|o| std::array::from_fn(|c| j.as_ref().map_or(0.0, |j| j[(o, c)])));
-            let usable = matches!(p.status, lwr::FitStatus::Ok | lwr::FitStatus::Regularized)
-                && p.mean.iter().all(|v| v.is_finite())
-                && jac.iter().flatten().all(|v| v.is_finite());
-            usable.then(|| ([p.mean[0], p.mean[1]], jac, p.n_lwr))
-        });
-        match local {
-            Some((mean, jac, n_lwr)) => {
-                let s = ((n_lwr - NO_SUPPORT) / (FULL_SUPPORT - NO_SUPPORT)).clamp(0.0, 1.0);
-                let w = s * s * (3.0 - 2.0 * s);
-                (
-                    std::array::from_fn(|o| w * mean[o] + (1.0 - w) * lin_mean[o]),
-                    std::array::from_fn(|o| std::array::from_fn(|c| w * jac[o][c] + (1.0 - w) * lin_jac[o][c])),
-                )
-            }
-            None => {
-                self.fallbacks.fetch_add(1, Ordering::Relaxed);
-                (lin_mean, lin_jac)
-            }
+    /// Row-major $f_x$ (4 × 4) and $f_u$ (4 × 1).
+    fn derivs(&self, x: &[f64], u: f64, fx: &mut [f64], fu: &mut [f64]) {
+        let mut j = [0.0; 5];
+        self.regression.delta_omega(&[x[0], x[1], x[2], x[3], u], Some(&mut j));
+        let (dt, h) = (self.dt, 0.5 * self.dt);
+        fx.fill(0.0);
+        // omega' = omega + g
+        let dw: [f64; 5] = std::array::from_fn(|c| j[c] + if c == 1 { 1.0 } else { 0.0 });
+        for c in 0..4 {
+            fx[4 + c] = dw[c];
+            fx[c] = h * dw[c] + if c == 1 { h } else { 0.0 } + if c == 0 { 1.0 } else { 0.0 };
         }
+        fx[8 + 2] = 1.0;
+        fx[8 + 3] = dt;
+        fx[12 + 3] = 1.0;
+        fu[0] = h * dw[4];
+        fu[1] = dw[4];
+        fu[2] = 0.5 * dt * dt;
+        fu[3] = dt;
     }
 }
 
-/// Support (effective number of points) from which the LWR prediction is used alone.
-pub const FULL_SUPPORT: f64 = 10.0;
-
-/// Support below which only the global linear fit is used.
-pub const NO_SUPPORT: f64 = 1.0;
-
-/// Least squares of each output on $[1, z]$ over the whole database (a tiny
-/// ridge keeps it defined for degenerate data).
-fn global_linear_fit(lwr: &LwrModel) -> anyhow::Result<[[f64; 6]; 2]> {
-    let db = lwr.database();
-    let mut ata = Mat::<f64>::zeros(6, 6);
-    let mut aty = Mat::<f64>::zeros(6, 2);
-    for i in 0..db.len() {
-        let (Some(x), Some(y)) = (db.input(i), db.output(i)) else {
-            continue;
-        };
-        let row: [f64; 6] = std::array::from_fn(|c| if c == 0 { 1.0 } else { x[c - 1] });
-        for a in 0..6 {
-            for b in 0..6 {
-                ata[(a, b)] += row[a] * row[b];
-            }
-            for o in 0..2 {
-                aty[(a, o)] += row[a] * y[o];
-            }
-        }
-    }
-    for a in 0..6 {
-        ata[(a, a)] += 1e-9 * (1.0 + ata[(a, a)]);
-    }
-    let sol = ata
-        .llt(faer::Side::Lower)
-        .map_err(|e| anyhow::anyhow!("global linear fit failed: {e:?}"))?
-        .solve(&aty);
-    Ok(std::array::from_fn(|o| std::array::from_fn(|c| sol[(c, o)])))
-}
-
-impl trajopt::Model for LearnedModel {
+impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
     fn state_dim(&self) -> usize {
         4
     }
@@ -152,40 +97,229 @@ impl trajopt::Model for LearnedModel {
     }
 
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
-        let z = [x[0], x[1], x[2], x[3], u[0]];
-        let (d, _) = self.predict(&z, false);
-        let (w1, v1) = (x[1] + d[0], x[3] + d[1]);
-        next[1] = w1;
-        next[0] = x[0] + 0.5 * self.dt * (x[1] + w1);
-        next[3] = v1;
-        next[2] = x[2] + 0.5 * self.dt * (x[3] + v1);
+        self.next(x, u[0], next);
         Ok(())
     }
 
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
-        let z = [x[0], x[1], x[2], x[3], u[0]];
-        let (_, j) = self.predict(&z, true);
-        let h = 0.5 * self.dt;
-        // d(omega')/dz = e_omega + J0 ; d(v')/dz = e_v + J1
-        let dw: [f64; 5] = std::array::from_fn(|c| j[0][c] + if c == 1 { 1.0 } else { 0.0 });
-        let dv: [f64; 5] = std::array::from_fn(|c| j[1][c] + if c == 3 { 1.0 } else { 0.0 });
-        for c in 0..4 {
-            fx[4 + c] = dw[c];
-            fx[c] = if c == 0 { 1.0 } else { 0.0 } + h * (if c == 1 { 1.0 } else { 0.0 } + dw[c]);
-            fx[12 + c] = dv[c];
-            fx[8 + c] = if c == 2 { 1.0 } else { 0.0 } + h * (if c == 3 { 1.0 } else { 0.0 } + dv[c]);
-        }
-        fu[1] = dw[4];
-        fu[0] = h * dw[4];
-        fu[3] = dv[4];
-        fu[2] = h * dv[4];
+        self.derivs(x, u[0], fx, fu);
         Ok(true)
     }
 
-    fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
-        let z = [x[0], x[1], x[2], x[3], u[0]];
-        self.lwr.predict(&z).ok().map(|p| p.n_lwr)
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        // the hand rows do not depend on the pendulum
+        for (i, v) in fx.iter_mut().enumerate() {
+            let (row, col) = (i / 4, i % 4);
+            *v = row < 2 || col >= 2;
+        }
+        fu.fill(true);
     }
+
+    fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
+        self.regression.support(&[x[0], x[1], x[2], x[3], u[0]])
+    }
+}
+
+impl<G: PendulumRegression> ddp::Dynamics for KnownHand<G> {
+    fn state_dim(&self) -> usize {
+        4
+    }
+
+    fn control_dim(&self) -> usize {
+        1
+    }
+
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+        self.next(x, u[0], next);
+    }
+
+    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+        self.derivs(x, u[0], fx, fu);
+    }
+}
+
+/// The paper's nonparametric model: locally weighted regression of
+/// $\Delta\dot\theta$ on all five inputs, on top of a global linear fit.
+///
+/// Where the data run out, a local fit made from a few far points
+/// extrapolates wildly, and where they end entirely it has no answer. So
+/// the LWR fits the residuals of a global linear least-squares fit $\ell(z)$
+/// of the same data, with a ridge on its intercept as well as on its slopes
+/// (`intercept_ridge`, `ridge` of [`lwr::LwrSettings`]):
+/// $g(z) = \ell(z) + \hat r(z)$, and $\hat r \to 0$ smoothly as the total
+/// kernel weight $n_{lwr} = \sum_i k_i$ falls below the ridge. The model is
+/// the LWR where the data are dense and the crude global fit far from them,
+/// with no switch in between (a switch would stall the planner's
+/// Gauss-Newton steps on the jump). Where no stored point carries weight
+/// the residual is exactly 0 (counted in [`LwrRegression::fallbacks`]).
+///
+/// The prior need not be linear: [`LwrRegression::fit_with_prior`] takes
+/// any regression (e.g. the parametric model, which makes the LWR a
+/// semiparametric correction of it).
+pub struct LwrRegression {
+    lwr: LwrModel,
+    prior: Box<dyn PendulumRegression + Send + Sync>,
+    prior_name: &'static str,
+    fallbacks: AtomicUsize,
+}
+
+impl std::fmt::Debug for LwrRegression {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LwrRegression")
+            .field("points", &self.lwr.len())
+            .field("prior", &self.prior_name)
+            .finish()
+    }
+}
+
+/// A global linear fit $\ell(z) = c_0 + \sum_j c_j z_j$, the default prior
+/// of [`LwrRegression`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearRegression {
+    /// $[c_0, c_1, \dots, c_5]$.
+    pub coefficients: [f64; 6],
+}
+
+impl LinearRegression {
+    /// Least squares of the output on $[1, z]$ (a tiny ridge keeps it
+    /// defined for degenerate data).
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<Self> {
+        Ok(Self {
+            coefficients: global_linear_fit(xs, ys)?,
+        })
+    }
+}
+
+impl PendulumRegression for LinearRegression {
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
+        if let Some(j) = jacobian {
+            *j = std::array::from_fn(|c| self.coefficients[c + 1]);
+        }
+        linear_value(&self.coefficients, z)
+    }
+}
+
+/// The LWR model of the robot with known hand kinematics.
+pub type LearnedModel = KnownHand<LwrRegression>;
+
+impl LwrRegression {
+    /// Fits the global linear model to `(xs, ys)`, then inserts the
+    /// residuals into an LWR model with `settings` (not yet tuned; see
+    /// [`lwr_mut`](Self::lwr_mut)).
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]], settings: lwr::LwrSettings) -> anyhow::Result<Self> {
+        anyhow::ensure!(!xs.is_empty(), "the model has no data");
+        anyhow::ensure!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
+        let linear = LinearRegression::fit(xs, ys)?;
+        Self::fit_with_prior(xs, ys, settings, Box::new(linear), "linear")
+    }
+
+    /// [`fit`](Self::fit) on the residuals of a given `prior` (already
+    /// fitted), named `name` in reports.
+    pub fn fit_with_prior(
+        xs: &[[f64; 5]],
+        ys: &[[f64; 1]],
+        settings: lwr::LwrSettings,
+        prior: Box<dyn PendulumRegression + Send + Sync>,
+        name: &'static str,
+    ) -> anyhow::Result<Self> {
+        anyhow::ensure!(!xs.is_empty(), "the model has no data");
+        anyhow::ensure!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
+        let resid: Vec<[f64; 1]> = xs
+            .iter()
+            .zip(ys)
+            .map(|(x, y)| [y[0] - prior.delta_omega(x, None)])
+            .collect();
+        let mut lwr = LwrModel::new(5, 1, settings)?;
+        lwr.insert_many(xs, &resid)?;
+        Ok(Self {
+            lwr,
+            prior,
+            prior_name: name,
+            fallbacks: AtomicUsize::new(0),
+        })
+    }
+
+    /// The LWR model of the residuals.
+    pub fn lwr(&self) -> &LwrModel {
+        &self.lwr
+    }
+
+    /// The LWR model of the residuals, e.g. to tune its metric.
+    pub fn lwr_mut(&mut self) -> &mut LwrModel {
+        &mut self.lwr
+    }
+
+    /// The prior the LWR corrects.
+    pub fn prior(&self) -> &(dyn PendulumRegression + Send + Sync) {
+        self.prior.as_ref()
+    }
+
+    /// How many predictions had no weighted data (the global fit alone).
+    pub fn fallbacks(&self) -> usize {
+        self.fallbacks.load(Ordering::Relaxed)
+    }
+}
+
+fn linear_value(c: &[f64; 6], z: &[f64; 5]) -> f64 {
+    c[0] + (0..5).map(|j| c[j + 1] * z[j]).sum::<f64>()
+}
+
+impl PendulumRegression for LwrRegression {
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
+        let mut j_prior = [0.0; 5];
+        let prior = self.prior.delta_omega(z, jacobian.is_some().then_some(&mut j_prior));
+        let (resid, j_resid) = match jacobian.is_some() {
+            // the Jacobian costs a second pass over the neighbours: only when asked
+            true => match self.lwr.predict_with_jacobian(z) {
+                Ok((p, j)) => (p.mean[0], std::array::from_fn(|c| j[(0, c)])),
+                Err(_) => (f64::NAN, [0.0; 5]),
+            },
+            false => (self.lwr.predict_mean(z).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
+        };
+        let usable = resid.is_finite() && j_resid.iter().all(|v: &f64| v.is_finite());
+        let (resid, j_resid) = if usable {
+            (resid, j_resid)
+        } else {
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            (0.0, [0.0; 5])
+        };
+        if let Some(jac) = jacobian {
+            *jac = std::array::from_fn(|c| j_prior[c] + j_resid[c]);
+        }
+        prior + resid
+    }
+
+    fn support(&self, z: &[f64; 5]) -> Option<f64> {
+        Some(self.lwr.predict(z).map_or(0.0, |p| p.n_lwr))
+    }
+}
+
+/// Least squares of the output on $[1, z]$ (a tiny ridge keeps it defined
+/// for degenerate data).
+fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<[f64; 6]> {
+    let mut ata = Mat::<f64>::zeros(6, 6);
+    let mut aty = Mat::<f64>::zeros(6, 1);
+    for (x, y) in xs.iter().zip(ys) {
+        anyhow::ensure!(
+            x.iter().chain(y).all(|v| v.is_finite()),
+            "a training point is not finite: {x:?} -> {y:?}"
+        );
+        let row: [f64; 6] = std::array::from_fn(|c| if c == 0 { 1.0 } else { x[c - 1] });
+        for a in 0..6 {
+            for b in 0..6 {
+                ata[(a, b)] += row[a] * row[b];
+            }
+            aty[(a, 0)] += row[a] * y[0];
+        }
+    }
+    for a in 0..6 {
+        ata[(a, a)] += 1e-9 * (1.0 + ata[(a, a)]);
+    }
+    let sol = ata
+        .llt(faer::Side::Lower)
+        .map_err(|e| anyhow::anyhow!("global linear fit failed: {e:?}"))?
+        .solve(&aty);
+    Ok(std::array::from_fn(|c| sol[(c, 0)]))
 }
 
 #[cfg(test)]
@@ -194,30 +328,10 @@ mod tests {
     use lwr::{Kernel, LwrSettings};
     use trajopt::Model;
 
-    /// A model of known linear dynamics: its Jacobians must match central differences.
-    #[test]
-    fn jacobians_match_central_differences() {
-        let settings = LwrSettings {
-            kernel: Kernel::Gaussian,
-            bandwidth: 2.0,
-            ..LwrSettings::default()
-        };
-        let mut lwr = LwrModel::new(5, 2, settings).expect("valid");
-        let mut seed = 7u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
-        for _ in 0..300 {
-            let z = [rand() * 3.0, rand() * 5.0, rand() * 0.5, rand() * 2.0, rand() * 10.0];
-            let y = [-0.3 * z[0].sin() - 0.01 * z[4] * z[0].cos(), 0.016 * z[4] - 0.1 * z[3]];
-            lwr.insert(&z, &y).expect("finite");
-        }
-        let model = LearnedModel::new(lwr, 1.0 / 60.0).expect("data");
-        let (x, u) = ([0.4, -1.0, 0.1, 0.3], [2.0]);
+    fn check_against_differences(model: &impl Model, x: [f64; 4], u: [f64; 1], tol: f64) {
         let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
         assert!(model.jacobians(&x, &u, &mut fx, &mut fu).expect("ok"));
-        let h = 1e-5;
+        let h = 1e-6;
         let (mut a, mut b) = (vec![0.0; 4], vec![0.0; 4]);
         for c in 0..5 {
             let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
@@ -234,17 +348,98 @@ mod tests {
                 let fd = (a[i] - b[i]) / (2.0 * h);
                 let an = if c < 4 { fx[i * 4 + c] } else { fu[i] };
                 assert!(
-                    (fd - an).abs() < 1e-6 * an.abs().max(1.0),
-                    "d next[{i}] / d z[{c}]: {an} vs {fd}"
+                    (fd - an).abs() < tol * an.abs().max(1.0),
+                    "at {x:?}: d next[{i}] / d z[{c}]: {an} vs {fd}"
                 );
             }
         }
-        assert_eq!(model.fallbacks(), 0);
-        // far from all data the fallback answers, finitely
+    }
+
+    fn model_of(n: usize, spread: f64, kernel: Kernel) -> LearnedModel {
+        let settings = LwrSettings {
+            kernel,
+            bandwidth: if kernel == Kernel::Gaussian { 0.3 } else { 0.8 },
+            scales: vec![1.0, 0.3, 2.0, 1.0, 0.1],
+            ridge: 1e-3,
+            intercept_ridge: 1.0,
+            ..LwrSettings::default()
+        };
+        let mut seed = 7u64;
+        let mut rand = move || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+        };
+        let mut xs = Vec::new();
+        let mut ys = Vec::new();
+        for _ in 0..n {
+            let z = [rand() * spread, rand() * 5.0, rand() * 0.5, rand() * 2.0, rand() * 10.0];
+            ys.push([-0.3 * z[0].sin() - 0.01 * z[4] * z[0].cos()]);
+            xs.push(z);
+        }
+        KnownHand::new(LwrRegression::fit(&xs, &ys, settings).expect("data"), 1.0 / 60.0)
+    }
+
+    /// Inside the data, at the edge (where the weight of the data falls
+    /// against the intercept ridge) and beyond: the Jacobians match central
+    /// differences.
+    #[test]
+    fn jacobians_match_central_differences() {
+        for kernel in [Kernel::Gaussian, Kernel::Tricube] {
+            jacobians_match_for(kernel);
+        }
+    }
+
+    fn jacobians_match_for(kernel: Kernel) {
+        let model = model_of(300, 1.0, kernel);
+        // from dense data through the thin edge to outside: along a line in theta
+        let mut thin = 0;
+        for i in 0..=30 {
+            let x = [0.2 + 0.1 * i as f64, -1.0 + 0.1 * i as f64, 0.1, 0.3];
+            check_against_differences(&model, x, [2.0], 1e-5);
+            let n = model
+                .regression
+                .support(&[x[0], x[1], x[2], x[3], 2.0])
+                .expect("support");
+            if n > 0.0 && n < 1.0 {
+                thin += 1;
+            }
+        }
+        // the thin edge was visited: support below the intercept ridge
+        assert!(thin > 0, "{kernel:?}: no query at the thin edge");
+        // far from all data the global fit answers, finitely, and is the limit
+        // of the shrunk LWR
         let mut next = vec![0.0; 4];
         model
             .step(&[50.0, 50.0, 50.0, 50.0], &[50.0], &mut next)
             .expect("fallback");
         assert!(next.iter().all(|v| v.is_finite()));
+        let far = [2.6, 6.0, 0.8, 2.5, 13.0];
+        let g = model.regression.delta_omega(&far, None);
+        let lin = model.regression.prior().delta_omega(&far, None);
+        assert!(
+            (g - lin).abs() < 0.1 * lin.abs().max(1e-3),
+            "{kernel:?}: at the edge of the data the model is not near the global fit"
+        );
+    }
+
+    /// The hand rows are exact zero-order-hold kinematics.
+    #[test]
+    fn hand_kinematics_are_exact() {
+        let model = model_of(50, 1.0, Kernel::Gaussian);
+        let dt = model.dt;
+        let mut next = vec![0.0; 4];
+        model.step(&[0.1, 0.2, 0.3, 0.4], &[5.0], &mut next).expect("ok");
+        assert!((next[3] - (0.4 + 5.0 * dt)).abs() < 1e-15);
+        assert!((next[2] - (0.3 + 0.4 * dt + 2.5 * dt * dt)).abs() < 1e-15);
+        // and the structure leaves out only true zeros
+        let (mut sx, mut su) = (vec![false; 16], vec![false; 4]);
+        model.jacobian_structure(&mut sx, &mut su);
+        let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
+        model
+            .jacobians(&[0.1, 0.2, 0.3, 0.4], &[5.0], &mut fx, &mut fu)
+            .expect("ok");
+        for (v, keep) in fx.iter().zip(&sx) {
+            assert!(*keep || *v == 0.0);
+        }
     }
 }

@@ -124,11 +124,11 @@ pub struct RunRecord {
 /// Serde helpers for numbers that may be non-finite (a diverged plan, an
 /// undefined error): they are written as `null` (as `serde_json` does anyway)
 /// and `null` is read back as NaN, so a record with NaN in it round-trips.
-mod nullable {
+pub(crate) mod nullable {
     use serde::{Deserialize, Deserializer, Serialize, Serializer};
 
     /// A value made of `f64`s with a stand-in in which each may be `null`.
-    pub(super) trait Nullable: Sized {
+    pub(crate) trait Nullable: Sized {
         /// The stand-in, with `Option<f64>` for each number.
         type Repr: Serialize + for<'de> Deserialize<'de>;
         /// Non-finite numbers become `None`.
@@ -175,11 +175,11 @@ mod nullable {
         }
     }
 
-    pub(super) fn serialize<T: Nullable, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
+    pub(crate) fn serialize<T: Nullable, S: Serializer>(v: &T, s: S) -> Result<S::Ok, S::Error> {
         v.to_repr().serialize(s)
     }
 
-    pub(super) fn deserialize<'de, T: Nullable, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
+    pub(crate) fn deserialize<'de, T: Nullable, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
         T::Repr::deserialize(d).map(T::from_repr)
     }
 }

@@ -1,0 +1,157 @@
+//! The planner's stage cost: the paper's Eq. 5 tracking cost plus soft
+//! bounds on the hand's workspace and the command.
+//!
+//! $$c_k = \underbrace{\sum_i q_i (s_{k,i} - s^d_{k,i})^2 + r (u_k - u^d_k)^2}_{\text{Eq. 5}} +
+//! w_b \big[(|x_k| - x_{max})_+^2 + (|u_k| - u_{max})_+^2\big].$$
+//!
+//! The bounds are penalties, not constraints: a hinge squared is
+//! continuously differentiable, so Gauss-Newton keeps its plain sparse
+//! Cholesky step (hard bounds through a QP made its steps stall on the
+//! learned model), and Powell and DDP see the same cost. With $w_b$ large
+//! a plan exceeds a bound by little; the robot's actuator clips the rest.
+
+use trajopt::{StageCost, TrackingCost};
+
+/// See the [module docs](self).
+#[derive(Debug, Clone)]
+pub struct SwingupCost {
+    tracking: TrackingCost,
+    x_max: f64,
+    u_max: f64,
+    sqrt_wb: f64,
+}
+
+impl SwingupCost {
+    /// Eq. 5 `tracking` (4 states, 1 control) with soft bounds $|x| \le$
+    /// `x_max`, $|u| \le$ `u_max` of weight `weight` (infinite bounds are off).
+    pub fn new(tracking: TrackingCost, x_max: f64, u_max: f64, weight: f64) -> anyhow::Result<Self> {
+        anyhow::ensure!(
+            x_max > 0.0 && u_max > 0.0,
+            "the soft bounds must be positive, got x_max = {x_max}, u_max = {u_max}"
+        );
+        anyhow::ensure!(
+            weight.is_finite() && weight >= 0.0,
+            "the bound weight must be finite and nonnegative, got {weight}"
+        );
+        anyhow::ensure!(
+            tracking.n_residuals() == 5,
+            "the tracking cost must have 4 states and 1 control"
+        );
+        Ok(Self {
+            tracking,
+            x_max,
+            u_max,
+            sqrt_wb: weight.sqrt(),
+        })
+    }
+}
+
+/// $(|v| - m)_+$ and its derivative in $v$.
+fn hinge(v: f64, m: f64) -> (f64, f64) {
+    if v.abs() > m {
+        (v.abs() - m, v.signum())
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+impl StageCost for SwingupCost {
+    fn n_residuals(&self) -> usize {
+        7
+    }
+
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> trajopt::Result<()> {
+        self.tracking.residuals(k, x, u, &mut r[..5])?;
+        r[5] = self.sqrt_wb * hinge(x[2], self.x_max).0;
+        r[6] = u.map_or(0.0, |u| self.sqrt_wb * hinge(u[0], self.u_max).0);
+        Ok(())
+    }
+
+    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> trajopt::Result<()> {
+        // rows of 4 state columns and 1 control column
+        self.tracking.jacobians(k, x, u, &mut jx[..20], &mut ju[..5])?;
+        jx[20..].fill(0.0);
+        ju[5..].fill(0.0);
+        jx[5 * 4 + 2] = self.sqrt_wb * hinge(x[2], self.x_max).1;
+        if let Some(u) = u {
+            ju[6] = self.sqrt_wb * hinge(u[0], self.u_max).1;
+        }
+        Ok(())
+    }
+
+    fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
+        self.tracking.jacobian_structure(&mut jx[..20], &mut ju[..5]);
+        jx[20..].fill(false);
+        ju[5..].fill(false);
+        jx[5 * 4 + 2] = true;
+        ju[6] = true;
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+
+    fn cost() -> SwingupCost {
+        let tracking = TrackingCost::new(
+            Mat::zeros(3, 4),
+            Mat::zeros(2, 1),
+            &[1.0, 2.0, 3.0, 4.0],
+            &[0.5],
+            &[10.0; 4],
+        )
+        .expect("valid");
+        SwingupCost::new(tracking, 0.7, 12.0, 100.0).expect("valid")
+    }
+
+    /// Inside the bounds the cost is Eq. 5; outside, the hinge squared.
+    #[test]
+    fn penalises_only_outside_the_bounds() {
+        let c = cost();
+        let mut r = [0.0; 7];
+        c.residuals(0, &[0.1, 0.2, 0.5, 0.4], Some(&[3.0]), &mut r).expect("ok");
+        assert_eq!(&r[5..], &[0.0, 0.0]);
+        c.residuals(0, &[0.1, 0.2, -0.9, 0.4], Some(&[-13.0]), &mut r)
+            .expect("ok");
+        assert!((r[5] - 10.0 * 0.2).abs() < 1e-12 && (r[6] - 10.0).abs() < 1e-12);
+        assert!((r[2] - 3f64.sqrt() * -0.9).abs() < 1e-12);
+    }
+
+    /// The Jacobians match central differences away from the kinks.
+    #[test]
+    fn jacobians_match_differences() {
+        let c = cost();
+        for (x, u) in [
+            ([0.3, -1.0, 0.9, 0.2], 14.0),
+            ([0.3, -1.0, -0.8, 0.2], -12.5),
+            ([0.3, 1.0, 0.1, 0.2], 1.0),
+        ] {
+            let (mut jx, mut ju) = ([0.0; 28], [0.0; 7]);
+            c.jacobians(1, &x, Some(&[u]), &mut jx, &mut ju).expect("ok");
+            let h = 1e-7;
+            for col in 0..5 {
+                let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
+                if col < 4 {
+                    xp[col] += h;
+                    xm[col] -= h;
+                } else {
+                    up += h;
+                    um -= h;
+                }
+                let (mut rp, mut rm) = ([0.0; 7], [0.0; 7]);
+                c.residuals(1, &xp, Some(&[up]), &mut rp).expect("ok");
+                c.residuals(1, &xm, Some(&[um]), &mut rm).expect("ok");
+                for row in 0..7 {
+                    let fd = (rp[row] - rm[row]) / (2.0 * h);
+                    let an = if col < 4 { jx[row * 4 + col] } else { ju[row] };
+                    assert!((fd - an).abs() < 1e-6, "row {row} col {col}: {an} vs {fd}");
+                }
+            }
+            let (mut sx, mut su) = ([false; 28], [false; 7]);
+            c.jacobian_structure(&mut sx, &mut su);
+            assert!(jx.iter().zip(&sx).all(|(v, keep)| *keep || *v == 0.0));
+            assert!(ju.iter().zip(&su).all(|(v, keep)| *keep || *v == 0.0));
+        }
+    }
+}

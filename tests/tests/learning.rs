@@ -1,0 +1,83 @@
+//! The main job end to end, short: the robot imitates the demonstration
+//! and fails, then learns a model and plans with Eq. 3 until it swings the
+//! pendulum up and balances it. Asserts on the written report, and that an
+//! interrupted run resumed gives the same trials.
+
+use std::path::PathBuf;
+
+use swingup::learn::{Config, run};
+use swingup::record::{TrialKind, TrialRecord};
+use swingup::report;
+
+/// A fresh scratch directory, removed afterwards.
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(tag: &str) -> Self {
+        let dir = std::env::temp_dir().join(format!("swingup-learning-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("scratch directory");
+        Self(dir)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn config(max_trials: usize) -> Config {
+    Config {
+        max_trials,
+        ..Config::default()
+    }
+}
+
+#[test]
+fn imitation_fails_and_learning_succeeds() -> Result<(), Box<dyn std::error::Error>> {
+    let dir = Scratch::new("default");
+    let cfg = config(4);
+    let record = run(&cfg, vec![], &mut |_: &TrialRecord| {})?;
+    report::write_run(&dir.0, &record)?;
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.0.join("report.json"))?)?;
+    let trials = json["trials"].as_array().ok_or("no trials in report.json")?;
+    // trial 1 imitates and does not get halfway up (claim C1)
+    assert_eq!(record.trials[0].kind, TrialKind::Imitation);
+    let first = trials[0]["max_angle"].as_f64().ok_or("no max angle")?;
+    assert!(first < std::f64::consts::FRAC_PI_2, "imitation reached {first} rad");
+    assert_eq!(trials[0]["success"], serde_json::Value::Bool(false));
+    // a learned plan succeeds within the cap, and the report says when
+    let success = json["success_trial"].as_u64().ok_or("no success within 4 trials")?;
+    assert!((2..=4).contains(&success), "success at trial {success}");
+    let last = &record.trials[success as usize - 1];
+    assert!(last.success && last.kind == TrialKind::Planned);
+    assert!(last.plan.is_some() && last.model.is_some());
+    // the balanced tail: within the success angle of upright at the end
+    let end = last.states.last().ok_or("no states")?;
+    assert!(swingup::plant::from_upright(end[0]).abs() < cfg.success_angle);
+    Ok(())
+}
+
+#[test]
+fn an_interrupted_run_resumes_to_the_same_trials() -> Result<(), Box<dyn std::error::Error>> {
+    let dir = Scratch::new("resume");
+    let whole = run(&config(3), vec![], &mut |_: &TrialRecord| {})?;
+    // "interrupted" after one trial: only trial 1 was saved
+    let mut saved = Vec::new();
+    let first = run(&config(1), vec![], &mut |t: &TrialRecord| saved.push(t.clone()))?;
+    assert_eq!(first.trials.len(), 1);
+    for t in &saved {
+        report::write_trial(&dir.0, t)?;
+    }
+    let previous = report::read_trials(&dir.0)?;
+    let resumed = run(&config(3), previous, &mut |_: &TrialRecord| {})?;
+    assert_eq!(whole.trials.len(), resumed.trials.len());
+    assert_eq!(whole.success_trial, resumed.success_trial);
+    for (a, b) in whole.trials.iter().zip(&resumed.trials) {
+        assert_eq!(a.commands, b.commands, "trial {} commands differ", a.index);
+        assert_eq!(a.states, b.states, "trial {} states differ", a.index);
+        assert_eq!(a.success, b.success);
+    }
+    Ok(())
+}
