@@ -84,7 +84,7 @@ struct ExperimentsArgs {
     /// The reduced grid (2 seeds, 4 trials, 3 lambdas): a quick check.
     #[arg(long)]
     quick: bool,
-    /// Seeds per variant (overrides the grid's).
+    /// Seeds per variant (overrides the grid's; caps the wavelet and Powell variants' seeds).
     #[arg(long)]
     seeds: Option<u64>,
     /// Trial cap per run (overrides the grid's).
@@ -222,6 +222,8 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     if let Some(n) = args.seeds {
         anyhow::ensure!(n >= 1, "--seeds must be at least 1");
         settings.seeds = n;
+        settings.learning_seeds = n;
+        settings.wavelet_seeds = settings.wavelet_seeds.min(n);
         settings.powell_seeds = settings.powell_seeds.min(n);
     }
     if let Some(n) = args.max_trials {

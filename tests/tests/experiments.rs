@@ -8,6 +8,8 @@ use swingup::learn::ModelKind;
 fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::error::Error>> {
     let settings = ExperimentSettings {
         seeds: 1,
+        learning_seeds: 0,
+        wavelet_seeds: 0,
         powell_seeds: 0,
         max_trials: 3,
         powell_evals: 1000,
