@@ -40,7 +40,7 @@ enum Command {
     Fit(swingup::fit_cmd::FitArgs),
 }
 
-#[derive(Debug, Clone, clap::Args)]
+#[derive(Debug, Clone, Default, clap::Args)]
 struct LearnArgs {
     /// Seed of the robot's sensor noise (runs are deterministic in it).
     #[arg(long)]
@@ -67,11 +67,13 @@ struct LearnArgs {
     /// TOML configuration file (see `swingup config`); command-line options override it.
     #[arg(long)]
     config: Option<PathBuf>,
-    /// Run directory for the report, logs and plots.
-    #[arg(long, default_value = "runs/swingup")]
-    out: PathBuf,
-    /// Continue the run in `--out`: finished trials are read back from their
-    /// `trial_NN.json` files and learning goes on after them.
+    /// Run directory for the report, logs and plots (default: a fresh
+    /// `runs/swingup-NNN`, so no earlier run is overwritten).
+    #[arg(long)]
+    out: Option<PathBuf>,
+    /// Continue the run in `--out` (default: the latest `runs/swingup-NNN`):
+    /// finished trials are read back from their `trial_NN.json` files and
+    /// learning goes on after them.
     #[arg(long)]
     resume: bool,
 }
@@ -96,22 +98,6 @@ struct ExperimentsArgs {
     /// Output directory.
     #[arg(long, default_value = "runs/experiments")]
     out: PathBuf,
-}
-
-impl Default for LearnArgs {
-    fn default() -> Self {
-        Self {
-            seed: None,
-            lambda: None,
-            max_trials: None,
-            planner: None,
-            model: None,
-            basis: None,
-            config: None,
-            out: PathBuf::from("runs/swingup"),
-            resume: false,
-        }
-    }
 }
 
 fn main() -> anyhow::Result<()> {
@@ -157,9 +143,26 @@ fn load_config(args: &LearnArgs) -> anyhow::Result<Config> {
     Ok(cfg)
 }
 
+/// `runs/swingup-NNN`: the latest existing one (`latest`), or the first free one.
+fn run_dir(latest: bool) -> anyhow::Result<PathBuf> {
+    let dir = |n: usize| PathBuf::from(format!("runs/swingup-{n:03}"));
+    let first_free = (1..100_000)
+        .find(|&n| !dir(n).exists())
+        .ok_or_else(|| anyhow::anyhow!("runs/ holds 100000 runs; pass --out"))?;
+    if latest {
+        anyhow::ensure!(first_free > 1, "no run in runs/ to resume; pass --out");
+        Ok(dir(first_free - 1))
+    } else {
+        Ok(dir(first_free))
+    }
+}
+
 fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     let cfg = load_config(args)?;
-    let out = &args.out;
+    let out = &match &args.out {
+        Some(out) => out.clone(),
+        None => run_dir(args.resume)?,
+    };
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let previous = if args.resume {
         let trials = report::read_trials(out)?;
