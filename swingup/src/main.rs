@@ -98,6 +98,10 @@ struct ExperimentsArgs {
     /// Output directory.
     #[arg(long, default_value = "runs/experiments")]
     out: PathBuf,
+    /// Keep the runs already saved in `--out` (runs.jsonl, one line per
+    /// finished run) and run only the missing ones.
+    #[arg(long)]
+    resume: bool,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -256,7 +260,40 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
-    let report = run_experiments(&which, &settings, &|done, total, r| {
+    let log = out.join("runs.jsonl");
+    let previous: Vec<swingup::experiments::RunSummary> = if args.resume && log.exists() {
+        std::fs::read_to_string(&log)
+            .with_context(|| format!("reading {}", log.display()))?
+            .lines()
+            .filter(|l| !l.trim().is_empty())
+            .map(serde_json::from_str)
+            .collect::<Result<_, _>>()
+            .with_context(|| format!("parsing {}", log.display()))?
+    } else {
+        std::fs::write(&log, "").with_context(|| format!("creating {}", log.display()))?;
+        vec![]
+    };
+    if !previous.is_empty() {
+        println!(
+            "resuming: {} finished run(s) read back from {}",
+            previous.len(),
+            log.display()
+        );
+    }
+    // every finished run is appended to runs.jsonl at once: an interrupted grid loses nothing
+    let appender = std::sync::Mutex::new(
+        std::fs::OpenOptions::new()
+            .append(true)
+            .open(&log)
+            .with_context(|| format!("opening {}", log.display()))?,
+    );
+    let report = run_experiments(&which, &settings, previous, &|done, total, r| {
+        if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
+            use std::io::Write;
+            if let Err(e) = writeln!(f, "{line}") {
+                eprintln!("warning: could not save the run to runs.jsonl: {e}");
+            }
+        }
         println!(
             "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
             r.experiment,

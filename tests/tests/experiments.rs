@@ -17,7 +17,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         // the semiparametric model learns in two trials: a short test
         model: ModelKind::LwrParametric,
     };
-    let report = run_experiments(&[Experiment::Lambda], &settings, &|_, _, _| {})?;
+    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], &|_, _, _| {})?;
     assert_eq!(report.runs.len(), 2);
     let by = |v: &str| report.variants.iter().find(|x| x.variant == v);
     let zero = by("lambda=0e0").ok_or("no lambda = 0 variant")?;
@@ -32,6 +32,11 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     // the JSON round-trips and the markdown opens with the claims table
     let back: ExperimentsReport = serde_json::from_str(&serde_json::to_string(&report)?)?;
     assert_eq!(back.runs.len(), report.runs.len());
+    // resumed with its runs, nothing runs again and the result is the same
+    let again = run_experiments(&[Experiment::Lambda], &settings, back.runs.clone(), &|_, _, _| {
+        panic!("a finished run ran again")
+    })?;
+    assert_eq!(again.variants, report.variants);
     let md = swingup::experiments::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
