@@ -6,11 +6,13 @@
 //! ([`plant`]). A "human" plant demonstrates a swing-up ([`demo`]); the robot,
 //! a different plant with noisy sensors, imitates it, then learns a locally
 //! weighted regression model of its own dynamics ([`model`]) and plans with
-//! the paper's Eq. 3 ([`learn`]) until an LQR ([`lqr`]) can catch and
-//! balance the pendulum. [`record`] and [`report`] hold and write what a run
-//! saw; [`fit_cmd`] is the `swingup fit` subcommand. For the planner-by-model
-//! comparison (claim C6): a learned parametric model ([`parametric`]), the
-//! true model ([`truth`]) and a DDP planner ([`ddp_plan`]).
+//! the paper's Eq. 3 and the Eq. 5 task cost ([`cost`], [`learn`]) until an
+//! LQR ([`lqr`]) can catch and balance the pendulum. [`record`] and
+//! [`report`] hold and write what a run saw; [`fit_cmd`] is the `swingup
+//! fit` subcommand and [`experiments`] the `swingup experiments` one. For
+//! the planner-by-model comparison (claim C6): a learned parametric model
+//! ([`parametric`]), the true model ([`truth`]) and a DDP planner
+//! ([`ddp_plan`]).
 //!
 //! # Example
 //!
