@@ -8,7 +8,7 @@
 //! | `learning` | LWR + Eq. 3 by Gauss-Newton (B-splines, wavelets) and Powell (B-splines), over seeds | C1 (trial 1 of every run), C2, C7 (tuned metric per trial), C8 (rollouts of the models after trials 1-3) |
 //! | `lambda` | Gauss-Newton with $\lambda \in \{0, 10, \dots, 10^8\}$ | C3, C4, C5 |
 //! | `planners` | {DDP, Eq. 3 Gauss-Newton} x {LWR, parametric, true model} | C6 |
-//! | `beyond` | per-point $\lambda$ from the LWR's support; the semiparametric model | beyond the paper |
+//! | `beyond` | per-point $\lambda$ from the LWR's support; a $\lambda$ schedule over trials; the semiparametric model | beyond the paper |
 //!
 //! Every run is a [`crate::learn::run`] with a configuration that differs
 //! from the defaults only where the table says.
@@ -34,7 +34,8 @@ pub enum Experiment {
     Lambda,
     /// DDP and Eq. 3 with learned LWR, learned parametric and true models (C6).
     Planners,
-    /// Per-point lambda from the model's confidence; the semiparametric model.
+    /// Per-point lambda from the model's confidence, a lambda schedule over
+    /// trials, the semiparametric model.
     Beyond,
 }
 
@@ -287,6 +288,16 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                     out.push(Job {
                         experiment: "beyond",
                         variant: "lwr, confidence lambda".into(),
+                        cfg: c,
+                        rollouts: false,
+                    });
+                    let mut c = base(seed);
+                    c.model.kind = ModelKind::Lwr;
+                    c.planner.lambda = 1e2;
+                    c.planner.lambda_growth = 10.0;
+                    out.push(Job {
+                        experiment: "beyond",
+                        variant: "lwr, lambda 1e2 x10 per trial".into(),
                         cfg: c,
                         rollouts: false,
                     });

@@ -169,6 +169,10 @@ pub struct PlannerConfig {
     pub basis: BasisKind,
     /// Consistency weight $\lambda$ (mismatch in rate units).
     pub lambda: f64,
+    /// A schedule over trials (beyond the paper): trial $t \ge 2$ plans with
+    /// $\lambda \cdot$ `lambda_growth`$^{t-2}$, trusting the model more as its
+    /// data grow; 1 keeps $\lambda$ constant.
+    pub lambda_growth: f64,
     /// Continuation: the plan is first solved with this $\lambda$, then
     /// with ten times more, warm-started, until `lambda` (0 or
     /// $\ge$ `lambda`: solve with `lambda` directly). Starting near the
@@ -217,6 +221,7 @@ impl Default for PlannerConfig {
             solver: Solver::GaussNewton,
             basis: BasisKind::Bspline,
             lambda: 1e3,
+            lambda_growth: 1.0,
             lambda_start: 1.0,
             confidence_floor: 0.0,
             confidence_full: 10.0,
@@ -290,6 +295,12 @@ impl Config {
             "lambda must be finite and nonnegative"
         );
         anyhow::ensure!(
+            self.planner.lambda_growth.is_finite()
+                && self.planner.lambda_growth > 0.0
+                && (self.planner.lambda * self.planner.lambda_growth.powi(self.max_trials as i32)).is_finite(),
+            "lambda_growth must be positive and keep lambda finite over max_trials"
+        );
+        anyhow::ensure!(
             self.planner.state_coeffs >= 4 && self.planner.control_coeffs >= 4,
             "need at least 4 B-spline coefficients per channel"
         );
@@ -340,6 +351,10 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 TrialKind::Imitation,
             )
         } else {
+            // the lambda schedule over trials: lambda * growth^(trial - 2)
+            let mut scheduled = cfg.clone();
+            scheduled.planner.lambda = cfg.planner.lambda * cfg.planner.lambda_growth.powi(index as i32 - 2);
+            let cfg = &scheduled;
             let ((plan, gains), model_summary) = match cfg.model.kind {
                 ModelKind::Lwr | ModelKind::LwrParametric => {
                     let (model, summary) = learn_model(cfg, &trials)?;
@@ -818,4 +833,24 @@ pub fn plan<M: trajopt::Model>(cfg: &Config, demo: &Demonstration, model: M) -> 
         states: (0..xs.nrows()).map(|k| std::array::from_fn(|i| xs[(k, i)])).collect(),
         controls: (0..us.nrows()).map(|k| us[(k, 0)]).collect(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Bad values are refused with the field's name.
+    #[test]
+    fn validate_names_bad_fields() {
+        let mut cfg = Config::default();
+        assert!(cfg.validate().is_ok());
+        cfg.planner.lambda_growth = 0.0;
+        let e = cfg.validate().expect_err("zero growth").to_string();
+        assert!(e.contains("lambda_growth"), "{e}");
+        cfg.planner.lambda_growth = 1e300;
+        assert!(cfg.validate().is_err(), "lambda overflows over the trials");
+        let mut cfg = Config::default();
+        cfg.planner.lambda = -1.0;
+        assert!(cfg.validate().expect_err("negative").to_string().contains("lambda"));
+    }
 }
