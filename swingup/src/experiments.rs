@@ -319,11 +319,14 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
 /// Runs the experiments `which` on the grid `settings`, calling `progress`
 /// after each run with (runs done, runs in all, the run) so that the caller
 /// can save it at once. Runs in `previous` (an interrupted grid's, saved
-/// that way) are kept and not run again.
+/// that way) are kept and not run again; with `run_missing` false nothing
+/// runs and the report covers `previous` alone (each variant says how many
+/// runs it has).
 pub fn run_experiments(
     which: &[Experiment],
     settings: &ExperimentSettings,
     previous: Vec<RunSummary>,
+    run_missing: bool,
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
 ) -> anyhow::Result<ExperimentsReport> {
     let start = Instant::now();
@@ -337,6 +340,7 @@ pub fn run_experiments(
         .collect();
     let jobs: Vec<&Job> = all
         .iter()
+        .filter(|_| run_missing)
         .filter(|j| {
             !previous
                 .iter()

@@ -102,6 +102,9 @@ struct ExperimentsArgs {
     /// finished run) and run only the missing ones.
     #[arg(long)]
     resume: bool,
+    /// With --resume: run nothing, write the report of the saved runs alone.
+    #[arg(long, requires = "resume")]
+    report_only: bool,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -287,7 +290,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
             .open(&log)
             .with_context(|| format!("opening {}", log.display()))?,
     );
-    let report = run_experiments(&which, &settings, previous, &|done, total, r| {
+    let report = run_experiments(&which, &settings, previous, !args.report_only, &|done, total, r| {
         if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
             use std::io::Write;
             if let Err(e) = writeln!(f, "{line}") {

@@ -17,7 +17,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         // the semiparametric model learns in two trials: a short test
         model: ModelKind::LwrParametric,
     };
-    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], &|_, _, _| {})?;
+    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, &|_, _, _| {})?;
     assert_eq!(report.runs.len(), 2);
     let by = |v: &str| report.variants.iter().find(|x| x.variant == v);
     let zero = by("lambda=0e0").ok_or("no lambda = 0 variant")?;
@@ -33,10 +33,19 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     let back: ExperimentsReport = serde_json::from_str(&serde_json::to_string(&report)?)?;
     assert_eq!(back.runs.len(), report.runs.len());
     // resumed with its runs, nothing runs again and the result is the same
-    let again = run_experiments(&[Experiment::Lambda], &settings, back.runs.clone(), &|_, _, _| {
+    let again = run_experiments(&[Experiment::Lambda], &settings, back.runs.clone(), true, &|_, _, _| {
         panic!("a finished run ran again")
     })?;
     assert_eq!(again.variants, report.variants);
+    // the report of the saved runs alone, one of them dropped: nothing runs
+    let fewer = run_experiments(
+        &[Experiment::Lambda],
+        &settings,
+        back.runs[..1].to_vec(),
+        false,
+        &|_, _, _| panic!("nothing may run"),
+    )?;
+    assert_eq!(fewer.runs.len(), 1);
     let md = swingup::experiments::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
