@@ -105,6 +105,10 @@ struct ExperimentsArgs {
     /// With --resume: run nothing, write the report of the saved runs alone.
     #[arg(long, requires = "resume")]
     report_only: bool,
+    /// Also write the claims table into this Markdown file (the README),
+    /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines.
+    #[arg(long)]
+    update_readme: Option<PathBuf>,
 }
 
 fn main() -> anyhow::Result<()> {
@@ -310,7 +314,19 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
     write_atomic(&out.join("experiments.md"), &swingup::experiments::markdown(&report))?;
-    println!("\n{}", swingup::experiments::claims_table(&report.claims));
+    let table = swingup::experiments::claims_table(&report.claims);
+    println!("\n{table}");
+    if let Some(readme) = &args.update_readme {
+        let text = std::fs::read_to_string(readme).with_context(|| format!("reading {}", readme.display()))?;
+        let (start, end) = ("<!-- claims:start -->", "<!-- claims:end -->");
+        let (Some(a), Some(b)) = (text.find(start), text.find(end)) else {
+            anyhow::bail!("{} has no {start} ... {end} lines", readme.display());
+        };
+        anyhow::ensure!(a < b, "{}: {end} comes before {start}", readme.display());
+        let updated = format!("{}{start}\n{table}{}", &text[..a], &text[b..]);
+        write_atomic(readme, &updated)?;
+        println!("updated the claims table in {}", readme.display());
+    }
     println!(
         "wrote {} and {} ({:.0} s)",
         out.join("experiments.json").display(),
