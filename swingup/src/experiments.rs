@@ -768,14 +768,14 @@ fn claims(
 pub fn markdown(report: &ExperimentsReport) -> String {
     let mut md = String::from("# Experiments\n\n");
     md.push_str(&format!(
-        "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each; {:.0} s wall time. Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
+        "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each; {:.0} s of run time (the sum over runs; the wall time is about that divided by the cores). Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
         report.runs.len(),
         report.settings.learning_seeds,
         report.settings.wavelet_seeds,
         report.settings.powell_seeds,
         report.settings.seeds,
         report.settings.max_trials,
-        report.seconds
+        report.runs.iter().map(|r| r.seconds).sum::<f64>()
     ));
     md.push_str(&claims_table(&report.claims));
     md.push_str("\n## Variants\n\n| experiment | variant | runs | successes | median trial of success | range | median robot seconds to success |\n|---|---|---|---|---|---|---|\n");

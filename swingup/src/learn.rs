@@ -27,9 +27,9 @@
 //!
 //! **The default model is the LWR on top of the parametric model**, not the
 //! paper's pure LWR: with the pure LWR the robot learned the swing-up
-//! within 8 trials in only about a third of the seeds we tried (the
-//! experiments report the exact numbers), while the semiparametric model
-//! succeeds at trial 2 in every seed tried. `--model lwr` runs the paper's.
+//! within 8 trials in 8 of 20 seeds (median trial 5.5; `swingup
+//! experiments learning`), while the semiparametric model succeeds at
+//! trial 2 in every seed tried. `--model lwr` runs the paper's.
 
 use faer::Mat;
 use faer::sparse::SparseRowMat;
