@@ -139,6 +139,32 @@ pub fn tracking_gains(
 mod tests {
     use super::*;
 
+    /// Along a plan that sits upright, the time-varying gains far from the
+    /// end are the infinite-horizon LQR's (the Riccati recursion converges),
+    /// up to the model's trapezoid rule for the angle.
+    #[test]
+    fn tracking_gains_converge_to_the_stationary_lqr() {
+        use crate::model::KnownHand;
+        use crate::truth::TrueRegression;
+        let params = PlantParams::robot();
+        let (q, r) = ([10.0, 1.0, 1.0, 1.0], 0.1);
+        let lqr = Lqr::design(&params, q, r).expect("converges");
+        let model = KnownHand::new(TrueRegression::new(params).expect("valid"), params.dt);
+        let n = 900;
+        let up = [std::f64::consts::PI, 0.0, 0.0, 0.0];
+        let gains = tracking_gains(&model, &vec![up; n + 1], &vec![0.0; n], q, r).expect("finite");
+        for (i, (g, want)) in gains[0].iter().zip(&lqr.gain).enumerate() {
+            assert!(
+                (g - want).abs() < 0.02 * want.abs().max(1.0),
+                "gain {i}: {g} vs the stationary {want}"
+            );
+        }
+        // the last step's gain only sees the terminal weight: it differs
+        assert!((gains[n - 1][0] - lqr.gain[0]).abs() > 1e-3);
+        // a plan of the wrong length is refused
+        assert!(tracking_gains(&model, &vec![up; n], &vec![0.0; n], q, r).is_none());
+    }
+
     #[test]
     fn balances_both_plants_from_a_nudge() {
         for params in [PlantParams::human(), PlantParams::robot()] {
