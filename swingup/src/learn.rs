@@ -154,10 +154,10 @@ pub enum BasisKind {
 pub enum ModelKind {
     /// Locally weighted regression on all five inputs (the paper's).
     Lwr,
-    /// Least squares on the physically structured features ([`crate::parametric`]).
+    /// Least squares on the physically structured features (the `parametric` module).
     Parametric,
-    /// Semiparametric (beyond the paper): the LWR corrects the parametric
-    /// model instead of a global linear fit.
+    /// Semiparametric (beyond the paper, the default): the LWR corrects the
+    /// parametric model instead of a global linear fit.
     LwrParametric,
     /// The robot's true dynamics (a reference, not learned).
     True,

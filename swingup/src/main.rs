@@ -23,8 +23,9 @@ struct Cli {
 
 #[derive(Debug, Subcommand)]
 enum Command {
-    /// Imitate the demonstration, then learn a locally weighted regression
-    /// model and plan with the paper's Eq. 3 until the robot balances the
+    /// Imitate the demonstration, then learn a model of the robot (locally
+    /// weighted regression, by default on top of a learned parametric
+    /// model) and plan with the paper's Eq. 3 until the robot balances the
     /// pendulum (or the trial cap). Writes a report, CSV logs and plots.
     Learn(LearnArgs),
     /// Print the default configuration as TOML (every parameter; edit it
@@ -57,7 +58,8 @@ struct LearnArgs {
     #[arg(long, value_enum)]
     planner: Option<Solver>,
     /// The learned model: locally weighted regression (the paper's), least
-    /// squares on the pendulum's physical features, or the true dynamics.
+    /// squares on the pendulum's physical features, LWR correcting that
+    /// least-squares fit (the default), or the true dynamics.
     #[arg(long, value_enum)]
     model: Option<ModelKind>,
     /// The trajectory basis of the Eq. 3 planners: cubic B-splines or
