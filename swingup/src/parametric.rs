@@ -636,26 +636,8 @@ mod tests {
         model.step(&[0.0; 4], &[0.0], &mut next).expect("step");
         assert_eq!(next, vec![0.0; 4]);
         let (x, u) = ([2.0, -3.0, 0.2, 0.5], [4.0]);
-        let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
-        assert!(model.jacobians(&x, &u, &mut fx, &mut fu).expect("ok"));
-        let h = 1e-6;
-        let (mut a, mut b) = (vec![0.0; 4], vec![0.0; 4]);
-        for c in 0..5 {
-            let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
-            if c < 4 {
-                xp[c] += h;
-                xm[c] -= h;
-            } else {
-                up[0] += h;
-                um[0] -= h;
-            }
-            model.step(&xp, &up, &mut a).expect("ok");
-            model.step(&xm, &um, &mut b).expect("ok");
-            for i in 0..4 {
-                let fd = (a[i] - b[i]) / (2.0 * h);
-                let an = if c < 4 { fx[i * 4 + c] } else { fu[i] };
-                assert!((fd - an).abs() < 1e-7, "d next[{i}] / d z[{c}]: {an} vs {fd}");
-            }
+        for (i, c, an, fd) in crate::model::jacobian_against_differences(&model, x, u) {
+            assert!((fd - an).abs() < 1e-7, "d next[{i}] / d z[{c}]: {an} vs {fd}");
         }
     }
 }
