@@ -8,7 +8,7 @@
 //! | `learning` | LWR + Eq. 3 by Gauss-Newton (B-splines, wavelets) and Powell (B-splines), over seeds | C1 (trial 1 of every run), C2, C7 (tuned metric per trial), C8 (rollouts of the models after trials 1-3) |
 //! | `lambda` | Gauss-Newton with $\lambda \in \{0, 10, \dots, 10^8\}$ | C3, C4, C5 |
 //! | `planners` | {DDP, Eq. 3 Gauss-Newton} x {LWR, parametric, true model} | C6 |
-//! | `beyond` | per-point $\lambda$ from the LWR's support; a $\lambda$ schedule over trials; the semiparametric model | beyond the paper |
+//! | `beyond` | per-point $\lambda$ from the LWR's support; a $\lambda$ schedule over trials; the semiparametric model; learning from scratch (no demonstration) with the LWR, the semiparametric and the true model | beyond the paper |
 //!
 //! Every run is a [`crate::learn::run`] with a configuration that differs
 //! from the defaults only where the table says.
@@ -20,7 +20,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::learn::{BasisKind, Config, ModelKind, Solver, learn_model, run};
+use crate::learn::{BasisKind, Config, ModelKind, Solver, Start, learn_model, run};
 use crate::model::PendulumRegression;
 use crate::record::{RunRecord, TrialRecord};
 
@@ -35,7 +35,7 @@ pub enum Experiment {
     /// DDP and Eq. 3 with learned LWR, learned parametric and true models (C6).
     Planners,
     /// Per-point lambda from the model's confidence, a lambda schedule over
-    /// trials, the semiparametric model.
+    /// trials, the semiparametric model, learning without a demonstration.
     Beyond,
 }
 
@@ -62,11 +62,11 @@ pub struct ExperimentSettings {
 
 impl ExperimentSettings {
     /// The full grid: 20 seeds for the main learning variant, 3 for the
-    /// others (2 for Powell), 8 trials: 4487 s of run time summed over its
-    /// 76 runs when committed in `results/`, about 40 minutes on 2 cores.
+    /// wavelets, 2 for Powell, 6 for every other variant, 8 trials (the run
+    /// time of the committed grid is in `results/experiments.md`).
     pub fn full() -> Self {
         Self {
-            seeds: 3,
+            seeds: 6,
             learning_seeds: 20,
             wavelet_seeds: 3,
             powell_seeds: 2,
@@ -193,6 +193,21 @@ pub struct ExperimentsReport {
     pub seconds: f64,
 }
 
+/// The learning-from-scratch variants of `beyond`: model and name.
+const SCRATCH: [(ModelKind, &str); 3] = [
+    (ModelKind::Lwr, "lwr"),
+    (ModelKind::LwrParametric, "lwr-parametric"),
+    (ModelKind::True, "true"),
+];
+
+/// Variant names of runs without a demonstration start with this.
+const SCRATCH_PREFIX: &str = "scratch, ";
+
+/// Whether a run's first trial imitated the demonstration.
+fn imitates(r: &RunSummary) -> bool {
+    !r.variant.starts_with(SCRATCH_PREFIX)
+}
+
 struct Job {
     experiment: &'static str,
     variant: String,
@@ -310,6 +325,17 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                         cfg: c,
                         rollouts: false,
                     });
+                    for (kind, name) in SCRATCH {
+                        let mut c = base(seed);
+                        c.model.kind = kind;
+                        c.start = Start::Scratch;
+                        out.push(Job {
+                            experiment: "beyond",
+                            variant: format!("{SCRATCH_PREFIX}{name}"),
+                            cfg: c,
+                            rollouts: false,
+                        });
+                    }
                 }
             }
         }
@@ -541,7 +567,11 @@ fn claims(
     let mut out = Vec::new();
 
     // C1: every run's first trial is the imitation
-    let firsts: Vec<f64> = runs.iter().filter_map(|r| r.max_angles.first().copied()).collect();
+    let firsts: Vec<f64> = runs
+        .iter()
+        .filter(|r| imitates(r))
+        .filter_map(|r| r.max_angles.first().copied())
+        .collect();
     if firsts.is_empty() {
         out.push(claim(
             "C1",
@@ -779,6 +809,13 @@ pub fn markdown(report: &ExperimentsReport) -> String {
         report.runs.iter().map(|r| r.seconds).sum::<f64>()
     ));
     md.push_str(&claims_table(&report.claims));
+    let figures = crate::figures::figures(report);
+    if !figures.is_empty() {
+        md.push_str("\n## Figures\n\n");
+        for (name, _) in &figures {
+            md.push_str(&format!("![{}]({name})\n\n", name.trim_end_matches(".svg")));
+        }
+    }
     md.push_str("\n## Variants\n\n| experiment | variant | runs | successes | median trial of success | range | median robot seconds to success |\n|---|---|---|---|---|---|---|\n");
     for v in &report.variants {
         md.push_str(&format!(
@@ -791,6 +828,17 @@ pub fn markdown(report: &ExperimentsReport) -> String {
             v.trial_range.map_or("-".into(), |(a, b)| format!("{a}-{b}")),
             v.median_robot_seconds.map_or("-".into(), |m| format!("{m:.1}"))
         ));
+    }
+    let worth = demonstration_worth(&report.variants);
+    if !worth.is_empty() {
+        md.push_str("\n## The demonstration's worth (beyond the paper)\n\nLearning with the demonstration against learning from scratch ([`Start::Scratch`]: a random exploration trial first, the cost tracking upright throughout, each plan starting from the previous trial). Robot seconds count every trial up to success, the demonstration itself not included; runs that never succeed are not in the medians.\n\n| model | with the demonstration | from scratch |\n|---|---|---|\n");
+        for (model, with, without) in worth {
+            md.push_str(&format!(
+                "| {model} | {} | {} |\n",
+                with_seconds(with),
+                with_seconds(without)
+            ));
+        }
     }
     md.push_str("\n## Runs\n\n| experiment | variant | seed | success | max angle per trial (deg) | plan statuses |\n|---|---|---|---|---|---|\n");
     for r in &report.runs {
@@ -811,6 +859,29 @@ pub fn markdown(report: &ExperimentsReport) -> String {
     md
 }
 
+/// The pairs of variants that differ only in the demonstration: (model,
+/// with it, without it), where both ran.
+pub fn demonstration_worth(variants: &[VariantSummary]) -> Vec<(&'static str, &VariantSummary, &VariantSummary)> {
+    let find = |e: &str, v: &str| variants.iter().find(|x| x.experiment == e && x.variant == v);
+    [
+        ("lwr", "learning", "gauss-newton/bspline"),
+        ("lwr-parametric", "beyond", "lwr-parametric"),
+        ("true", "planners", "eq3/true"),
+    ]
+    .into_iter()
+    .filter_map(|(model, e, v)| Some((model, find(e, v)?, find("beyond", &format!("{SCRATCH_PREFIX}{model}"))?)))
+    .collect()
+}
+
+fn with_seconds(v: &VariantSummary) -> String {
+    format!(
+        "{}{}",
+        describe(Some(v)),
+        v.median_robot_seconds
+            .map_or(String::new(), |s| format!(", median {s:.1} s of robot data"))
+    )
+}
+
 /// The claims table alone (also copied into the README).
 pub fn claims_table(claims: &[Claim]) -> String {
     let mut md = String::from("| claim | paper | ours | reproduced |\n|---|---|---|---|\n");
@@ -818,4 +889,72 @@ pub fn claims_table(claims: &[Claim]) -> String {
         md.push_str(&format!("| {} | {} | {} | {} |\n", c.id, c.paper, c.ours, c.reproduced));
     }
     md
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn summary(experiment: &str, variant: &str, seed: u64, success: Option<usize>, first_angle: f64) -> RunSummary {
+        RunSummary {
+            experiment: experiment.into(),
+            variant: variant.into(),
+            seed,
+            success_trial: success,
+            trials: success.unwrap_or(8),
+            robot_seconds: 5.5 * success.unwrap_or(8) as f64,
+            max_angles: vec![first_angle],
+            plan_statuses: vec![],
+            failures: vec![],
+            scales: vec![],
+            rollouts: vec![],
+            seconds: 0.0,
+        }
+    }
+
+    /// The beyond grid has the three learning-from-scratch variants, each
+    /// without a demonstration and otherwise as its model's default.
+    #[test]
+    fn beyond_learns_from_scratch_for_each_model() {
+        let settings = ExperimentSettings::quick();
+        let all = jobs(&[Experiment::Beyond], &settings);
+        let scratch: Vec<&Job> = all.iter().filter(|j| j.cfg.start == Start::Scratch).collect();
+        assert_eq!(scratch.len(), 3 * settings.seeds as usize);
+        for (kind, name) in SCRATCH {
+            let v = format!("{SCRATCH_PREFIX}{name}");
+            assert!(
+                scratch.iter().any(|j| j.variant == v && j.cfg.model.kind == kind),
+                "{v}"
+            );
+        }
+        assert!(
+            all.iter()
+                .filter(|j| j.cfg.start != Start::Scratch)
+                .all(|j| !j.variant.starts_with(SCRATCH_PREFIX))
+        );
+    }
+
+    /// C1 reads the imitation trials only: an exploration trial that swings
+    /// high does not count against it; the demonstration's worth pairs each
+    /// model's runs with and without the demonstration.
+    #[test]
+    fn imitation_claim_ignores_scratch_runs_and_worth_pairs_variants() {
+        let runs = vec![
+            summary("beyond", "lwr-parametric", 1, Some(2), 1.5),
+            summary("beyond", "scratch, lwr-parametric", 1, Some(4), 3.0),
+            summary("beyond", "scratch, lwr-parametric", 2, None, 3.0),
+        ];
+        let variants = summarise(&runs);
+        let c = claims(&[Experiment::Beyond], &ExperimentSettings::quick(), &runs, &variants);
+        assert_eq!(c[0].id, "C1");
+        assert_eq!(c[0].reproduced, "yes", "{}", c[0].ours);
+        assert!(c[0].ours.contains("over 1 runs"), "{}", c[0].ours);
+        let worth = demonstration_worth(&variants);
+        assert_eq!(worth.len(), 1);
+        let (model, with, without) = worth[0];
+        assert_eq!(model, "lwr-parametric");
+        assert_eq!((with.successes, with.runs), (1, 1));
+        assert_eq!((without.successes, without.runs), (1, 2));
+        assert_eq!(without.median_robot_seconds, Some(22.0));
+    }
 }

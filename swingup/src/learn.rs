@@ -100,6 +100,27 @@ pub struct Config {
     pub planner: PlannerConfig,
     /// The learned model.
     pub model: ModelConfig,
+    /// Learn from the demonstration (the paper's) or without one.
+    pub start: Start,
+    /// Without a demonstration: the largest command of the exploration
+    /// trial (m/s²).
+    pub exploration: f64,
+}
+
+/// Where learning starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Start {
+    /// From a human's demonstration (the paper's): trial 1 imitates it,
+    /// the task cost tracks it, and every plan starts from it.
+    Demonstration,
+    /// Without a demonstration (a baseline, beyond the paper): trial 1
+    /// sends random smooth commands (a cubic B-spline of
+    /// `control_coeffs` coefficients drawn uniformly within
+    /// $\pm$ `exploration`, the hand servoed to its home); the task cost
+    /// tracks upright at rest over the whole window with $u^d = 0$; and
+    /// each plan starts from the previous trial's observed trajectory.
+    Scratch,
 }
 
 impl Default for Config {
@@ -121,6 +142,8 @@ impl Default for Config {
             success_seconds: 2.0,
             planner: PlannerConfig::default(),
             model: ModelConfig::default(),
+            start: Start::Demonstration,
+            exploration: 6.0,
         }
     }
 }
@@ -309,6 +332,10 @@ impl Config {
             "need at least 4 B-spline coefficients per channel"
         );
         anyhow::ensure!(self.model.bandwidth > 0.0, "the bandwidth must be positive");
+        anyhow::ensure!(
+            self.exploration.is_finite() && self.exploration >= 0.0,
+            "exploration must be finite and nonnegative"
+        );
         Ok(())
     }
 }
@@ -343,7 +370,11 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
     );
     while trials.len() < cfg.max_trials && !trials.iter().any(|t| t.success) {
         let index = trials.len() + 1;
-        let trial = if index == 1 {
+        let trial = if index == 1 && cfg.start == Start::Scratch {
+            let commands = exploration_commands(cfg, &demo)?;
+            let home = vec![[0.0; 4]; commands.len() + 1];
+            execute(cfg, &robot, &lqr, &commands, &home, None, index, TrialKind::Exploration)
+        } else if index == 1 {
             execute(
                 cfg,
                 &robot,
@@ -355,6 +386,12 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 TrialKind::Imitation,
             )
         } else {
+            // without a demonstration the plan starts from the last trial
+            let start = match cfg.start {
+                Start::Demonstration => demo.clone(),
+                Start::Scratch => observed_window(&trials[trials.len() - 1], demo.horizon())?,
+            };
+            let demo = &start;
             // the lambda schedule over trials: lambda * growth^(trial - 2)
             let mut scheduled = cfg.clone();
             scheduled.planner.lambda = cfg.planner.lambda * cfg.planner.lambda_growth.powi(index as i32 - 2);
@@ -362,15 +399,15 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
             let ((plan, gains), model_summary) = match cfg.model.kind {
                 ModelKind::Lwr | ModelKind::LwrParametric => {
                     let (model, summary) = learn_model(cfg, &trials)?;
-                    (plan_and_gains(cfg, &demo, &model)?, summary)
+                    (plan_and_gains(cfg, demo, &model)?, summary)
                 }
                 ModelKind::Parametric => {
                     let (model, summary) = crate::parametric::learn_parametric(cfg, &trials)?;
-                    (plan_and_gains(cfg, &demo, &model)?, summary)
+                    (plan_and_gains(cfg, demo, &model)?, summary)
                 }
                 ModelKind::True => {
                     let model = KnownHand::new(TrueRegression::new(cfg.robot)?, cfg.robot.dt);
-                    (plan_and_gains(cfg, &demo, &model)?, true_model_summary(&trials))
+                    (plan_and_gains(cfg, demo, &model)?, true_model_summary(&trials))
                 }
             };
             let mut t = execute(
@@ -399,6 +436,53 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
         trials,
         success_trial,
         robot_seconds,
+    })
+}
+
+/// The exploration trial's commands ([`Start::Scratch`]): a clamped
+/// uniform cubic B-spline over the window with `control_coeffs`
+/// coefficients drawn uniformly in $\pm$ `exploration`, seeded by the run's
+/// seed, sampled at the demonstration's times.
+pub fn exploration_commands(cfg: &Config, demo: &Demonstration) -> anyhow::Result<Vec<f64>> {
+    let n = demo.horizon();
+    let basis = BSplineBasis::clamped_uniform(cfg.planner.control_coeffs, 3, 0.0, demo.dt * n as f64)?;
+    let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(7_919).wrapping_add(17));
+    let a = cfg.exploration;
+    let coeffs: Vec<f64> = (0..basis.n_coeffs())
+        .map(|_| {
+            if a > 0.0 {
+                rand::Rng::random_range(&mut rng, -a..=a)
+            } else {
+                0.0
+            }
+        })
+        .collect();
+    let times = demo.times();
+    let design = basis.design_matrix_rows(&times[..n], 0)?;
+    Ok((0..n)
+        .map(|k| {
+            design
+                .as_ref()
+                .col_idx_of_row(k)
+                .zip(design.as_ref().val_of_row(k))
+                .map(|(j, v)| v * coeffs[j])
+                .sum()
+        })
+        .collect())
+}
+
+/// The first `horizon + 1` observed states and `horizon` commands of a
+/// trial, as a trajectory for the planner to start from.
+pub fn observed_window(trial: &TrialRecord, horizon: usize) -> anyhow::Result<Demonstration> {
+    anyhow::ensure!(
+        trial.observed.len() > horizon && trial.commands.len() >= horizon,
+        "trial {} is shorter than the planning window of {horizon} samples",
+        trial.index
+    );
+    Ok(Demonstration {
+        dt: trial.dt,
+        states: trial.observed[..=horizon].to_vec(),
+        controls: trial.commands[..horizon].to_vec(),
     })
 }
 
@@ -559,8 +643,9 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(Lear
     Ok((KnownHand::new(model, cfg.robot.dt), summary))
 }
 
-/// The planner's stage cost: Eq. 5 tracking of the demonstration, a
-/// terminal target upright at rest with the hand home, and the soft bounds
+/// The planner's stage cost: Eq. 5 tracking of the demonstration (with
+/// [`Start::Scratch`]: of upright at rest over the whole window, $u^d = 0$),
+/// a terminal target upright at rest with the hand home, and the soft bounds
 /// (shared by every planner, so that their costs compare).
 pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<SwingupCost> {
     let p = &cfg.planner;
@@ -572,11 +657,17 @@ pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<Swingu
         demo.states.len(),
         n + 1
     );
-    let mut state_ref = Mat::from_fn(n + 1, 4, |k, i| demo.states[k][i]);
-    for (i, v) in [std::f64::consts::PI, 0.0, 0.0, 0.0].into_iter().enumerate() {
-        state_ref[(n, i)] = v;
-    }
-    let control_ref = Mat::from_fn(n, 1, |k, _| demo.controls[k]);
+    let upright = [std::f64::consts::PI, 0.0, 0.0, 0.0];
+    let (state_ref, control_ref) = match cfg.start {
+        Start::Demonstration => {
+            let mut state_ref = Mat::from_fn(n + 1, 4, |k, i| demo.states[k][i]);
+            for (i, v) in upright.into_iter().enumerate() {
+                state_ref[(n, i)] = v;
+            }
+            (state_ref, Mat::from_fn(n, 1, |k, _| demo.controls[k]))
+        }
+        Start::Scratch => (Mat::from_fn(n + 1, 4, |_, i| upright[i]), Mat::zeros(n, 1)),
+    };
     let tracking = TrackingCost::new(
         state_ref,
         control_ref,
@@ -842,6 +933,98 @@ pub fn plan<M: trajopt::Model>(cfg: &Config, demo: &Demonstration, model: M) -> 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use trajopt::StageCost;
+
+    fn demo(cfg: &Config) -> Demonstration {
+        demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+            .expect("lqr")
+            .0
+    }
+
+    /// Exploration commands stay within the amplitude (a B-spline lies in
+    /// the hull of its coefficients), move, and depend on the seed alone.
+    #[test]
+    fn exploration_is_bounded_seeded_and_nontrivial() {
+        let cfg = Config::default();
+        let d = demo(&cfg);
+        let u = exploration_commands(&cfg, &d).expect("commands");
+        assert_eq!(u.len(), d.horizon());
+        assert!(
+            u.iter().all(|v| v.abs() <= cfg.exploration + 1e-12),
+            "beyond the amplitude"
+        );
+        let peak = u.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        assert!(peak > 0.3 * cfg.exploration, "hardly moves: peak {peak}");
+        assert_eq!(u, exploration_commands(&cfg, &d).expect("again"));
+        let other = Config { seed: 2, ..cfg.clone() };
+        assert_ne!(u, exploration_commands(&other, &d).expect("seed 2"));
+        let still = Config {
+            exploration: 0.0,
+            ..cfg.clone()
+        };
+        assert!(
+            exploration_commands(&still, &d)
+                .expect("zero")
+                .iter()
+                .all(|v| *v == 0.0)
+        );
+        let bad = Config {
+            exploration: f64::NAN,
+            ..cfg
+        };
+        assert!(bad.validate().is_err());
+    }
+
+    /// From scratch the task cost's tracking part is zero upright at rest
+    /// with no command, at every step; with the demonstration it is zero
+    /// on the demonstration (but its last state, where the target is
+    /// upright) and not upright.
+    #[test]
+    fn scratch_cost_tracks_upright() {
+        let cfg = Config {
+            start: Start::Scratch,
+            ..Config::default()
+        };
+        let d = demo(&cfg);
+        let up = [std::f64::consts::PI, 0.0, 0.0, 0.0];
+        let mut r = vec![0.0; 7];
+        let scratch = swingup_cost(&cfg, &d).expect("cost");
+        for k in [0, 40, d.horizon() - 1] {
+            scratch.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
+            assert!(r.iter().all(|v| v.abs() < 1e-12), "step {k}: {r:?}");
+        }
+        let with_demo = swingup_cost(&Config::default(), &d).expect("cost");
+        let k = 40;
+        with_demo
+            .residuals(k, &d.states[k], Some(&[d.controls[k]]), &mut r)
+            .expect("residuals");
+        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+        with_demo.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
+        assert!(r.iter().any(|v| v.abs() > 1e-3), "upright is not the demonstration");
+    }
+
+    /// A trial shorter than the planning window is refused.
+    #[test]
+    fn observed_window_needs_a_long_enough_trial() {
+        let cfg = Config::default();
+        let robot = Plant::new(cfg.robot);
+        let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).expect("lqr");
+        let d = demo(&cfg);
+        let t = execute(
+            &cfg,
+            &robot,
+            &lqr,
+            &d.controls,
+            &d.states,
+            None,
+            1,
+            TrialKind::Imitation,
+        );
+        let w = observed_window(&t, d.horizon()).expect("window");
+        assert_eq!((w.states.len(), w.controls.len()), (d.horizon() + 1, d.horizon()));
+        assert_eq!(w.states[..], t.observed[..=d.horizon()]);
+        assert!(observed_window(&t, t.commands.len() + 1).is_err());
+    }
 
     /// Bad values are refused with the field's name.
     #[test]

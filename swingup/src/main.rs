@@ -296,6 +296,16 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
             .open(&log)
             .with_context(|| format!("opening {}", log.display()))?,
     );
+    // a progress bar with the remaining time on a terminal (stderr); one
+    // line per finished run on stdout either way
+    let bar = indicatif::ProgressBar::new(0);
+    if let Ok(style) =
+        indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")
+    {
+        bar.set_style(style);
+    }
+    bar.set_position(previous.len() as u64);
+    bar.reset_eta();
     let report = run_experiments(&which, &settings, previous, !args.report_only, &|done, total, r| {
         if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
             use std::io::Write;
@@ -303,7 +313,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
                 eprintln!("warning: could not save the run to runs.jsonl: {e}");
             }
         }
-        println!(
+        let line = format!(
             "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
             r.experiment,
             r.variant,
@@ -312,10 +322,18 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
                 .map_or("no success".into(), |t| format!("success at trial {t}")),
             r.seconds
         );
+        bar.set_length(total as u64);
+        bar.set_position(done as u64);
+        bar.suspend(|| println!("{line}"));
     })?;
+    bar.finish_and_clear();
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
     write_atomic(&out.join("experiments.md"), &swingup::experiments::markdown(&report))?;
+    let figures = swingup::figures::figures(&report);
+    for (name, svg) in &figures {
+        write_atomic(&out.join(name), svg)?;
+    }
     let table = swingup::experiments::claims_table(&report.claims);
     println!("\n{table}");
     if let Some(readme) = &args.update_readme {
@@ -330,9 +348,11 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         println!("updated the claims table in {}", readme.display());
     }
     println!(
-        "wrote {} and {} ({:.0} s)",
+        "wrote {}, {} and {} figure(s) ({}) ({:.0} s)",
         out.join("experiments.json").display(),
         out.join("experiments.md").display(),
+        figures.len(),
+        figures.iter().map(|f| f.0).collect::<Vec<_>>().join(", "),
         report.seconds
     );
     Ok(())
@@ -372,6 +392,7 @@ fn check_resume_config(out: &Path, cfg: &Config) -> anyhow::Result<()> {
 fn print_trial(t: &TrialRecord) {
     let what = match t.kind {
         TrialKind::Imitation => "imitation".to_string(),
+        TrialKind::Exploration => "exploration".to_string(),
         TrialKind::Planned => match (&t.plan, &t.model) {
             (Some(p), Some(m)) => format!(
                 "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}",

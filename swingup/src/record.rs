@@ -14,6 +14,9 @@ pub enum TrialKind {
     Imitation,
     /// Executing a plan made with the learned model.
     Planned,
+    /// Random smooth commands (trial 1 when learning without a
+    /// demonstration, [`crate::learn::Start::Scratch`]).
+    Exploration,
 }
 
 /// The planner's account of the plan a trial executed.

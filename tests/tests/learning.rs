@@ -5,7 +5,7 @@
 
 use std::path::PathBuf;
 
-use swingup::learn::{Config, run};
+use swingup::learn::{Config, ModelKind, Start, run};
 use swingup::record::{TrialKind, TrialRecord};
 use swingup::report;
 
@@ -79,5 +79,26 @@ fn an_interrupted_run_resumes_to_the_same_trials() -> Result<(), Box<dyn std::er
         assert_eq!(a.states, b.states, "trial {} states differ", a.index);
         assert_eq!(a.success, b.success);
     }
+    Ok(())
+}
+
+/// Learning from scratch: trial 1 explores (no demonstration), and trial 2
+/// plans from what trial 1 observed, not from the demonstration.
+#[test]
+fn learning_from_scratch_explores_then_plans_from_it() -> Result<(), Box<dyn std::error::Error>> {
+    let mut cfg = config(2);
+    cfg.start = Start::Scratch;
+    cfg.model.kind = ModelKind::Parametric;
+    let record = run(&cfg, vec![], &mut |_: &TrialRecord| {})?;
+    assert_eq!(record.trials.len(), 2);
+    let (first, second) = (&record.trials[0], &record.trials[1]);
+    assert_eq!(first.kind, TrialKind::Exploration);
+    assert!(first.plan.is_none());
+    // the exploration commands are not the demonstration's
+    let demo = &record.demonstration.controls;
+    assert!(first.commands.iter().zip(demo).any(|(a, b)| (a - b).abs() > 1e-3));
+    assert_eq!(second.kind, TrialKind::Planned);
+    let plan = second.plan.as_ref().ok_or("trial 2 has no plan")?;
+    assert!(plan.cost.is_finite() && plan.cost <= plan.initial_cost);
     Ok(())
 }
