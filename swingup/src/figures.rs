@@ -13,7 +13,7 @@ use std::fmt::Write as _;
 
 use crate::experiments::{ExperimentsReport, RunSummary, VariantSummary};
 use crate::model::INPUTS;
-use crate::svg::{Panel, WIDTH, colour, legend_entry, nice_ticks, range, svg_open_sized, xml};
+use crate::svg::{Panel, WIDTH, colour, heading, legend_entry, nice_ticks, range, svg_open_sized, xml};
 
 /// The figures of `report`: (file name, SVG text), for the experiments that ran.
 pub fn figures(report: &ExperimentsReport) -> Vec<(&'static str, String)> {
@@ -56,10 +56,10 @@ pub fn variants_svg(variants: &[VariantSummary]) -> String {
     };
     let mut svg = String::new();
     svg_open_sized(&mut svg, "Success rate per variant", WIDTH, height);
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="24" text-anchor="middle" font-size="15">Success rate per variant (successes/runs, median trial)</text>"#,
-        WIDTH / 2.0
+    heading(
+        &mut svg,
+        WIDTH / 2.0,
+        "Success rate per variant (successes/runs, median trial)",
     );
     let (ticks, step) = nice_ticks(0.0, 1.0, 5);
     panel.x_axis(&mut svg, &ticks, step, true);
@@ -155,11 +155,11 @@ pub fn lambda_svg(report: &ExperimentsReport) -> Option<String> {
     let ticks: Vec<f64> = (0..n).map(|i| i as f64).collect();
     let mut svg = String::new();
     svg_open_sized(&mut svg, "Success against lambda", WIDTH, 500.0);
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="24" text-anchor="middle" font-size="15">Learning against the consistency weight λ ({} runs per λ)</text>"#,
+    let runs = sweep.iter().map(|(_, v)| v.runs).max().unwrap_or(0);
+    heading(
+        &mut svg,
         left + plot_w / 2.0,
-        sweep.iter().map(|(_, v)| v.runs).max().unwrap_or(0)
+        &format!("Learning against the consistency weight λ ({runs} runs per λ)"),
     );
     top.axes(&mut svg, &ticks, 1.0, false);
     top.y_title(&mut svg, "success rate");
@@ -280,10 +280,10 @@ pub fn relevance_svg(runs: &[RunSummary]) -> Option<String> {
     let ticks: Vec<f64> = means.iter().map(|m| m.0).collect();
     let mut svg = String::new();
     svg_open_sized(&mut svg, "Cross-validated relevance of each input", WIDTH, 500.0);
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="24" text-anchor="middle" font-size="15">Tuned metric scale per input (mean over runs; 0 = irrelevant)</text>"#,
-        left + plot_w / 2.0
+    heading(
+        &mut svg,
+        left + plot_w / 2.0,
+        "Tuned metric scale per input (mean over runs; 0 = irrelevant)",
     );
     top.axes(&mut svg, &ticks, 1.0, false);
     top.y_title(&mut svg, "scale × spread");

@@ -23,7 +23,7 @@ use anyhow::Context as _;
 
 use crate::demo::Demonstration;
 use crate::record::{RunRecord, TrialKind, TrialRecord};
-use crate::svg::{Panel, colour, legend_entry, nice_ticks, range, svg_open, xml};
+use crate::svg::{Panel, colour, heading, legend_entry, nice_ticks, range, svg_open, xml};
 
 /// Header of a trial's CSV log.
 pub const TRIAL_CSV_HEADER: &str = "k,t,theta,theta_dot,x,x_dot,obs_theta,obs_theta_dot,obs_x,obs_x_dot,command,phase";
@@ -424,10 +424,10 @@ pub fn figure3_svg(run: &RunRecord) -> String {
 
     let mut svg = String::new();
     svg_open(&mut svg, "Hand and pendulum motion per trial");
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="24" text-anchor="middle" font-size="15">Hand and pendulum motion per trial (demonstration dotted)</text>"#,
-        left + plot_w / 2.0
+    heading(
+        &mut svg,
+        left + plot_w / 2.0,
+        "Hand and pendulum motion per trial (demonstration dotted)",
     );
     top.axes(&mut svg, &x_ticks, x_step, false);
     top.y_title(&mut svg, "hand position x (m)");
@@ -532,11 +532,7 @@ pub fn learning_svg(run: &RunRecord) -> String {
 
     let mut svg = String::new();
     svg_open(&mut svg, "Learning progress per trial");
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="24" text-anchor="middle" font-size="15">Largest pendulum angle per trial</text>"#,
-        left + plot_w / 2.0
-    );
+    heading(&mut svg, left + plot_w / 2.0, "Largest pendulum angle per trial");
     top.axes(&mut svg, &x_ticks, 1.0, true);
     top.y_title(&mut svg, "max angle |θ| (°)");
     top.reference(&mut svg, 90.0, "halfway");

@@ -237,6 +237,15 @@ pub(crate) fn svg_open_sized(svg: &mut String, title: &str, width: f64, height: 
     let _ = writeln!(svg, r#"<rect width="100%" height="100%" fill="white"/>"#);
 }
 
+/// The figure's title, centred on `x` at the top.
+pub(crate) fn heading(svg: &mut String, x: f64, text: &str) {
+    let _ = writeln!(
+        svg,
+        r#"<text x="{x:.1}" y="24" text-anchor="middle" font-size="15">{}</text>"#,
+        xml(text)
+    );
+}
+
 /// A legend entry at `(x, y)`: a short line in the series' style and its label.
 pub(crate) fn legend_entry(svg: &mut String, x: f64, y: f64, style: &str, label: &str) {
     let _ = writeln!(
