@@ -1,8 +1,9 @@
 //! Criterion benchmarks of the LWR model over database sizes.
 //!
-//! `cargo bench -p lwr`: single queries (with confidence, and with the
-//! Jacobian), parallel batches, inserts, leave-one-out and tuning (with and
-//! without stopping hopeless evaluations early), for
+//! `cargo bench -p lwr`: single queries (with confidence, with the
+//! Jacobian, and under a full metric), parallel batches, inserts,
+//! leave-one-out and tuning (with and without stopping hopeless evaluations
+//! early; the default search on $10^4$ points in 5-D in `tune_large`), for
 //! $10^3$ to $10^5$ uniform points in 2 and 5 dimensions. The tricube
 //! bandwidth is chosen so that about 50 points carry weight at every size,
 //! so a query should grow like $\log n$ (tree descent) plus a constant fit.
@@ -78,6 +79,24 @@ fn queries(c: &mut Criterion) {
             });
             group.bench_with_input(BenchmarkId::new(format!("jacobian_{id}"), n), &q, |b, q| {
                 b.iter(|| m.predict_with_jacobian(black_box(q)).expect("weighted"))
+            });
+            // the same support under a full metric: a rotation in the plane
+            // of the first two inputs
+            let mut full = m.clone();
+            let (c, s) = (0.6, 0.8);
+            let mut matrix = vec![0.0; d * d];
+            for j in 0..d {
+                matrix[j * d + j] = 1.0;
+            }
+            matrix[..2].copy_from_slice(&[c, -s]);
+            matrix[d..d + 2].copy_from_slice(&[s, c]);
+            full.set_settings(LwrSettings {
+                metric: matrix,
+                ..m.settings().clone()
+            })
+            .expect("valid");
+            group.bench_with_input(BenchmarkId::new(format!("predict_full_metric_{id}"), n), &q, |b, q| {
+                b.iter(|| full.predict(black_box(q)).expect("weighted"))
             });
         }
     }
@@ -181,6 +200,28 @@ fn cross_validation(c: &mut Criterion) {
             });
         }
     }
+    group.finish();
+
+    // the default search on 10^4 points in 5 dimensions (the query benches'
+    // data), and the same search cross-validating 2000 of the points
+    let mut group = c.benchmark_group("tune_large");
+    group
+        .sample_size(10)
+        .warm_up_time(Duration::from_millis(100))
+        .measurement_time(Duration::from_secs(30));
+    let m = model(10_000, 5);
+    group.bench_function("n10000_d5_default", |b| {
+        b.iter(|| m.tune(&TuneSettings::default()).expect("valid"))
+    });
+    // the search over 2000 of the points, then the start and the result
+    // over all of them
+    let tune = TuneSettings {
+        search_points: 2_000,
+        ..Default::default()
+    };
+    group.bench_function("n10000_d5_search_points_2000", |b| {
+        b.iter(|| m.tune(&tune).expect("valid"))
+    });
     group.finish();
 }
 

@@ -5,9 +5,11 @@ use std::collections::HashMap;
 
 use rayon::prelude::*;
 
+use crate::database::Database;
 use crate::error::{LwrError, Result};
 use crate::fit::{LocalFit, Scratch, Want, fit_found};
-use crate::kdtree::{Leaf, dist2};
+use crate::kdtree::{KdTree, Leaf};
+use crate::metric::{FullMetric, Metric, diag_dist2};
 use crate::model::LwrModel;
 use crate::settings::LwrSettings;
 
@@ -39,7 +41,7 @@ type Scan = fn(&[usize], &[f64], &[f64], &[f64], f64, &mut Vec<(usize, f64)>);
 /// inputs) with $d^2 <$ `r2` from `q`, in the candidates' order.
 fn scan_any(candidates: &[usize], coords: &[f64], q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
     for (&c, x) in candidates.iter().zip(coords.chunks_exact(q.len())) {
-        let d2 = dist2(x, q, scales);
+        let d2 = diag_dist2(x, q, scales);
         if d2 < r2 {
             out.push((c, d2));
         }
@@ -71,6 +73,130 @@ fn scan_fixed<const D: usize>(
     }
 }
 
+/// [`scan_any`] for a full metric.
+fn scan_full(
+    candidates: &[usize],
+    coords: &[f64],
+    q: &[f64],
+    metric: &FullMetric,
+    r2: f64,
+    out: &mut Vec<(usize, f64)>,
+) {
+    for (&c, x) in candidates.iter().zip(coords.chunks_exact(q.len())) {
+        let d2 = metric.dist2(x, q);
+        if d2 < r2 {
+            out.push((c, d2));
+        }
+    }
+}
+
+/// Largest number of points in a group of [`QueryGroups`].
+const GROUP: usize = 32;
+
+/// Relative inflation of the support radius for the candidate search in the
+/// scaled coordinates, against the rounding of $m_j x_j - m_j q_j$ (or
+/// $A x - A q$) compared with $m_j (x_j - q_j)$ (or $A (x - q)$).
+const CANDIDATE_SLACK: f64 = 1e-9;
+
+/// The database's points in the coordinates of the fit's metric, for
+/// batched leave-one-out: a k-d tree over $s_i = (m_j x_{ij})_j$, or
+/// $s_i = A x_i$ for a full metric, in which the distance is Euclidean.
+///
+/// The database's own tree is compact in the inputs' own units, but a tuned
+/// metric often weighs the inputs very differently (or ignores some): a
+/// leaf of it then spans many support radii along a heavily weighted input,
+/// its candidates (which every point of the leaf scans) are many times its
+/// points' neighbours, and a box search visits many leaves that are wide
+/// in the weighted inputs. A tree built in the scaled coordinates, once per
+/// evaluation in $O(n \log n)$, has leaves compact under the metric (the
+/// groups of queries) and prunes tightly.
+///
+/// Its candidates for a group (the points within the support, slightly
+/// inflated against rounding, of the group's box in scaled coordinates) are
+/// a superset of each query's neighbours; each query then keeps those whose
+/// distance, computed exactly as a single query computes it, is within the
+/// support. So every fit is still bitwise that of a single query.
+struct QueryGroups {
+    /// The tree over the scaled coordinates.
+    tree: KdTree,
+    /// Squared radius of the candidate search: the support radius, inflated.
+    r2: f64,
+    /// The Euclidean metric of the scaled coordinates.
+    euclidean: Metric,
+    d: usize,
+}
+
+impl QueryGroups {
+    fn new(db: &Database, metric: &Metric, radius: f64) -> Self {
+        let d = db.n_inputs();
+        let inputs = db.inputs();
+        // scaled coordinates, and the largest magnitude of the terms summed
+        // in them (what the rounding of their differences scales with)
+        let mut magnitude = 0.0f64;
+        let scaled: Vec<f64> = match metric {
+            Metric::Diagonal(scales) => inputs
+                .iter()
+                .enumerate()
+                .map(|(t, x)| {
+                    let v = x * scales[t % d];
+                    magnitude = magnitude.max(v.abs());
+                    v
+                })
+                .collect(),
+            Metric::Full(full) => inputs
+                .chunks_exact(d)
+                .flat_map(|x| {
+                    magnitude = magnitude.max(full.abs_apply_max(x));
+                    full.apply(x)
+                })
+                .collect(),
+        };
+        if !magnitude.is_finite() {
+            // scales so large that the scaled coordinates overflow: group the
+            // points in their own units and take every point as a candidate
+            return Self {
+                tree: KdTree::build(inputs, d),
+                r2: f64::INFINITY,
+                euclidean: Metric::Diagonal(vec![0.0; d]),
+                d,
+            };
+        }
+        let inflated = radius * (1.0 + CANDIDATE_SLACK) + CANDIDATE_SLACK * magnitude * d as f64;
+        Self {
+            tree: KdTree::build(&scaled, d),
+            r2: inflated * inflated,
+            euclidean: Metric::Diagonal(vec![1.0; d]),
+            d,
+        }
+    }
+
+    /// The groups: the leaves of the scaled tree (indices, scaled
+    /// coordinates, box), a leaf of more than [`GROUP`] points (identical in
+    /// scaled coordinates) cut into pieces with the leaf's box.
+    fn leaves(&self) -> Vec<Leaf<'_>> {
+        let d = self.d;
+        let mut out = Vec::new();
+        for leaf in self.tree.leaves() {
+            for (indices, coords) in leaf.indices.chunks(GROUP).zip(leaf.coords.chunks(GROUP * d)) {
+                out.push(Leaf {
+                    indices,
+                    coords,
+                    lo: leaf.lo,
+                    hi: leaf.hi,
+                });
+            }
+        }
+        out
+    }
+
+    /// Appends the candidates of a group: every point within the inflated
+    /// support of its box, in scaled coordinates.
+    fn candidates(&self, group: &Leaf<'_>, out: &mut Vec<usize>) {
+        self.tree
+            .within_box(self.d, group.lo, group.hi, &self.euclidean, self.r2, out);
+    }
+}
+
 /// Buffers of the leave-one-out fits of one leaf.
 #[derive(Default)]
 struct LeafScratch {
@@ -95,21 +221,26 @@ enum Objective {
 /// the outputs' mean and variance.
 struct LooContext<'a> {
     settings: &'a LwrSettings,
-    scales: Vec<f64>,
+    metric: Metric,
     n: usize,
     o: usize,
+    /// Only the points $i$ with $i \bmod$ `stride` $= 0$ are cross-validated
+    /// (1: all).
+    stride: usize,
+    /// Their number.
+    n_queries: usize,
     mean: Vec<f64>,
     var: Vec<f64>,
 }
 
 impl<'a> LooContext<'a> {
-    fn new(model: &LwrModel, settings: &'a LwrSettings) -> Result<Self> {
+    fn new(model: &LwrModel, settings: &'a LwrSettings, stride: usize) -> Result<Self> {
         let db = model.database();
         settings.validate(db.n_inputs())?;
         if db.is_empty() {
             return Err(LwrError::EmptyDatabase);
         }
-        let scales = settings.scales_for(db.n_inputs());
+        let metric = Metric::of_settings(settings, db.n_inputs());
         let n = db.len();
         let o = db.n_outputs();
         let mut mean = vec![0.0; o];
@@ -131,8 +262,10 @@ impl<'a> LooContext<'a> {
         }
         Ok(Self {
             settings,
-            scales,
+            metric,
             n,
+            stride: stride.max(1),
+            n_queries: n.div_ceil(stride.max(1)),
             o,
             mean,
             var,
@@ -164,17 +297,23 @@ impl<'a> LooContext<'a> {
         }
     }
 
-    /// Leave-one-out outcomes of the points of one leaf, as `(index,
-    /// outcome)`.
+    /// Leave-one-out outcomes of the points of one group (a leaf of the
+    /// scaled tree), as `(index, outcome)`.
     ///
-    /// The queries are the leaf's own points, so their neighbours are found
-    /// together: one tree search collects every point within the support of
-    /// the leaf's bounding box (a superset of each query's neighbours), sorted
+    /// The queries are the group's own points, so their neighbours are found
+    /// together: one tree search collects every point within the (inflated)
+    /// support of the group's box (a superset of each query's neighbours), sorted
     /// by index once; each query then filters that list by its own distance.
     /// The neighbour lists are exactly those of a tree search per query, in
     /// the same (index) order, so every fit is bitwise that of a single
     /// query at $x_i$, without a search and a sort per query.
-    fn leaf(&self, model: &LwrModel, leaf: &Leaf<'_>, scratch: &mut LeafScratch) -> Vec<(usize, PointLoo)> {
+    fn leaf(
+        &self,
+        model: &LwrModel,
+        groups: &QueryGroups,
+        leaf: &Leaf<'_>,
+        scratch: &mut LeafScratch,
+    ) -> Vec<(usize, PointLoo)> {
         let db = model.database();
         let d = db.n_inputs();
         let radius = self.settings.support_radius();
@@ -185,7 +324,7 @@ impl<'a> LooContext<'a> {
             fit,
         } = scratch;
         candidates.clear();
-        db.within_box(leaf.lo, leaf.hi, &self.scales, r2, candidates);
+        groups.candidates(leaf, candidates);
         candidates.sort_unstable();
         coords.clear();
         for &c in candidates.iter() {
@@ -203,10 +342,14 @@ impl<'a> LooContext<'a> {
             8 => scan_fixed::<8>,
             _ => scan_any,
         };
-        for (&i, q) in leaf.indices.iter().zip(leaf.coords.chunks_exact(d)) {
+        for &i in leaf.indices.iter().filter(|&&i| i % self.stride == 0) {
+            let q = &db.inputs()[i * d..(i + 1) * d];
             fit.found.clear();
-            scan(candidates, coords, q, &self.scales, r2, &mut fit.found);
-            let result = fit_found(db, self.settings, &self.scales, q, Want::default(), fit);
+            match &self.metric {
+                Metric::Diagonal(scales) => scan(candidates, coords, q, scales, r2, &mut fit.found),
+                Metric::Full(full) => scan_full(candidates, coords, q, full, r2, &mut fit.found),
+            }
+            let result = fit_found(db, self.settings, &self.metric, q, Want::default(), fit);
             out.push((i, self.outcome(model, i, result)));
         }
         out
@@ -214,17 +357,20 @@ impl<'a> LooContext<'a> {
 
     /// Leave-one-out outcomes of the points of `leaves`, in parallel over
     /// the leaves, in the leaves' order.
-    fn leaves(&self, model: &LwrModel, leaves: &[Leaf<'_>]) -> Vec<(usize, PointLoo)> {
+    fn leaves(&self, model: &LwrModel, groups: &QueryGroups, leaves: &[Leaf<'_>]) -> Vec<(usize, PointLoo)> {
         let per_leaf: Vec<Vec<(usize, PointLoo)>> = leaves
             .par_iter()
-            .map_init(LeafScratch::default, |scratch, leaf| self.leaf(model, leaf, scratch))
+            .map_init(LeafScratch::default, |scratch, leaf| {
+                self.leaf(model, groups, leaf, scratch)
+            })
             .collect();
         per_leaf.into_iter().flatten().collect()
     }
 
-    /// Mean over outputs of PRESS$/(n \operatorname{var} y_o)$.
+    /// Mean over outputs of PRESS$/(n \operatorname{var} y_o)$ (over the
+    /// cross-validated points).
     fn normalized_mse(&self, press: &[f64]) -> f64 {
-        let nf = self.n as f64;
+        let nf = self.n_queries as f64;
         let mut f = 0.0;
         for (p, v) in press.iter().zip(&self.var) {
             f += p / (nf * v) / self.o as f64;
@@ -282,6 +428,7 @@ pub struct LooResult {
 /// | `min_factor` | 1.05 | stop when the step falls below this factor |
 /// | `max_evals` | 300 | budget of leave-one-out evaluations |
 /// | `stop_early` | true | stop an evaluation once it certainly cannot be accepted |
+/// | `search_points` | 0 (all) | cross-validate only about this many points during the search |
 #[derive(Debug, Clone, PartialEq)]
 pub struct TuneSettings {
     /// Search over the bandwidth.
@@ -306,6 +453,17 @@ pub struct TuneSettings {
     /// [`TuneStep::complete`]). Bad trial metrics, which are often the ones
     /// with the widest neighbourhoods, then cost a fraction of a full pass.
     pub stop_early: bool,
+    /// With $0 <$ `search_points` $< n$, the search compares settings by the
+    /// leave-one-out errors of about `search_points` of the points only (the
+    /// points $i$ with $i \bmod s = 0$, $s = \lceil n /$ `search_points`
+    /// $\rceil$; their fits still use every point), which makes each
+    /// evaluation $n /$ `search_points` times cheaper. The result's
+    /// `objective` and `initial_objective` are then evaluated over all the
+    /// points once the search ends (and if the tuned settings are worse than
+    /// the initial ones over all the points, the initial ones are returned);
+    /// the history's objectives are those of the subset. 0 (the default):
+    /// every point, the exact search.
+    pub search_points: usize,
 }
 
 impl Default for TuneSettings {
@@ -319,6 +477,7 @@ impl Default for TuneSettings {
             min_factor: 1.05,
             max_evals: 300,
             stop_early: true,
+            search_points: 0,
         }
     }
 }
@@ -375,7 +534,8 @@ pub struct TuneStep {
     /// Scales tried.
     pub scales: Vec<f64>,
     /// Its normalised leave-one-out MSE (infinite if the evaluation failed);
-    /// a lower bound when `complete` is false.
+    /// a lower bound when `complete` is false; over the subset of points
+    /// with [`TuneSettings::search_points`].
     pub objective: f64,
     /// Whether the search moved there.
     pub accepted: bool,
@@ -408,10 +568,13 @@ impl LwrModel {
     /// Leave-one-out cross-validation of the current settings over the
     /// whole database. See [`LooResult`].
     ///
-    /// The points are fitted leaf by leaf of the k-d tree, in parallel over
-    /// the leaves: one tree search finds every point within the kernel's
-    /// support of the leaf's bounding box, sorted by index once, and each of
-    /// the leaf's points then keeps those within its own support. The fits
+    /// The points are fitted in groups that are compact under the metric
+    /// (the leaves of a k-d tree built over the scaled coordinates $m_j x_j$,
+    /// or $A x$ for a full metric), in parallel over the groups: one search
+    /// of that tree finds every point within the kernel's support of the
+    /// group's box, sorted by index once, and each of the group's points then
+    /// keeps those within its own support (by the distance a single query
+    /// computes). The fits
     /// are bitwise those of single queries at $x_i$ (the same neighbours,
     /// summed in the same order), without a tree search and a sort per
     /// point.
@@ -436,12 +599,13 @@ impl LwrModel {
     /// [`loo`](Self::loo) for other settings (validated), without changing
     /// the model.
     pub fn loo_with(&self, settings: &LwrSettings) -> Result<LooResult> {
-        let ctx = LooContext::new(self, settings)?;
+        let ctx = LooContext::new(self, settings, 1)?;
         let n = ctx.n;
         let o = ctx.o;
         let db = self.database();
         let mut per_point: Vec<Option<PointLoo>> = vec![None; n];
-        for (i, point) in ctx.leaves(self, &db.leaves()) {
+        let groups = QueryGroups::new(db, &ctx.metric, settings.support_radius());
+        for (i, point) in ctx.leaves(self, &groups, &groups.leaves()) {
             per_point[i] = Some(point);
         }
 
@@ -488,10 +652,11 @@ impl LwrModel {
     /// or, when it is certainly above `bound`, possibly only a lower bound
     /// on it, found without visiting every point.
     ///
-    /// The points are visited in up to [`N_BLOCKS`] blocks of tree leaves
-    /// (block $b$ of $B$ holds the leaves $b, b + B, b + 2B, \dots$ from left
+    /// The points are visited in up to [`N_BLOCKS`] blocks of query groups
+    /// (the leaves of the scaled tree, see [`loo`](Self::loo); block $b$ of
+    /// $B$ holds the groups $b, b + B, b + 2B, \dots$ from left
     /// to right, so every block samples the whole input space), each block in
-    /// parallel over its leaves; after each block the partial sum of the
+    /// parallel over its groups; after each block the partial sum of the
     /// nonnegative per-point terms is compared with the bound. The
     /// partial sum is a lower bound on the objective up to rounding (a
     /// relative $n \epsilon_{mach}$), so the evaluation stops only when it
@@ -501,24 +666,29 @@ impl LwrModel {
     /// [`loo_with`](Self::loo_with). Deterministic: the blocks and their
     /// sums do not depend on the number of threads (where a stopped
     /// evaluation stops depends on the tree's shape, its decision does not).
-    fn loo_objective(&self, settings: &LwrSettings, bound: f64) -> Result<Objective> {
-        let ctx = LooContext::new(self, settings)?;
+    ///
+    /// With `stride` $> 1$, only the points $i$ with $i \bmod$ `stride`
+    /// $= 0$ are cross-validated (their neighbours are still all the points),
+    /// and the objective is their normalised MSE.
+    fn loo_objective(&self, settings: &LwrSettings, bound: f64, stride: usize) -> Result<Objective> {
+        let ctx = LooContext::new(self, settings, stride)?;
         let (n, o) = (ctx.n, ctx.o);
-        let leaves = self.database().leaves();
+        let groups = QueryGroups::new(self.database(), &ctx.metric, settings.support_radius());
+        let leaves = groups.leaves();
         let n_blocks = if bound.is_finite() {
-            N_BLOCKS.min(n.div_ceil(MIN_BLOCK)).min(leaves.len()).max(1)
+            N_BLOCKS.min(ctx.n_queries.div_ceil(MIN_BLOCK)).min(leaves.len()).max(1)
         } else {
             1
         };
         let mut residuals = vec![0.0; n * o];
-        let nf = n as f64;
+        let nf = ctx.n_queries as f64;
         let weights: Vec<f64> = ctx.var.iter().map(|&v| 1.0 / (nf * v) / o as f64).collect();
         let mut partial = 0.0;
         let mut block_leaves = Vec::with_capacity(leaves.len().div_ceil(n_blocks));
         for block in 0..n_blocks {
             block_leaves.clear();
             block_leaves.extend(leaves.iter().skip(block).step_by(n_blocks).copied());
-            for (i, (_, e, ..)) in ctx.leaves(self, &block_leaves) {
+            for (i, (_, e, ..)) in ctx.leaves(self, &groups, &block_leaves) {
                 for (oo, e) in e.into_iter().enumerate() {
                     partial += e * e * weights[oo];
                     residuals[i * o + oo] = e;
@@ -554,14 +724,19 @@ impl LwrModel {
     /// after `max_evals` evaluations. Deterministic; finds a local minimum
     /// along the coordinates.
     ///
-    /// Speed: each evaluation is a full leave-one-out pass, fitted leaf by
-    /// leaf of the tree (see [`loo`](Self::loo)). With `stop_early` (the
+    /// Speed: each evaluation is a full leave-one-out pass, fitted group by
+    /// group of a tree over the scaled coordinates (see [`loo`](Self::loo)). With `stop_early` (the
     /// default) a trial is abandoned as soon as the partial sum of its
     /// leave-one-out errors, over blocks of points spread across the data,
     /// exceeds what the search would accept; this changes neither the path
     /// nor the result (only the history of the abandoned trials, see
     /// [`TuneStep::complete`]) and makes the bad trials, which tend to be the
     /// ones with the widest neighbourhoods, cheap.
+    ///
+    /// With [`TuneSettings::search_points`] the search cross-validates only a
+    /// fixed subset of the points (spread over the insertion order), each
+    /// evaluation being that much cheaper, and evaluates its start and end
+    /// over every point; the path then differs from the exact search's.
     ///
     /// Only $m_j / h$ matters, so the result is one of a family of equivalent
     /// settings. Returns the tuned settings and the history; the model is not
@@ -597,6 +772,13 @@ impl LwrModel {
         // new bound); a revisit still counts as an evaluation, so the path
         // is the same with or without the cache.
         let mut cache: HashMap<Vec<u64>, Objective> = HashMap::new();
+        let n = self.database().len();
+        let stride = if tune.search_points == 0 || tune.search_points >= n {
+            1
+        } else {
+            n.div_ceil(tune.search_points)
+        };
+        let x_initial = x.clone();
         let mut eval = |x: &[f64], bound: f64, history: &mut Vec<TuneStep>| -> f64 {
             let bound = if tune.stop_early { bound } else { f64::INFINITY };
             let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
@@ -611,7 +793,7 @@ impl LwrModel {
                     scales: x[1..].to_vec(),
                     ..base.clone()
                 };
-                let outcome = match self.loo_objective(&s, bound) {
+                let outcome = match self.loo_objective(&s, bound, stride) {
                     Ok(Objective::Exact(f)) if !f.is_nan() => Objective::Exact(f),
                     Ok(Objective::Above(f)) => Objective::Above(f),
                     Ok(Objective::Exact(_)) | Err(_) => Objective::Exact(f64::INFINITY),
@@ -719,6 +901,28 @@ impl LwrModel {
             }
         }
         let evals = history.len();
+        let (mut f, mut initial) = (f, initial);
+        if stride > 1 {
+            // the search's objectives are over a subset: evaluate the ends
+            // over every point, and never return worse than the start
+            let exact = |x: &[f64]| {
+                let s = LwrSettings {
+                    bandwidth: x[0],
+                    scales: x[1..].to_vec(),
+                    ..base.clone()
+                };
+                match self.loo_objective(&s, f64::INFINITY, 1) {
+                    Ok(Objective::Exact(f)) if !f.is_nan() => f,
+                    _ => f64::INFINITY,
+                }
+            };
+            initial = exact(&x_initial);
+            f = if x == x_initial { initial } else { exact(&x) };
+            if f > initial {
+                x = x_initial;
+                f = initial;
+            }
+        }
         Ok(TuneResult {
             settings: LwrSettings {
                 bandwidth: x[0],
@@ -770,15 +974,15 @@ mod tests {
         ] {
             let exact = m.loo_with(&s).expect("nonempty").normalized_mse;
             // no bound, or a bound the objective is below: bitwise loo_with
-            assert_eq!(m.loo_objective(&s, f64::INFINITY), Ok(Objective::Exact(exact)));
-            assert_eq!(m.loo_objective(&s, exact * 1.01), Ok(Objective::Exact(exact)));
+            assert_eq!(m.loo_objective(&s, f64::INFINITY, 1), Ok(Objective::Exact(exact)));
+            assert_eq!(m.loo_objective(&s, exact * 1.01, 1), Ok(Objective::Exact(exact)));
             // a bound well below: stopped, with a lower bound above the bound
-            match m.loo_objective(&s, 0.3 * exact).expect("valid") {
+            match m.loo_objective(&s, 0.3 * exact, 1).expect("valid") {
                 Objective::Above(lb) => assert!(lb > 0.3 * exact && lb <= exact * (1.0 + 1e-12), "{lb} vs {exact}"),
                 Objective::Exact(f) => panic!("not stopped early: {f}"),
             }
             // just below the objective: never a wrong answer either way
-            match m.loo_objective(&s, exact * (1.0 - 1e-6)).expect("valid") {
+            match m.loo_objective(&s, exact * (1.0 - 1e-6), 1).expect("valid") {
                 Objective::Above(lb) => assert!(lb <= exact * (1.0 + 1e-12)),
                 Objective::Exact(f) => assert_eq!(f, exact),
             }

@@ -3,7 +3,8 @@
 use serde::{Deserialize, Serialize};
 
 use crate::error::{LwrError, Result, check_finite, check_len};
-use crate::kdtree::{KdTree, Leaf, dist2};
+use crate::kdtree::KdTree;
+use crate::metric::{Metric, diag_dist2};
 
 /// A stored point found by a query: its index in the database and its scaled
 /// distance $d = \sqrt{\sum_j m_j^2 (x_j - q_j)^2}$ to the query.
@@ -217,9 +218,14 @@ impl Database {
         self.tree.depth()
     }
 
-    pub(crate) fn check_query(&self, q: &[f64], scales: &[f64]) -> Result<()> {
+    /// Checks a query's length and values.
+    pub(crate) fn check_point_query(&self, q: &[f64]) -> Result<()> {
         check_len("query", self.n_inputs, q.len())?;
-        check_finite("query", q)?;
+        check_finite("query", q)
+    }
+
+    pub(crate) fn check_query(&self, q: &[f64], scales: &[f64]) -> Result<()> {
+        self.check_point_query(q)?;
         check_len("metric scales", self.n_inputs, scales.len())?;
         check_finite("metric scales", scales)?;
         if let Some(j) = scales.iter().position(|&m| m < 0.0) {
@@ -232,24 +238,13 @@ impl Database {
     }
 
     /// Unchecked radius query: `(index, d^2)` with `d^2 < r2`, any order.
-    pub(crate) fn within_sq(&self, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
-        self.tree.within(self.n_inputs, q, scales, r2, out);
-    }
-
-    /// The tree's leaves (every point in exactly one).
-    pub(crate) fn leaves(&self) -> Vec<Leaf<'_>> {
-        self.tree.leaves()
-    }
-
-    /// Unchecked box query: indices of the points with squared scaled
-    /// distance below `r2` from the box `[lo, hi]`, any order.
-    pub(crate) fn within_box(&self, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
-        self.tree.within_box(self.n_inputs, lo, hi, scales, r2, out);
+    pub(crate) fn within_sq(&self, q: &[f64], metric: &Metric, r2: f64, out: &mut Vec<(usize, f64)>) {
+        self.tree.within(q, metric, r2, out);
     }
 
     /// Unchecked k-nearest query: `(index, d^2)`, nearest first.
-    pub(crate) fn nearest_sq(&self, q: &[f64], scales: &[f64], k: usize) -> Vec<(usize, f64)> {
-        self.tree.nearest(self.n_inputs, q, scales, k)
+    pub(crate) fn nearest_sq(&self, q: &[f64], metric: &Metric, k: usize) -> Vec<(usize, f64)> {
+        self.tree.nearest(self.n_inputs, q, metric, k)
     }
 
     /// All points with scaled distance $d < r$ from `q` (tree search),
@@ -258,7 +253,7 @@ impl Database {
         self.check_query(q, scales)?;
         check_radius(radius)?;
         let mut out = Vec::new();
-        self.within_sq(q, scales, radius * radius, &mut out);
+        self.within_sq(q, &Metric::Diagonal(scales.to_vec()), radius * radius, &mut out);
         Ok(to_neighbors(out))
     }
 
@@ -267,7 +262,7 @@ impl Database {
     /// arbitrarily.
     pub fn nearest(&self, q: &[f64], scales: &[f64], k: usize) -> Result<Vec<Neighbor>> {
         self.check_query(q, scales)?;
-        Ok(to_neighbors(self.nearest_sq(q, scales, k)))
+        Ok(to_neighbors(self.nearest_sq(q, &Metric::Diagonal(scales.to_vec()), k)))
     }
 
     /// [`within_radius`](Self::within_radius) by a linear scan: the
@@ -277,7 +272,7 @@ impl Database {
         check_radius(radius)?;
         let r2 = radius * radius;
         let out = (0..self.len())
-            .map(|i| (i, dist2(&self.inputs[i * self.n_inputs..], q, scales)))
+            .map(|i| (i, diag_dist2(&self.inputs[i * self.n_inputs..], q, scales)))
             .filter(|&(_, d2)| d2 < r2)
             .collect();
         Ok(to_neighbors(out))
@@ -287,7 +282,7 @@ impl Database {
     pub fn nearest_brute(&self, q: &[f64], scales: &[f64], k: usize) -> Result<Vec<Neighbor>> {
         self.check_query(q, scales)?;
         let all = (0..self.len())
-            .map(|i| (i, dist2(&self.inputs[i * self.n_inputs..], q, scales)))
+            .map(|i| (i, diag_dist2(&self.inputs[i * self.n_inputs..], q, scales)))
             .collect();
         let mut all = to_neighbors(all);
         all.truncate(k);

@@ -1,12 +1,14 @@
 //! A k-d tree over the database's inputs, with leaf buckets that split when
 //! full and subtrees rebuilt when they become unbalanced.
 //!
-//! Distances are diagonal: $d^2(x, q) = \sum_j m_j^2 (x_j - q_j)^2$ with
-//! per-dimension scales $m_j \ge 0$ (a zero scale ignores the dimension).
-//! Every node keeps the tight bounding box of its points, so a query prunes
-//! a node when the box's smallest possible distance already exceeds the
-//! radius (or the current k-th distance). Points are indices into the flat,
-//! row-major input array owned by [`Database`](crate::Database).
+//! Distances are diagonal, $d^2(x, q) = \sum_j m_j^2 (x_j - q_j)^2$ with
+//! per-dimension scales $m_j \ge 0$ (a zero scale ignores the dimension), or
+//! full, $d^2 = |A (x - q)|^2$ (see [`Metric`]). Every node keeps the tight
+//! bounding box of its points, so a query prunes a node when a lower bound
+//! on the box's smallest possible distance (exact for the diagonal metric)
+//! already exceeds the radius (or the current k-th distance). Points are
+//! indices into the flat, row-major input array owned by
+//! [`Database`](crate::Database).
 //!
 //! Leaves keep a copy of their points' coordinates, so a query scans them
 //! contiguously instead of gathering rows from the database (2-3 times
@@ -24,6 +26,8 @@
 
 use std::cmp::Ordering;
 use std::collections::BinaryHeap;
+
+use crate::metric::{Metric, diag_dist2};
 
 /// Largest number of points in a leaf that can still be split.
 pub(crate) const BUCKET: usize = 32;
@@ -56,39 +60,18 @@ impl Bounds {
         }
     }
 
-    /// Smallest squared scaled distance from `q` to any point of the box.
-    fn min_dist2(&self, q: &[f64], scales: &[f64]) -> f64 {
-        let mut s = 0.0;
-        for j in 0..q.len() {
-            let gap = if q[j] < self.lo[j] {
-                self.lo[j] - q[j]
-            } else if q[j] > self.hi[j] {
-                q[j] - self.hi[j]
-            } else {
-                0.0
-            };
-            let t = scales[j] * gap;
-            s += t * t;
-        }
-        s
+    /// Lower bound (exact for a diagonal metric) on the squared distance
+    /// from `q` to any point of the box.
+    #[inline]
+    fn min_dist2(&self, q: &[f64], metric: &Metric) -> f64 {
+        metric.min_dist2_with(q.len(), |j| (self.lo[j] - q[j], self.hi[j] - q[j]))
     }
 
-    /// Smallest squared scaled distance between any point of this box and
-    /// any point of the box `[lo, hi]`.
-    fn min_dist2_box(&self, lo: &[f64], hi: &[f64], scales: &[f64]) -> f64 {
-        let mut s = 0.0;
-        for j in 0..lo.len() {
-            let gap = if hi[j] < self.lo[j] {
-                self.lo[j] - hi[j]
-            } else if lo[j] > self.hi[j] {
-                lo[j] - self.hi[j]
-            } else {
-                0.0
-            };
-            let t = scales[j] * gap;
-            s += t * t;
-        }
-        s
+    /// Lower bound (exact for a diagonal metric) on the squared distance
+    /// between any point of this box and any point of the box `[lo, hi]`.
+    #[inline]
+    fn min_dist2_box(&self, lo: &[f64], hi: &[f64], metric: &Metric) -> f64 {
+        metric.min_dist2_with(lo.len(), |j| (self.lo[j] - hi[j], self.hi[j] - lo[j]))
     }
 
     /// Widest dimension and its spread.
@@ -104,15 +87,28 @@ impl Bounds {
     }
 }
 
-/// Squared scaled distance $\sum_j (m_j (x_j - q_j))^2$.
+/// Appends `(index, d^2)` for every point of a leaf with $d^2 <$ `r2`.
 #[inline]
-pub(crate) fn dist2(x: &[f64], q: &[f64], scales: &[f64]) -> f64 {
-    let mut s = 0.0;
-    for j in 0..q.len() {
-        let t = scales[j] * (x[j] - q[j]);
-        s += t * t;
+fn scan_leaf(indices: &[usize], coords: &[f64], q: &[f64], metric: &Metric, r2: f64, out: &mut Vec<(usize, f64)>) {
+    fn scan(
+        indices: &[usize],
+        coords: &[f64],
+        d: usize,
+        r2: f64,
+        out: &mut Vec<(usize, f64)>,
+        dist2: impl Fn(&[f64]) -> f64,
+    ) {
+        for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
+            let d2 = dist2(x);
+            if d2 < r2 {
+                out.push((i, d2));
+            }
+        }
     }
-    s
+    match metric {
+        Metric::Diagonal(scales) => scan(indices, coords, q.len(), r2, out, |x| diag_dist2(x, q, scales)),
+        Metric::Full(f) => scan(indices, coords, q.len(), r2, out, |x| f.dist2(x, q)),
+    }
 }
 
 #[derive(Debug, Clone)]
@@ -257,22 +253,15 @@ impl Node {
         }
     }
 
-    fn within(&self, d: usize, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
-        if self.bounds().min_dist2(q, scales) >= r2 {
+    fn within(&self, q: &[f64], metric: &Metric, r2: f64, out: &mut Vec<(usize, f64)>) {
+        if self.bounds().min_dist2(q, metric) >= r2 {
             return;
         }
         match self {
-            Node::Leaf { indices, coords, .. } => {
-                for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
-                    let d2 = dist2(x, q, scales);
-                    if d2 < r2 {
-                        out.push((i, d2));
-                    }
-                }
-            }
+            Node::Leaf { indices, coords, .. } => scan_leaf(indices, coords, q, metric, r2, out),
             Node::Inner { left, right, .. } => {
-                left.within(d, q, scales, r2, out);
-                right.within(d, q, scales, r2, out);
+                left.within(q, metric, r2, out);
+                right.within(q, metric, r2, out);
             }
         }
     }
@@ -296,45 +285,31 @@ impl Node {
         }
     }
 
-    fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
-        if self.bounds().min_dist2_box(lo, hi, scales) >= r2 {
+    fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], metric: &Metric, r2: f64, out: &mut Vec<usize>) {
+        if self.bounds().min_dist2_box(lo, hi, metric) >= r2 {
             return;
         }
         match self {
             Node::Leaf { indices, coords, .. } => {
-                let point_box = |x: &[f64]| {
-                    let mut s = 0.0;
-                    for j in 0..d {
-                        let gap = if x[j] < lo[j] {
-                            lo[j] - x[j]
-                        } else if x[j] > hi[j] {
-                            x[j] - hi[j]
-                        } else {
-                            0.0
-                        };
-                        let t = scales[j] * gap;
-                        s += t * t;
-                    }
-                    s
-                };
                 for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
-                    if point_box(x) < r2 {
+                    // offsets x - q over the queries q in [lo, hi]
+                    if metric.min_dist2_with(d, |j| (x[j] - hi[j], x[j] - lo[j])) < r2 {
                         out.push(i);
                     }
                 }
             }
             Node::Inner { left, right, .. } => {
-                left.within_box(d, lo, hi, scales, r2, out);
-                right.within_box(d, lo, hi, scales, r2, out);
+                left.within_box(d, lo, hi, metric, r2, out);
+                right.within_box(d, lo, hi, metric, r2, out);
             }
         }
     }
 
-    fn nearest(&self, d: usize, q: &[f64], scales: &[f64], k: usize, heap: &mut BinaryHeap<Candidate>) {
+    fn nearest(&self, d: usize, q: &[f64], metric: &Metric, k: usize, heap: &mut BinaryHeap<Candidate>) {
         match self {
             Node::Leaf { indices, coords, .. } => {
                 for (&i, x) in indices.iter().zip(coords.chunks_exact(d)) {
-                    let d2 = dist2(x, q, scales);
+                    let d2 = metric.dist2(x, q);
                     if heap.len() < k {
                         heap.push(Candidate { d2, index: i });
                     } else if heap.peek().is_some_and(|w| d2 < w.d2) {
@@ -344,8 +319,8 @@ impl Node {
                 }
             }
             Node::Inner { left, right, .. } => {
-                let dl = left.bounds().min_dist2(q, scales);
-                let dr = right.bounds().min_dist2(q, scales);
+                let dl = left.bounds().min_dist2(q, metric);
+                let dr = right.bounds().min_dist2(q, metric);
                 let (first, df, second, ds) = if dl <= dr {
                     (left, dl, right, dr)
                 } else {
@@ -358,7 +333,7 @@ impl Node {
                         heap.peek().map_or(f64::INFINITY, |w| w.d2)
                     };
                     if dc < worst {
-                        child.nearest(d, q, scales, k, heap);
+                        child.nearest(d, q, metric, k, heap);
                     }
                 }
             }
@@ -430,17 +405,17 @@ impl KdTree {
     }
 
     /// Appends `(index, d^2)` for every point with `d^2 < r2`.
-    pub(crate) fn within(&self, d: usize, q: &[f64], scales: &[f64], r2: f64, out: &mut Vec<(usize, f64)>) {
+    pub(crate) fn within(&self, q: &[f64], metric: &Metric, r2: f64, out: &mut Vec<(usize, f64)>) {
         if let Some(root) = &self.root {
-            root.within(d, q, scales, r2, out);
+            root.within(q, metric, r2, out);
         }
     }
 
     /// The `k` nearest points as `(index, d^2)`, nearest first.
-    pub(crate) fn nearest(&self, d: usize, q: &[f64], scales: &[f64], k: usize) -> Vec<(usize, f64)> {
+    pub(crate) fn nearest(&self, d: usize, q: &[f64], metric: &Metric, k: usize) -> Vec<(usize, f64)> {
         let mut heap = BinaryHeap::with_capacity(k + 1);
         if let (Some(root), true) = (&self.root, k > 0) {
-            root.nearest(d, q, scales, k, &mut heap);
+            root.nearest(d, q, metric, k, &mut heap);
         }
         heap.into_sorted_vec().into_iter().map(|c| (c.index, c.d2)).collect()
     }
@@ -459,9 +434,9 @@ impl KdTree {
     /// $\sqrt{r_2}$ of any query in the box. The box distance of a point is
     /// at most its distance to any query in the box also in floating point
     /// (rounding is monotone), so no neighbour of such a query is missed.
-    pub(crate) fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], scales: &[f64], r2: f64, out: &mut Vec<usize>) {
+    pub(crate) fn within_box(&self, d: usize, lo: &[f64], hi: &[f64], metric: &Metric, r2: f64, out: &mut Vec<usize>) {
         if let Some(root) = &self.root {
-            root.within_box(d, lo, hi, scales, r2, out);
+            root.within_box(d, lo, hi, metric, r2, out);
         }
     }
 
@@ -474,6 +449,7 @@ impl KdTree {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::metric::FullMetric;
 
     fn lcg(seed: &mut u64) -> f64 {
         *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -495,7 +471,7 @@ mod tests {
         let balanced = KdTree::build(&points, d).depth();
         assert!(tree.depth() <= balanced + 8, "depth {} vs {balanced}", tree.depth());
         let mut out = Vec::new();
-        tree.within(d, &[100.0], &[1.0], 2.5 * 2.5, &mut out);
+        tree.within(&[100.0], &Metric::Diagonal(vec![1.0]), 2.5 * 2.5, &mut out);
         out.sort_by_key(|p| p.0);
         let idx: Vec<usize> = out.iter().map(|p| p.0).collect();
         assert_eq!(idx, vec![98, 99, 100, 101, 102]);
@@ -510,7 +486,7 @@ mod tests {
             tree.insert(i, &points, d);
         }
         assert_eq!(tree.depth(), 1);
-        let near = tree.nearest(d, &[0.0, 0.0], &[1.0, 1.0], 3);
+        let near = tree.nearest(d, &[0.0, 0.0], &Metric::Diagonal(vec![1.0, 1.0]), 3);
         assert_eq!(near.len(), 3);
     }
 
@@ -522,16 +498,22 @@ mod tests {
         // a coarse grid with duplicates and a zero scale: ties at the radius
         let points: Vec<f64> = (0..n * d).map(|_| (lcg(&mut seed) * 8.0).floor() / 8.0).collect();
         let tree = KdTree::build(&points, d);
-        let scales = [1.0, 0.0, 2.0];
-        for r2 in [0.0, 0.125 * 0.125, 0.25 * 0.25, 1.0] {
-            for leaf in tree.leaves() {
-                let mut cands = Vec::new();
-                tree.within_box(d, leaf.lo, leaf.hi, &scales, r2, &mut cands);
-                cands.sort_unstable();
-                for q in leaf.coords.chunks_exact(d) {
-                    for i in 0..n {
-                        if dist2(&points[i * d..(i + 1) * d], q, &scales) < r2 {
-                            assert!(cands.binary_search(&i).is_ok(), "point {i} missed at r2 {r2}");
+        // a diagonal metric with a zero scale, and a full one of rank 2
+        let rotation = [0.6, 0.8, 0.0, -0.8, 0.6, 0.0, 0.3, 0.0, 0.5];
+        for metric in [
+            Metric::Diagonal(vec![1.0, 0.0, 2.0]),
+            Metric::Full(FullMetric::new(&[1.0, 2.0, 0.0], &rotation)),
+        ] {
+            for r2 in [0.0, 0.125 * 0.125, 0.25 * 0.25, 1.0] {
+                for leaf in tree.leaves() {
+                    let mut cands = Vec::new();
+                    tree.within_box(d, leaf.lo, leaf.hi, &metric, r2, &mut cands);
+                    cands.sort_unstable();
+                    for q in leaf.coords.chunks_exact(d) {
+                        for i in 0..n {
+                            if metric.dist2(&points[i * d..(i + 1) * d], q) < r2 {
+                                assert!(cands.binary_search(&i).is_ok(), "point {i} missed at r2 {r2}");
+                            }
                         }
                     }
                 }
@@ -550,14 +532,56 @@ mod tests {
         for i in 0..1000 {
             tree.insert(i, &points, d);
         }
-        let scales = [1.0, 0.0, 2.0];
         let q = [0.3, 0.9, 0.5];
-        let got = tree.nearest(d, &q, &scales, 10);
-        let mut all: Vec<f64> = (0..1000)
-            .map(|i| dist2(&points[i * d..(i + 1) * d], &q, &scales))
-            .collect();
-        all.sort_by(f64::total_cmp);
-        let got_d: Vec<f64> = got.iter().map(|p| p.1).collect();
-        assert_eq!(got_d, all[..10].to_vec());
+        let matrix = [1.0, 2.0, 0.5, -0.3, 1.0, 0.0, 0.2, 0.1, 3.0];
+        for metric in [
+            Metric::Diagonal(vec![1.0, 0.0, 2.0]),
+            Metric::Full(FullMetric::new(&[1.0, 0.5, 2.0], &matrix)),
+            Metric::Full(FullMetric::new(&[1.0, 0.0, 2.0], &matrix)),
+        ] {
+            let got = tree.nearest(d, &q, &metric, 10);
+            let mut all: Vec<f64> = (0..1000)
+                .map(|i| metric.dist2(&points[i * d..(i + 1) * d], &q))
+                .collect();
+            all.sort_by(f64::total_cmp);
+            let got_d: Vec<f64> = got.iter().map(|p| p.1).collect();
+            assert_eq!(got_d, all[..10].to_vec());
+        }
+    }
+
+    #[test]
+    fn full_metric_radius_queries_match_brute_force() {
+        let mut seed = 21;
+        for d in [2, 3, 5] {
+            let n = 1500;
+            let points: Vec<f64> = (0..n * d).map(|_| lcg(&mut seed)).collect();
+            let tree = KdTree::build(&points, d);
+            for trial in 0..6 {
+                let matrix: Vec<f64> = (0..d * d).map(|_| 2.0 * lcg(&mut seed) - 1.0).collect();
+                // trial 0..2 full rank, then a zero scale (singular A)
+                let scales: Vec<f64> = (0..d)
+                    .map(|j| {
+                        if trial >= 3 && j == 1 {
+                            0.0
+                        } else {
+                            0.5 + lcg(&mut seed)
+                        }
+                    })
+                    .collect();
+                let metric = Metric::Full(FullMetric::new(&scales, &matrix));
+                for _ in 0..20 {
+                    let q: Vec<f64> = (0..d).map(|_| lcg(&mut seed)).collect();
+                    let r2 = 0.3 * lcg(&mut seed);
+                    let mut got = Vec::new();
+                    tree.within(&q, &metric, r2, &mut got);
+                    got.sort_by_key(|p| p.0);
+                    let want: Vec<(usize, f64)> = (0..n)
+                        .map(|i| (i, metric.dist2(&points[i * d..(i + 1) * d], &q)))
+                        .filter(|p| p.1 < r2)
+                        .collect();
+                    assert_eq!(got, want, "d {d} trial {trial}");
+                }
+            }
+        }
     }
 }

@@ -3,7 +3,9 @@
 //!
 //! A [`LwrModel`] stores points $(x_i, y_i)$ and answers each query $q$ with
 //! a weighted least-squares fit around it. With the diagonal metric
-//! $d_i^2 = \sum_j m_j^2 (x_{ij} - q_j)^2$, kernel weights
+//! $d_i^2 = \sum_j m_j^2 (x_{ij} - q_j)^2$ (or the full metric
+//! $d_i = |\operatorname{diag}(m) M (x_i - q)|$ for a matrix $M$ given in
+//! [`LwrSettings::metric`]), kernel weights
 //! $k_i = K(d_i / h)$, design rows $z_i = [1, x_i - q]$ (or $z_i = 1$, or with
 //! the quadratic terms) and the ridge $\Lambda = \lambda\,\mathrm{diag}(0, 1, \dots, 1)$
 //! that leaves the intercept free:
@@ -20,11 +22,19 @@
 //! [`LwrModel::tune`] minimises them over $h$ and every $m_j$, down to
 //! $m_j = 0$ for an input the weights do not need (an irrelevant input, or
 //! one the local model already captures globally, such as a linear effect
-//! under a local linear fit).
+//! under a local linear fit). The search is exact by default; with
+//! [`TuneSettings::search_points`] it compares settings by the
+//! leave-one-out errors of a fixed subset of the points (much cheaper on
+//! large databases) and reports the full objective at its start and end.
 //!
 //! - [`Database`]: the points and a k-d tree with incremental inserts;
-//!   radius and k-nearest queries under the diagonal metric.
-//! - [`LwrSettings`], [`Kernel`], [`Degree`]: the checked settings of a fit.
+//!   radius and k-nearest queries under the diagonal metric. Fits under a
+//!   full metric search the same tree with a lower bound on the distance
+//!   to each node's box (exact pruning, then an exact distance filter).
+//! - [`LwrSettings`], [`Kernel`], [`Degree`]: the checked settings of a fit,
+//!   among them the metric: diagonal `scales`, optionally with a full
+//!   matrix `metric` $M$ (the scales then weigh the rows of $M$, so tuning
+//!   works along $M$'s axes; $M$ itself is not tuned).
 //! - [`LwrModel`], the model: [`predict`](LwrModel::predict),
 //!   [`predict_with_jacobian`](LwrModel::predict_with_jacobian) (exact
 //!   $\partial \hat y / \partial q$), [`predict_batch`](LwrModel::predict_batch) and
@@ -89,6 +99,7 @@ mod database;
 mod error;
 mod fit;
 mod kdtree;
+mod metric;
 mod model;
 mod settings;
 #[cfg(feature = "proptest")]

@@ -8,6 +8,7 @@ use statrs::distribution::{ContinuousCDF, Normal, StudentsT};
 use crate::database::{Database, DatabaseData};
 use crate::error::{LwrError, Result};
 use crate::fit::{LocalFit, Want, local_fit};
+use crate::metric::Metric;
 use crate::settings::LwrSettings;
 
 /// How much a [`Prediction`] can be trusted, from best to worst.
@@ -152,7 +153,9 @@ pub fn t_quantile(level: f64, dof: f64) -> f64 {
 #[serde(try_from = "ModelData", into = "ModelData")]
 pub struct LwrModel {
     settings: LwrSettings,
-    scales: Vec<f64>,
+    /// The distance of `settings`, with the products $A = \operatorname{diag}(m) M$
+    /// and $A^\top A$ of a full metric computed once.
+    metric: Metric,
     db: Database,
 }
 
@@ -188,8 +191,8 @@ impl LwrModel {
     /// A model over an existing database.
     pub fn from_database(db: Database, settings: LwrSettings) -> Result<Self> {
         settings.validate(db.n_inputs())?;
-        let scales = settings.scales_for(db.n_inputs());
-        Ok(Self { settings, scales, db })
+        let metric = Metric::of_settings(&settings, db.n_inputs());
+        Ok(Self { settings, metric, db })
     }
 
     /// The settings.
@@ -200,7 +203,7 @@ impl LwrModel {
     /// Replaces the settings (validated first; unchanged on error).
     pub fn set_settings(&mut self, settings: LwrSettings) -> Result<()> {
         settings.validate(self.db.n_inputs())?;
-        self.scales = settings.scales_for(self.db.n_inputs());
+        self.metric = Metric::of_settings(&settings, self.db.n_inputs());
         self.settings = settings;
         Ok(())
     }
@@ -230,9 +233,9 @@ impl LwrModel {
         self.db.insert_many(xs, ys)
     }
 
-    pub(crate) fn fit_with(&self, settings: &LwrSettings, scales: &[f64], q: &[f64], want: Want) -> Result<LocalFit> {
-        self.db.check_query(q, scales)?;
-        local_fit(&self.db, settings, scales, q, want)
+    pub(crate) fn fit_with(&self, settings: &LwrSettings, metric: &Metric, q: &[f64], want: Want) -> Result<LocalFit> {
+        self.db.check_point_query(q)?;
+        local_fit(&self.db, settings, metric, q, want)
     }
 
     /// The mean $\hat y(q)$ only (no confidence sums: the cheapest query).
@@ -249,7 +252,7 @@ impl LwrModel {
     /// # Ok::<(), lwr::LwrError>(())
     /// ```
     pub fn predict_mean(&self, q: &[f64]) -> Result<Vec<f64>> {
-        let fit = self.fit_with(&self.settings, &self.scales, q, Want::default())?;
+        let fit = self.fit_with(&self.settings, &self.metric, q, Want::default())?;
         Ok(fit.beta[..self.db.n_outputs()].to_vec())
     }
 
@@ -278,7 +281,7 @@ impl LwrModel {
             confidence: true,
             jacobian: false,
         };
-        let fit = self.fit_with(&self.settings, &self.scales, q, want)?;
+        let fit = self.fit_with(&self.settings, &self.metric, q, want)?;
         Ok(self.prediction(&fit))
     }
 
@@ -289,7 +292,9 @@ impl LwrModel {
     /// $b = \sum_i k_i z_i y_i^\top$ and $s = P e_0$, differentiating
     /// $A \beta = b$ gives
     /// $$\frac{\partial \hat y}{\partial q_j} = \sum_i \Big(\frac{\partial k_i}{\partial q_j} s^\top z_i + k_i s^\top \frac{\partial z_i}{\partial q_j}\Big) r_i^\top - k_i (s^\top z_i) \Big(\frac{\partial z_i}{\partial q_j}\Big)^\top \beta,$$
-    /// with $\partial k_i / \partial q_j = -\frac{K'(u_i)}{u_i} m_j^2 (x_{ij} - q_j) / h^2$
+    /// with $\partial k_i / \partial q_j = -\frac{K'(u_i)}{u_i} (G (x_i - q))_j / h^2$
+    /// for the metric $d_i^2 = (x_i - q)^\top G (x_i - q)$ ($G = \operatorname{diag}(m)^2$,
+    /// or $M^\top \operatorname{diag}(m)^2 M$ with a full metric),
     /// and $\partial z_i / \partial q_j$ from the centring of $z_i$ at $q$.
     /// For a local linear fit the last term is the local slope
     /// $\beta_{1+j}$; the others correct it for the weights moving with $q$.
@@ -321,7 +326,7 @@ impl LwrModel {
             confidence: true,
             jacobian: true,
         };
-        let fit = self.fit_with(&self.settings, &self.scales, q, want)?;
+        let fit = self.fit_with(&self.settings, &self.metric, q, want)?;
         let d = self.db.n_inputs();
         let jac = Mat::from_fn(self.db.n_outputs(), d, |o, j| fit.jacobian[o * d + j]);
         Ok((self.prediction(&fit), jac))

@@ -108,6 +108,7 @@ impl Degree {
 /// | `kernel` | `Gaussian` | | weighting kernel $K$ |
 /// | `bandwidth` | 1 | $> 0$ | $h$ in $k_i = K(d_i / h)$ |
 /// | `scales` | `[]` (all 1) | $m_j \ge 0$, length $d$ or empty | metric $d_i^2 = \sum_j m_j^2 (x_{ij} - q_j)^2$; $m_j = 0$ ignores input $j$ in the weights |
+/// | `metric` | `[]` (diagonal) | $M$, $d^2$ finite entries row-major, or empty | full metric $d_i = \lVert \operatorname{diag}(m) M (x_i - q) \rVert$ |
 /// | `degree` | `Linear` | | local constant, linear or quadratic model |
 /// | `ridge` | 0 | $\ge 0$ | $\lambda$ added to the diagonal of $Z^\top K Z$ except the intercept's |
 /// | `intercept_ridge` | 0 | $\ge 0$ | $\lambda_0$ added to the intercept's diagonal entry: shrinks the prediction towards 0 where the total weight $\sum_i k_i$ is not large against it (a prior mean of 0, e.g. for residuals of a global model) |
@@ -127,6 +128,15 @@ pub struct LwrSettings {
     pub bandwidth: f64,
     /// Metric scales $m_j \ge 0$, one per input; empty means all 1.
     pub scales: Vec<f64>,
+    /// Full metric matrix $M$, $d \times d$ row-major; empty (the default)
+    /// means the diagonal metric. When given, the distance is
+    /// $d(x, q) = |\operatorname{diag}(m) M (x - q)|$: the metric
+    /// $M^\top \operatorname{diag}(m)^2 M$, with the scales $m$ weighing the
+    /// rows of $M$ (the coordinates $M x$), so that [`LwrModel::tune`](crate::LwrModel::tune)
+    /// tunes them along $M$'s axes. Models saved before it existed load
+    /// with the diagonal metric.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub metric: Vec<f64>,
     /// Degree of the local polynomial.
     pub degree: Degree,
     /// Ridge $\lambda \ge 0$ on every coefficient but the intercept.
@@ -153,6 +163,7 @@ impl Default for LwrSettings {
             kernel: Kernel::Gaussian,
             bandwidth: 1.0,
             scales: Vec::new(),
+            metric: Vec::new(),
             degree: Degree::Linear,
             ridge: 0.0,
             intercept_ridge: 0.0,
@@ -188,6 +199,24 @@ impl LwrSettings {
             return Err(invalid(
                 "scales",
                 format!("scale {j} must be finite and nonnegative, got {}", self.scales[j]),
+            ));
+        }
+        if !self.metric.is_empty() && self.metric.len() != n_inputs * n_inputs {
+            return Err(LwrError::DimensionMismatch {
+                what: "metric matrix (n_inputs^2 entries, row-major)",
+                expected: n_inputs * n_inputs,
+                actual: self.metric.len(),
+            });
+        }
+        if let Some(t) = self.metric.iter().position(|v| !v.is_finite()) {
+            return Err(invalid(
+                "metric",
+                format!(
+                    "entry ({}, {}) must be finite, got {}",
+                    t / n_inputs,
+                    t % n_inputs,
+                    self.metric[t]
+                ),
             ));
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
@@ -289,6 +318,14 @@ mod tests {
             },
             LwrSettings {
                 ridge: -1.0,
+                ..ok.clone()
+            },
+            LwrSettings {
+                metric: vec![1.0, 0.0, 0.0],
+                ..ok.clone()
+            },
+            LwrSettings {
+                metric: vec![1.0, 0.0, f64::INFINITY, 1.0],
                 ..ok.clone()
             },
             LwrSettings {

@@ -286,3 +286,48 @@ fn stopping_early_leaves_tuning_unchanged() {
         );
     }
 }
+
+/// Searching over a subset of the leave-one-out points: the exact search
+/// when the subset is everything; otherwise the reported objectives are the
+/// full leave-one-out MSE at the start and at the result, never worse at
+/// the result, and the irrelevant input is still dropped.
+#[test]
+fn subset_search_reports_exact_objectives() {
+    let data = sample(irrelevant_input_data(2, 1, 800..801, 0.05), 11);
+    let m = data
+        .to_model(LwrSettings {
+            bandwidth: 0.3,
+            ..Default::default()
+        })
+        .expect("valid");
+    let tune = TuneSettings::default();
+    let exact = m.tune(&tune).expect("valid");
+    for all in [800, 5000] {
+        let same = m
+            .tune(&TuneSettings {
+                search_points: all,
+                ..tune.clone()
+            })
+            .expect("valid");
+        assert_eq!(same, exact);
+    }
+    let sub = m
+        .tune(&TuneSettings {
+            search_points: 200,
+            ..tune.clone()
+        })
+        .expect("valid");
+    let full_at = |s: &LwrSettings| m.loo_with(s).expect("valid").normalized_mse;
+    assert_eq!(sub.initial_objective, exact.initial_objective);
+    assert_eq!(sub.objective, full_at(&sub.settings));
+    assert!(sub.objective < sub.initial_objective);
+    // the subset's objectives are not the full ones
+    assert_ne!(sub.history[0].objective, sub.initial_objective);
+    let s = &sub.settings;
+    let eff: Vec<f64> = s.scales.iter().map(|m| m / s.bandwidth).collect();
+    assert!(eff[2] <= 0.05 * eff[0].min(eff[1]), "irrelevant scale kept: {eff:?}");
+    println!(
+        "exact search {:.5} in {} evals, subset search {:.5} in {} evals",
+        exact.objective, exact.evals, sub.objective, sub.evals
+    );
+}
