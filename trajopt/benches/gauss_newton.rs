@@ -1,6 +1,7 @@
 //! Criterion benchmarks of the sparse Gauss-Newton solver on the benchmark
 //! pendulum swing-up (`trajopt::problems`) over horizons: one iteration (to
-//! show linear growth with the horizon) and a full solve.
+//! show linear growth with the horizon; it includes the symbolic setup) and
+//! a full solve, Gauss-Newton and Newton (`second_order`).
 //!
 //! `cargo bench -p trajopt --bench gauss_newton`
 
@@ -18,6 +19,11 @@ fn gauss_newton(c: &mut Criterion) {
     })
     .expect("settings");
     let full = GaussNewton::new(GaussNewtonSettings::default()).expect("settings");
+    let newton = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })
+    .expect("settings");
     for horizon in [50, 150, 500, 1000, 5000, 20000] {
         let (problem, theta0) = pendulum_swingup(horizon, 1e2).expect("problem");
         group.throughput(Throughput::Elements(horizon as u64));
@@ -27,6 +33,11 @@ fn gauss_newton(c: &mut Criterion) {
         if horizon <= 1000 {
             group.bench_with_input(BenchmarkId::new("solve", horizon), &theta0, |b, t| {
                 b.iter(|| full.solve(&problem, black_box(t)).expect("solve"))
+            });
+        }
+        if horizon <= 5000 {
+            group.bench_with_input(BenchmarkId::new("solve_newton", horizon), &theta0, |b, t| {
+                b.iter(|| newton.solve(&problem, black_box(t)).expect("solve"))
             });
         }
     }

@@ -1,6 +1,7 @@
 //! Solves the benchmark pendulum swing-up (`trajopt::problems`) with
-//! Gauss-Newton at several horizons and prints one JSON object per line:
-//! horizon, seconds, iterations, evaluations, final cost and its parts.
+//! Gauss-Newton and with Newton steps (`second_order`) at several horizons
+//! and prints one JSON object per line and mode: horizon, seconds,
+//! iterations, evaluations, factorisations, final cost and its parts.
 //! `scripts/compare_trajopt.py` runs it beside scipy on the same problem.
 //!
 //! `cargo run --release -p trajopt --example eq3_timing -- [LAMBDA] [HORIZONS...]`
@@ -19,33 +20,44 @@ fn main() -> anyhow::Result<()> {
     } else {
         horizons
     };
-    let solver = GaussNewton::new(GaussNewtonSettings::default())?;
     for horizon in horizons {
-        let (problem, theta0) = pendulum_swingup(horizon, lambda)?;
-        // best of 3 (the machine may be shared)
-        let mut best = f64::INFINITY;
-        let mut result = None;
-        for _ in 0..3 {
-            let start = Instant::now();
-            let r = solver.solve(&problem, &theta0)?;
-            best = best.min(start.elapsed().as_secs_f64());
-            result = Some(r);
+        for (mode, second_order) in [("gauss_newton", false), ("newton", true)] {
+            run(horizon, lambda, mode, second_order)?;
         }
-        let r = result.ok_or_else(|| anyhow::anyhow!("no run"))?;
-        let parts = problem.cost_breakdown(&r.theta)?;
-        println!(
-            "{{\"horizon\": {horizon}, \"lambda\": {lambda:e}, \"params\": {}, \"residuals\": {}, \"seconds\": {best:e}, \"iterations\": {}, \"residual_evals\": {}, \"status\": \"{:?}\", \"cost\": {:e}, \"initial_cost\": {:e}, \"task\": {:e}, \"inconsistency\": {:e}, \"max_mismatch\": {:e}}}",
-            problem.n_params(),
-            problem.n_residuals(),
-            r.iterations,
-            r.residual_evals,
-            r.status,
-            r.cost,
-            r.initial_cost,
-            parts.task,
-            parts.inconsistency,
-            parts.max_mismatch
-        );
     }
+    Ok(())
+}
+
+fn run(horizon: usize, lambda: f64, mode: &str, second_order: bool) -> anyhow::Result<()> {
+    let solver = GaussNewton::new(GaussNewtonSettings {
+        second_order,
+        ..GaussNewtonSettings::default()
+    })?;
+    let (problem, theta0) = pendulum_swingup(horizon, lambda)?;
+    // best of 5 (the machine may be shared)
+    let mut best = f64::INFINITY;
+    let mut result = None;
+    for _ in 0..5 {
+        let start = Instant::now();
+        let r = solver.solve(&problem, &theta0)?;
+        best = best.min(start.elapsed().as_secs_f64());
+        result = Some(r);
+    }
+    let r = result.ok_or_else(|| anyhow::anyhow!("no run"))?;
+    let parts = problem.cost_breakdown(&r.theta)?;
+    println!(
+        "{{\"horizon\": {horizon}, \"mode\": \"{mode}\", \"lambda\": {lambda:e}, \"params\": {}, \"residuals\": {}, \"seconds\": {best:e}, \"iterations\": {}, \"residual_evals\": {}, \"factorizations\": {}, \"status\": \"{:?}\", \"cost\": {:e}, \"initial_cost\": {:e}, \"task\": {:e}, \"inconsistency\": {:e}, \"max_mismatch\": {:e}}}",
+        problem.n_params(),
+        problem.n_residuals(),
+        r.iterations,
+        r.residual_evals,
+        r.factorizations,
+        r.status,
+        r.cost,
+        r.initial_cost,
+        parts.task,
+        parts.inconsistency,
+        parts.max_mismatch
+    );
     Ok(())
 }

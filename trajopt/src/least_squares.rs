@@ -1,6 +1,6 @@
 //! Nonlinear least-squares problems with a sparse Jacobian of fixed pattern.
 
-use faer::sparse::SymbolicSparseRowMat;
+use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
 
 use crate::error::Result;
 
@@ -31,6 +31,23 @@ pub trait LeastSquaresProblem {
     /// (none by default).
     fn bounds(&self) -> Option<&LinearBounds> {
         None
+    }
+
+    /// The pattern (both triangles, compressed columns, sorted rows) of the
+    /// second-order term $S(\theta) = \sum_i r_i \nabla^2 r_i$ of the Hessian
+    /// $\nabla^2 F = 2 (J^\top J + S)$, if the problem can evaluate it (none
+    /// by default: Gauss-Newton drops $S$).
+    fn second_order_pattern(&self) -> Option<SymbolicSparseColMat<usize>> {
+        None
+    }
+
+    /// Writes the values of $S(\theta)$ for the residuals `r` $= r(\theta)$
+    /// in the order of [`second_order_pattern`](Self::second_order_pattern)
+    /// and returns `true`, or returns `false` when it is not available at
+    /// this point (the default).
+    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        let _ = (theta, r, values);
+        Ok(false)
     }
 }
 

@@ -13,6 +13,10 @@
 //!   and inconsistency ([`CostBreakdown`]).
 //! - [`GaussNewton`]: sparse Gauss-Newton / Levenberg-Marquardt; $J^\top J$ and
 //!   its symbolic Cholesky factorisation (faer) are structured once and reused.
+//!   With [`GaussNewtonSettings::second_order`] and a model that gives its
+//!   second derivatives ([`Model::weighted_hessian`]), it takes safeguarded
+//!   Newton steps instead, which converge quadratically on Eq. 3's
+//!   large-residual problems.
 //! - [`powell`]: Powell's derivative-free method, the paper's solver, also an
 //!   argmin `Solver`.
 //! - [`problems`]: a shared benchmark set (the soft-dynamics pendulum swing-up

@@ -61,6 +61,12 @@ impl Model for LinearModel {
         }
     }
 
+    /// The model is linear: zero.
+    fn weighted_hessian(&self, _x: &[f64], _u: &[f64], _w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        hess.fill(0.0);
+        Ok(true)
+    }
+
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
         let (n, m) = (x.len(), u.len());
         for i in 0..n {

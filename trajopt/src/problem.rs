@@ -18,7 +18,7 @@
 //! each coefficient matrix column by column (channel by channel).
 
 use faer::Mat;
-use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
+use faer::sparse::{SparseRowMat, SymbolicSparseColMat, SymbolicSparseRowMat};
 use splines::TrajectoryBasis;
 
 use crate::error::{Result, TrajoptError, check_finite};
@@ -53,6 +53,19 @@ pub trait Model {
         fu.fill(true);
     }
 
+    /// Writes the weighted second derivative
+    /// $\sum_i w_i \nabla^2 f_i(z)$ over $z = (x, u)$, an $(n+m) \times (n+m)$
+    /// symmetric matrix, row-major, and returns `true`; or returns `false`
+    /// (the default) when the model has no second derivatives. With them,
+    /// [`GaussNewton`](crate::GaussNewton) can take exact Newton steps
+    /// ([`GaussNewtonSettings::second_order`](crate::GaussNewtonSettings::second_order)).
+    /// Its nonzeros must lie where some row $i$ of the
+    /// [Jacobian structure](Self::jacobian_structure) has both entries.
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        let _ = (x, u, w, hess);
+        Ok(false)
+    }
+
     /// The model's confidence at $(x, u)$, if it has one (a learned model's
     /// support or inverse variance); used by [`Lambda::from_confidence`].
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
@@ -84,6 +97,10 @@ impl<M: Model + ?Sized> Model for &M {
         (**self).jacobian_structure(fx, fu)
     }
 
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        (**self).weighted_hessian(x, u, w, hess)
+    }
+
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
         (**self).confidence(x, u)
     }
@@ -108,6 +125,17 @@ pub trait StageCost {
     fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
         jx.fill(true);
         ju.fill(true);
+    }
+
+    /// Writes $\sum_a w_a \nabla^2 r^c_{k,a}$ over $z = (x, u)$ (at the
+    /// terminal stage over $x$ alone), row-major, and returns `true`; or
+    /// returns `false` (the default) when the cost has no second
+    /// derivatives (then [`GaussNewton`](crate::GaussNewton) keeps to
+    /// Gauss-Newton steps). Nonzeros only where some residual's
+    /// [Jacobian structure](Self::jacobian_structure) has both entries.
+    fn weighted_hessian(&self, k: usize, x: &[f64], u: Option<&[f64]>, w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        let _ = (k, x, u, w, hess);
+        Ok(false)
     }
 }
 
@@ -204,6 +232,19 @@ impl StageCost for TrackingCost {
         for j in 0..m {
             ju[(n + j) * m + j] = true;
         }
+    }
+
+    /// The residuals are linear: zero.
+    fn weighted_hessian(
+        &self,
+        _k: usize,
+        _x: &[f64],
+        _u: Option<&[f64]>,
+        _w: &[f64],
+        hess: &mut [f64],
+    ) -> Result<bool> {
+        hess.fill(0.0);
+        Ok(true)
     }
 
     fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()> {
@@ -305,6 +346,11 @@ pub struct Eq3Problem<M, C> {
     scale: f64,
     initial_state: Option<(Vec<f64>, f64)>,
     pattern: SymbolicSparseRowMat<usize>,
+    /// Position in the Jacobian's values of each term of `for_each_term`.
+    jacobian_slots: Vec<usize>,
+    /// Pattern of the second-order term (both triangles, by columns), built
+    /// on first use (only the Newton mode needs it).
+    hessian_pattern: std::sync::OnceLock<SymbolicSparseColMat<usize>>,
     bounds: Option<LinearBounds>,
 }
 
@@ -379,9 +425,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             scale: 1.0,
             initial_state: None,
             pattern: SymbolicSparseRowMat::new_checked(0, 0, vec![0], None, vec![]),
+            jacobian_slots: Vec::new(),
+            hessian_pattern: std::sync::OnceLock::new(),
             bounds: None,
         };
-        problem.pattern = problem.build_pattern();
+        problem.rebuild_patterns();
         Ok(problem)
     }
 
@@ -409,7 +457,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             });
         }
         self.initial_state = Some((x0.to_vec(), weight));
-        self.pattern = self.build_pattern();
+        self.rebuild_patterns();
         Ok(self)
     }
 
@@ -514,7 +562,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     /// ```
     pub fn set_lambda(&mut self, lambda: Lambda) -> Result<()> {
         self.lambda = lambda.resolve(self.horizon)?;
-        self.pattern = self.build_pattern();
+        self.rebuild_patterns();
         Ok(())
     }
 
@@ -654,33 +702,310 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         cols.iter().zip(vals).map(move |(&j, &v)| (off + channel * ncu + j, v))
     }
 
-    /// Calls `emit(row, entries)` for every Jacobian row with its (column,
-    /// value) terms (columns may repeat: the caller sums them), given the
-    /// local derivatives. `local(k)` returns (cost jx, cost ju, fx, fu) at step k.
-    fn for_each_row(
-        &self,
-        mut local: impl FnMut(usize) -> Result<LocalDerivatives>,
-        mut emit: impl FnMut(usize, &mut Vec<(usize, f64)>),
-    ) -> Result<()> {
+    fn rebuild_patterns(&mut self) {
+        self.pattern = self.build_pattern();
+        self.jacobian_slots = self.build_jacobian_slots();
+        self.hessian_pattern = std::sync::OnceLock::new();
+    }
+
+    /// Which pairs of local variables $z = (x_k, u_k)$ the second
+    /// derivatives can couple: (stage, terminal stage, model), row-major
+    /// boolean matrices of sides $n+m$, $n$, $n+m$. A second derivative
+    /// $\partial^2 r / \partial z_a \partial z_b$ can be nonzero only if $r$
+    /// depends on both $z_a$ and $z_b$, so the Jacobian structures give them.
+    fn local_hessian_structure(&self) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
         let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
-        let mut entries = Vec::new();
-        let mut row = 0;
-        for k in 0..=self.horizon {
-            let d = local(k)?;
-            let terminal = k == self.horizon;
-            for a in 0..nc {
-                entries.clear();
-                for i in 0..n {
-                    let g = d.jx[a * n + i];
-                    entries.extend(self.state_cols(k, i).map(|(c, v)| (c, g * v)));
-                }
-                if !terminal {
-                    for j in 0..m {
-                        let g = d.ju[a * m + j];
-                        entries.extend(self.control_cols(k, j).map(|(c, v)| (c, g * v)));
+        let nz = n + m;
+        let (mut bx, mut bu) = (vec![false; nc * n], vec![false; nc * m]);
+        self.cost.jacobian_structure(&mut bx, &mut bu);
+        let (mut mx, mut mu) = (vec![false; n * n], vec![false; n * m]);
+        self.model.jacobian_structure(&mut mx, &mut mu);
+        let pairs = |rows: usize, jx: &[bool], ju: &[bool], dim: usize| {
+            let mut out = vec![false; dim * dim];
+            for a in 0..rows {
+                let z: Vec<usize> = (0..dim)
+                    .filter(|&c| if c < n { jx[a * n + c] } else { ju[a * m + c - n] })
+                    .collect();
+                for &i in &z {
+                    for &j in &z {
+                        out[i * dim + j] = true;
                     }
                 }
-                emit(row, &mut entries);
+            }
+            out
+        };
+        (pairs(nc, &bx, &bu, nz), pairs(nc, &bx, &bu, n), pairs(n, &mx, &mu, nz))
+    }
+
+    /// The coefficient columns (and basis values) of local variable `a` of
+    /// $z_k = (x_k, u_k)$.
+    fn local_cols(&self, k: usize, a: usize, out: &mut Vec<(usize, f64)>) {
+        out.clear();
+        if a < self.n {
+            out.extend(self.state_cols(k, a).filter(|e| e.1 != 0.0));
+        } else {
+            out.extend(self.control_cols(k, a - self.n).filter(|e| e.1 != 0.0));
+        }
+    }
+
+    /// The pattern of $S = \sum_i r_i \nabla^2 r_i$ over the coefficients:
+    /// $S = \sum_k \Phi_k^\top S_k \Phi_k$ with $S_k$ local to step $k$.
+    fn hessian_pattern(&self) -> &SymbolicSparseColMat<usize> {
+        self.hessian_pattern.get_or_init(|| self.build_hessian_pattern())
+    }
+
+    fn build_hessian_pattern(&self) -> SymbolicSparseColMat<usize> {
+        let (n, m) = (self.n, self.m);
+        let nz = n + m;
+        let (stage, terminal, model) = self.local_hessian_structure();
+        let n_p = self.n_params();
+        let mut columns: Vec<Vec<usize>> = vec![Vec::new(); n_p];
+        let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nz];
+        for k in 0..=self.horizon {
+            let dim = if k == self.horizon { n } else { nz };
+            for (a, c) in cols.iter_mut().enumerate().take(dim) {
+                self.local_cols(k, a, c);
+            }
+            for a in 0..dim {
+                for b in 0..dim {
+                    let coupled = if k == self.horizon {
+                        terminal[a * n + b]
+                    } else {
+                        stage[a * nz + b] || (self.lambda[k] > 0.0 && model[a * nz + b])
+                    };
+                    if !coupled {
+                        continue;
+                    }
+                    for &(cb, _) in &cols[b] {
+                        columns[cb].extend(cols[a].iter().map(|e| e.0));
+                    }
+                }
+            }
+        }
+        let mut col_ptr = vec![0];
+        let mut row_idx = Vec::new();
+        for mut c in columns {
+            c.sort_unstable();
+            c.dedup();
+            row_idx.extend(c);
+            col_ptr.push(row_idx.len());
+        }
+        SymbolicSparseColMat::new_checked(n_p, n_p, col_ptr, None, row_idx)
+    }
+
+    /// Writes $S(\theta)$ into the values of the Hessian pattern; `false`
+    /// if the model or the cost has no second derivatives.
+    fn hessian_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        expect_len("residuals", self.n_residuals(), r.len())?;
+        expect_len(
+            "second-order values",
+            self.hessian_pattern().row_idx().len(),
+            values.len(),
+        )?;
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let nz = n + m;
+        let (x, u) = self.sample(theta);
+        values.fill(0.0);
+        let (mut hz, mut hm, mut w) = (vec![0.0; nz * nz], vec![0.0; nz * nz], vec![0.0; n]);
+        let mut cols: Vec<Vec<(usize, f64)>> = vec![Vec::new(); nz];
+        let mut loaded = vec![false; nz];
+        let mut starts: Vec<((usize, usize, usize), Vec<usize>)> = vec![((usize::MAX, 0, 0), Vec::new()); nz * nz];
+        let pattern = self.hessian_pattern();
+        let mut row = 0;
+        for k in 0..=self.horizon {
+            let xk = &x[k * n..(k + 1) * n];
+            let terminal = k == self.horizon;
+            let dim = if terminal { n } else { nz };
+            hz.fill(0.0);
+            if terminal {
+                if !self
+                    .cost
+                    .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n])?
+                {
+                    return Ok(false);
+                }
+            } else {
+                let uk = &u[k * m..(k + 1) * m];
+                if !self
+                    .cost
+                    .weighted_hessian(k, xk, Some(uk), &r[row..row + nc], &mut hz)?
+                {
+                    return Ok(false);
+                }
+                row += nc;
+                if self.lambda[k] > 0.0 {
+                    // r = s sqrt(lambda) (x_{k+1} - f): its second derivative is -s sqrt(lambda) f''
+                    let ws = self.scale * self.lambda[k].sqrt();
+                    for (wi, ri) in w.iter_mut().zip(&r[row..row + n]) {
+                        *wi = -ws * ri;
+                    }
+                    hm.fill(0.0);
+                    if !self.model.weighted_hessian(xk, uk, &w, &mut hm)? {
+                        return Ok(false);
+                    }
+                    for (a, b) in hz.iter_mut().zip(&hm) {
+                        *a += b;
+                    }
+                }
+                row += n;
+            }
+            if terminal {
+                row += nc;
+            }
+            loaded.fill(false);
+            for a in 0..dim {
+                for b in 0..dim {
+                    let v = hz[a * dim + b];
+                    if v == 0.0 {
+                        continue;
+                    }
+                    if !v.is_finite() {
+                        return Err(TrajoptError::NotFinite {
+                            what: "second derivatives",
+                            index: a * dim + b,
+                            value: v,
+                        });
+                    }
+                    for c in [a, b] {
+                        if !loaded[c] {
+                            self.local_cols(k, c, &mut cols[c]);
+                            loaded[c] = true;
+                        }
+                    }
+                    let (Some(&(ca0, _)), Some(&(cb0, _))) = (cols[a].first(), cols[b].first()) else {
+                        continue;
+                    };
+                    // where cols[a][0] sits in each column of cols[b]: the same
+                    // for the steps that share their basis spans, so cached
+                    let cache = &mut starts[a * nz + b];
+                    if cache.0 != (ca0, cb0, cols[b].len()) {
+                        cache.0 = (ca0, cb0, cols[b].len());
+                        cache.1.clear();
+                        cache.1.extend(cols[b].iter().map(|&(cb, _)| {
+                            pattern.col_ptr()[cb] + pattern.row_idx_of_col_raw(cb).partition_point(|&i| i < ca0)
+                        }));
+                    }
+                    for (&(cb, vb), &first) in cols[b].iter().zip(&cache.1) {
+                        let end = pattern.col_ptr()[cb + 1];
+                        let rows = pattern.row_idx();
+                        // the columns of a increase: walk from the first
+                        let mut p = first;
+                        for &(ca, va) in &cols[a] {
+                            while p < end && rows[p] < ca {
+                                p += 1;
+                            }
+                            if p == end || rows[p] != ca {
+                                return Err(TrajoptError::InvalidParameter {
+                                    name: "model",
+                                    reason: format!(
+                                        "a second derivative at step {k} ({a}, {b}) lies outside the Jacobian structure"
+                                    ),
+                                });
+                            }
+                            values[p] += v * va * vb;
+                        }
+                    }
+                }
+            }
+        }
+        Ok(true)
+    }
+
+    fn build_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        let n_rows = self.n_residuals();
+        let mut row_ptr = vec![0];
+        let mut col_idx = Vec::new();
+        let mut entries: Vec<usize> = Vec::new();
+        let flush = |entries: &mut Vec<usize>, col_idx: &mut Vec<usize>, row_ptr: &mut Vec<usize>| {
+            entries.sort_unstable();
+            entries.dedup();
+            col_idx.append(entries);
+            row_ptr.push(col_idx.len());
+        };
+        // with unit local derivatives, a term is zero only where the
+        // structure, the fixed basis value or lambda_k = 0 makes it so
+        let result = self.for_each_term(
+            &self.local_structure(),
+            |_, d| {
+                for v in [&mut d.jx, &mut d.ju, &mut d.fx, &mut d.fu] {
+                    v.fill(1.0);
+                }
+                Ok(())
+            },
+            |row, c, v| {
+                while row_ptr.len() <= row {
+                    flush(&mut entries, &mut col_idx, &mut row_ptr);
+                }
+                if v != 0.0 {
+                    entries.push(c);
+                }
+            },
+        );
+        debug_assert!(result.is_ok());
+        while row_ptr.len() <= n_rows {
+            flush(&mut entries, &mut col_idx, &mut row_ptr);
+        }
+        SymbolicSparseRowMat::new_checked(n_rows, self.n_params(), row_ptr, None, col_idx)
+    }
+
+    /// Fills the local derivatives of cost and model at step `k`.
+    fn local_derivatives(&self, k: usize, x: &[f64], u: &[f64], d: &mut LocalDerivatives) -> Result<()> {
+        let (n, m) = (self.n, self.m);
+        let xk = &x[k * n..(k + 1) * n];
+        if k == self.horizon {
+            return self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju);
+        }
+        let uk = &u[k * m..(k + 1) * m];
+        self.cost.jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
+        if !self.model.jacobians(xk, uk, &mut d.fx, &mut d.fu)? {
+            central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
+        }
+        Ok(())
+    }
+
+    /// The structural nonzeros of the local derivatives.
+    fn local_structure(&self) -> LocalStructure {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (mut jx, mut ju) = (vec![false; nc * n], vec![false; nc * m]);
+        self.cost.jacobian_structure(&mut jx, &mut ju);
+        let (mut fx, mut fu) = (vec![false; n * n], vec![false; n * m]);
+        self.model.jacobian_structure(&mut fx, &mut fu);
+        LocalStructure { jx, ju, fx, fu }
+    }
+
+    /// Calls `term(row, column, value)` for every term of the Jacobian (a
+    /// column may repeat within a row: the terms add up), in an order that
+    /// depends only on the structure, not on $\theta$; `local(k, d)` fills
+    /// the local derivatives of step `k` first.
+    fn for_each_term(
+        &self,
+        st: &LocalStructure,
+        mut local: impl FnMut(usize, &mut LocalDerivatives) -> Result<()>,
+        mut term: impl FnMut(usize, usize, f64),
+    ) -> Result<()> {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let mut d = LocalDerivatives {
+            jx: vec![0.0; nc * n],
+            ju: vec![0.0; nc * m],
+            fx: vec![0.0; n * n],
+            fu: vec![0.0; n * m],
+        };
+        let mut row = 0;
+        for k in 0..=self.horizon {
+            local(k, &mut d)?;
+            let terminal = k == self.horizon;
+            for a in 0..nc {
+                for i in (0..n).filter(|&i| st.jx[a * n + i]) {
+                    let g = d.jx[a * n + i];
+                    self.state_cols(k, i).for_each(|(c, v)| term(row, c, g * v));
+                }
+                if !terminal {
+                    for j in (0..m).filter(|&j| st.ju[a * m + j]) {
+                        let g = d.ju[a * m + j];
+                        self.control_cols(k, j).for_each(|(c, v)| term(row, c, g * v));
+                    }
+                }
                 row += 1;
             }
             if terminal {
@@ -688,26 +1013,22 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             }
             let w = self.scale * self.lambda[k].sqrt();
             for i in 0..n {
-                entries.clear();
-                entries.extend(self.state_cols(k + 1, i).map(|(c, v)| (c, w * v)));
-                for c in 0..n {
+                self.state_cols(k + 1, i).for_each(|(c, v)| term(row, c, w * v));
+                for c in (0..n).filter(|&c| st.fx[i * n + c]) {
                     let g = -w * d.fx[i * n + c];
-                    entries.extend(self.state_cols(k, c).map(|(col, v)| (col, g * v)));
+                    self.state_cols(k, c).for_each(|(col, v)| term(row, col, g * v));
                 }
-                for j in 0..m {
+                for j in (0..m).filter(|&j| st.fu[i * m + j]) {
                     let g = -w * d.fu[i * m + j];
-                    entries.extend(self.control_cols(k, j).map(|(col, v)| (col, g * v)));
+                    self.control_cols(k, j).for_each(|(col, v)| term(row, col, g * v));
                 }
-                emit(row, &mut entries);
                 row += 1;
             }
         }
         if let Some((_, w0)) = &self.initial_state {
             let w = w0.sqrt();
             for i in 0..n {
-                entries.clear();
-                entries.extend(self.state_cols(0, i).map(|(c, v)| (c, w * v)));
-                emit(row, &mut entries);
+                self.state_cols(0, i).for_each(|(c, v)| term(row, c, w * v));
                 row += 1;
             }
         }
@@ -715,59 +1036,31 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         Ok(())
     }
 
-    fn build_pattern(&self) -> SymbolicSparseRowMat<usize> {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
-        // structural nonzeros of the local derivatives as ones
-        let (mut bx, mut bu) = (vec![false; nc * n], vec![false; nc * m]);
-        self.cost.jacobian_structure(&mut bx, &mut bu);
-        let (mut mx, mut mu) = (vec![false; n * n], vec![false; n * m]);
-        self.model.jacobian_structure(&mut mx, &mut mu);
-        let one = |b: Vec<bool>| b.into_iter().map(|v| if v { 1.0 } else { 0.0 }).collect();
-        let ones = LocalDerivatives {
-            jx: one(bx),
-            ju: one(bu),
-            fx: one(mx),
-            fu: one(mu),
-        };
-        let mut row_ptr = vec![0];
-        let mut col_idx = Vec::new();
-        let result = self.for_each_row(
-            |_| Ok(ones.clone()),
-            |_, entries| {
-                // with unit weights, an entry is zero only where the structure
-                // (or the fixed basis value, or lambda_k = 0) makes it so
-                entries.retain(|e| e.1 != 0.0);
-                entries.sort_unstable_by_key(|e| e.0);
-                entries.dedup_by_key(|e| e.0);
-                col_idx.extend(entries.iter().map(|e| e.0));
-                row_ptr.push(col_idx.len());
+    /// Where each term of [`for_each_term`](Self::for_each_term) goes in
+    /// the Jacobian's values (`usize::MAX`: a structural zero, dropped).
+    fn build_jacobian_slots(&self) -> Vec<usize> {
+        let row_ptr = self.pattern.row_ptr();
+        let col_idx = self.pattern.col_idx();
+        let mut slots = Vec::new();
+        let result = self.for_each_term(
+            &self.local_structure(),
+            |_, _| Ok(()),
+            |row, c, _| {
+                let (start, end) = (row_ptr[row], row_ptr[row + 1]);
+                slots.push(col_idx[start..end].binary_search(&c).map_or(usize::MAX, |p| start + p));
             },
         );
         debug_assert!(result.is_ok());
-        SymbolicSparseRowMat::new_checked(self.n_residuals(), self.n_params(), row_ptr, None, col_idx)
+        slots
     }
+}
 
-    /// Local derivatives of cost and model at step `k`.
-    fn local_derivatives(&self, k: usize, x: &[f64], u: &[f64]) -> Result<LocalDerivatives> {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
-        let xk = &x[k * n..(k + 1) * n];
-        let mut d = LocalDerivatives {
-            jx: vec![0.0; nc * n],
-            ju: vec![0.0; nc * m],
-            fx: vec![0.0; n * n],
-            fu: vec![0.0; n * m],
-        };
-        if k == self.horizon {
-            self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju)?;
-            return Ok(d);
-        }
-        let uk = &u[k * m..(k + 1) * m];
-        self.cost.jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
-        if !self.model.jacobians(xk, uk, &mut d.fx, &mut d.fu)? {
-            central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
-        }
-        Ok(d)
-    }
+/// Which local derivatives can be nonzero (see [`LocalDerivatives`]).
+struct LocalStructure {
+    jx: Vec<bool>,
+    ju: Vec<bool>,
+    fx: Vec<bool>,
+    fu: Vec<bool>,
 }
 
 #[derive(Clone)]
@@ -857,24 +1150,29 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         self.bounds.as_ref()
     }
 
+    fn second_order_pattern(&self) -> Option<SymbolicSparseColMat<usize>> {
+        Some(self.hessian_pattern().clone())
+    }
+
+    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        self.hessian_values(theta, r, values)
+    }
+
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("jacobian values", self.pattern.col_idx().len(), values.len())?;
         let (x, u) = self.sample(theta);
-        let row_ptr = self.pattern.row_ptr();
-        let col_idx = self.pattern.col_idx();
-        self.for_each_row(
-            |k| self.local_derivatives(k, &x, &u),
-            |row, entries| {
-                let (start, end) = (row_ptr[row], row_ptr[row + 1]);
-                let out = &mut values[start..end];
-                out.fill(0.0);
-                let cols = &col_idx[start..end];
-                for &(c, v) in entries.iter() {
-                    // columns are sorted: binary search the slot
-                    if let Ok(p) = cols.binary_search(&c) {
-                        out[p] += v;
-                    }
+        values.fill(0.0);
+        let slots = &self.jacobian_slots;
+        let mut t = 0;
+        self.for_each_term(
+            &self.local_structure(),
+            |k, d| self.local_derivatives(k, &x, &u, d),
+            |_, _, v| {
+                let slot = slots[t];
+                t += 1;
+                if slot != usize::MAX {
+                    values[slot] += v;
                 }
             },
         )

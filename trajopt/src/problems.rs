@@ -94,6 +94,23 @@ impl Model for Pendulum {
         fu[3] = dt;
         Ok(true)
     }
+
+    /// Only the pendulum's acceleration is nonlinear, in $\theta$ and $u$:
+    /// $f_1 = \omega + \Delta t\,a$, $f_0 = \theta + \Delta t f_1$, so the
+    /// weighted second derivative is $(w_0 \Delta t^2 + w_1 \Delta t) \nabla^2 a$
+    /// with $a_{\theta\theta} = (g/l)\sin\theta + (u/l)\cos\theta$,
+    /// $a_{\theta u} = \sin\theta / l$.
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        let (g, l, dt) = (self.gravity, self.length, self.dt);
+        let c = w[0] * dt * dt + w[1] * dt;
+        let (s, co) = x[0].sin_cos();
+        hess.fill(0.0);
+        // z = (theta, omega, x, v, u), 5 x 5 row-major
+        hess[0] = c * ((g / l) * s + (u[0] / l) * co);
+        hess[4] = c * s / l;
+        hess[20] = hess[4];
+        Ok(true)
+    }
 }
 
 /// The reference of the swing-up task at step `k` of `horizon`: $\theta$
@@ -194,6 +211,49 @@ mod tests {
                 let fd = (a[i] - b[i]) / (2.0 * h);
                 let an = if c < 4 { fx[i * 4 + c] } else { fu[i] };
                 assert!((fd - an).abs() < 1e-7, "d f{i} / d z{c}: {an} vs {fd}");
+            }
+        }
+    }
+
+    #[test]
+    fn pendulum_weighted_hessian_matches_differences_of_the_jacobians() {
+        let p = Pendulum::default();
+        let (x, u, w) = ([0.7, -1.3, 0.2, 0.4], [2.5], [0.3, -1.7, 0.9, 2.0]);
+        let mut hess = vec![0.0; 25];
+        assert!(p.weighted_hessian(&x, &u, &w, &mut hess).expect("ok"));
+        // d/dz_c of sum_i w_i df_i/dz_a, by central differences of the exact Jacobians
+        let h = 1e-6;
+        let weighted_gradient = |x: &[f64; 4], u: &[f64; 1]| {
+            let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
+            p.jacobians(x, u, &mut fx, &mut fu).expect("ok");
+            let mut g = [0.0; 5];
+            for i in 0..4 {
+                for a in 0..4 {
+                    g[a] += w[i] * fx[i * 4 + a];
+                }
+                g[4] += w[i] * fu[i];
+            }
+            g
+        };
+        for c in 0..5 {
+            let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
+            if c < 4 {
+                xp[c] += h;
+                xm[c] -= h;
+            } else {
+                up[0] += h;
+                um[0] -= h;
+            }
+            let (gp, gm) = (weighted_gradient(&xp, &up), weighted_gradient(&xm, &um));
+            for a in 0..5 {
+                let fd = (gp[a] - gm[a]) / (2.0 * h);
+                let an = hess[a * 5 + c];
+                assert!((fd - an).abs() < 1e-7, "d2 / dz{a} dz{c}: {an} vs {fd}");
+            }
+        }
+        for a in 0..5 {
+            for c in 0..5 {
+                assert_eq!(hess[a * 5 + c], hess[c * 5 + a]);
             }
         }
     }

@@ -8,7 +8,8 @@ use faer::sparse::SparseColMat;
 use crate::least_squares::LinearBounds;
 
 /// $\arg\min_\delta\, g^\top \delta + \tfrac12 \delta^\top H \delta$ subject to
-/// $\ell \le A(\theta + \delta) \le u$; `h` holds both triangles. `None` if
+/// $\ell \le A(\theta + \delta) \le u$; `h` holds the upper triangle (any
+/// entries below the diagonal are ignored). `None` if
 /// the QP could not be solved.
 pub(crate) fn bounded_step(
     h: &SparseColMat<usize, f64>,

@@ -1,0 +1,288 @@
+//! The exact second-order term of Eq. 3 and the Newton mode of the solver.
+
+use faer::prelude::*;
+use faer::sparse::{SparseColMat, SparseRowMat};
+use faer::{Mat, Side};
+use proptest::prelude::*;
+use trajopt::problems::{Pendulum, pendulum_swingup};
+use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, LeastSquaresProblem, Model, Result, TrackingCost};
+
+/// $g(\theta) = J^\top r$.
+fn gradient<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Vec<f64> {
+    let mut r = vec![0.0; p.n_residuals()];
+    p.residuals(theta, &mut r).expect("residuals");
+    let pattern = p.jacobian_pattern();
+    let mut values = vec![0.0; pattern.col_idx().len()];
+    p.jacobian_values(theta, &mut values).expect("jacobian");
+    let j = SparseRowMat::new(pattern, values).to_dense();
+    (0..p.n_params())
+        .map(|c| (0..p.n_residuals()).map(|i| j[(i, c)] * r[i]).sum())
+        .collect()
+}
+
+fn dense_second_order<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Mat<f64> {
+    let mut r = vec![0.0; p.n_residuals()];
+    p.residuals(theta, &mut r).expect("residuals");
+    let pattern = p.second_order_pattern().expect("a second-order pattern");
+    let mut values = vec![0.0; pattern.row_idx().len()];
+    assert!(p.second_order_values(theta, &r, &mut values).expect("second order"));
+    SparseColMat::new(pattern, values).to_dense()
+}
+
+fn dense_gauss_newton<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Mat<f64> {
+    let pattern = p.jacobian_pattern();
+    let mut values = vec![0.0; pattern.col_idx().len()];
+    p.jacobian_values(theta, &mut values).expect("jacobian");
+    let j = SparseRowMat::new(pattern, values).to_dense();
+    j.transpose() * &j
+}
+
+/// A point away from the optimum, where the residuals (and so $S$) are large.
+fn perturbed(theta0: &[f64], seed: f64) -> Vec<f64> {
+    theta0
+        .iter()
+        .enumerate()
+        .map(|(i, t)| t + 0.3 * ((i as f64 + seed) * 0.77).sin())
+        .collect()
+}
+
+#[test]
+fn second_order_term_equals_differences_of_the_gradient() -> Result<()> {
+    // d(J^T r)/d theta = J^T J + S: central differences of the exact gradient
+    let (p, theta0) = pendulum_swingup(60, 1e2)?;
+    let p = p.with_initial_state(&[0.1, 0.0, 0.0, 0.0], 50.0)?;
+    let theta = perturbed(&theta0, 1.0);
+    let s = dense_second_order(&p, &theta);
+    let jtj = dense_gauss_newton(&p, &theta);
+    let n = p.n_params();
+    let mut worst: f64 = 0.0;
+    let mut largest: f64 = 0.0;
+    for c in 0..n {
+        let h = 1e-6 * theta[c].abs().max(1.0);
+        let (mut tp, mut tm) = (theta.clone(), theta.clone());
+        tp[c] += h;
+        tm[c] -= h;
+        let (gp, gm) = (gradient(&p, &tp), gradient(&p, &tm));
+        for i in 0..n {
+            let fd = (gp[i] - gm[i]) / (2.0 * h);
+            let exact = jtj[(i, c)] + s[(i, c)];
+            worst = worst.max((fd - exact).abs());
+            largest = largest.max(exact.abs());
+        }
+    }
+    assert!(worst <= 1e-6 * largest, "worst error {worst} of {largest}");
+    // S is symmetric and not negligible here (else the test proves nothing)
+    let mut s_max: f64 = 0.0;
+    for i in 0..n {
+        for c in 0..n {
+            assert!((s[(i, c)] - s[(c, i)]).abs() <= 1e-12 * largest);
+            s_max = s_max.max(s[(i, c)].abs());
+        }
+    }
+    assert!(s_max > 1e-3 * largest, "S is {s_max} of {largest}");
+    Ok(())
+}
+
+#[test]
+fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(150, 1e2)?;
+    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta0)?;
+    let newton = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })?
+    .solve(&p, &theta0)?;
+    assert!(gn.status.converged() && newton.status.converged());
+    assert!(
+        (gn.cost - newton.cost).abs() <= 1e-9 * gn.cost,
+        "{} vs {}",
+        gn.cost,
+        newton.cost
+    );
+    assert!(
+        2 * newton.iterations < gn.iterations,
+        "{} Newton vs {} Gauss-Newton iterations",
+        newton.iterations,
+        gn.iterations
+    );
+    // quadratic convergence: the last accepted decreases collapse
+    let h = &newton.cost_history;
+    let d: Vec<f64> = h.windows(2).map(|w| w[0] - w[1]).collect();
+    let tail = &d[d.len() - 4..d.len() - 1];
+    assert!(tail[2] < 1e-3 * tail[0], "decreases {tail:?}");
+    // the solution solves the exact optimality condition: J^T r = 0
+    let g = gradient(&p, &newton.theta);
+    assert!(
+        g.iter().all(|v| v.abs() < 1e-6),
+        "gradient {:e}",
+        g.iter().fold(0.0f64, |a, v| a.max(v.abs()))
+    );
+    Ok(())
+}
+
+/// The pendulum without second derivatives.
+struct FirstOrderOnly(Pendulum);
+
+impl Model for FirstOrderOnly {
+    fn state_dim(&self) -> usize {
+        self.0.state_dim()
+    }
+    fn control_dim(&self) -> usize {
+        self.0.control_dim()
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.0.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.0.jacobians(x, u, fx, fu)
+    }
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        self.0.jacobian_structure(fx, fu)
+    }
+}
+
+#[test]
+fn without_second_derivatives_newton_mode_is_gauss_newton() -> Result<()> {
+    let horizon = 90;
+    let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
+    let (x, _) = reference.trajectory(&theta0)?;
+    let times: Vec<f64> = (0..=horizon)
+        .map(|k| k as f64 * trajopt::problems::PENDULUM_DT)
+        .collect();
+    let t_end = times[horizon];
+    let cost = TrackingCost::new(x, Mat::zeros(horizon, 1), &[1.0; 4], &[0.1], &[10.0; 4])?;
+    let xb = splines::BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, t_end)?;
+    let ub = splines::BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, t_end)?;
+    let p = Eq3Problem::new(
+        FirstOrderOnly(Pendulum::default()),
+        cost,
+        &xb,
+        &ub,
+        &times,
+        trajopt::Lambda::Constant(10.0),
+    )?;
+    let theta = perturbed(&theta0, 2.0);
+    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
+    let newton = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })?
+    .solve(&p, &theta)?;
+    assert_eq!(gn.iterations, newton.iterations);
+    assert_eq!(gn.theta, newton.theta);
+    Ok(())
+}
+
+#[test]
+fn upper_triangular_storage_gives_the_symmetric_product() {
+    // the factorisation reads only the upper triangle: a Newton step on a
+    // linear least-squares problem (S = 0) is the exact solution
+    let a = Mat::from_fn(7, 4, |i, j| {
+        ((i * 4 + j) as f64 * 0.37).sin() + if i == j { 2.0 } else { 0.0 }
+    });
+    let b: Vec<f64> = (0..7).map(|i| (i as f64).cos()).collect();
+    let triplets: Vec<_> = (0..7)
+        .flat_map(|i| (0..4).map(move |j| (i, j)))
+        .map(|(i, j)| faer::sparse::Triplet::new(i, j, a[(i, j)]))
+        .collect();
+    let sparse = SparseRowMat::try_new_from_triplets(7, 4, &triplets).expect("matrix");
+    let problem = trajopt::LinearLeastSquares::new(sparse, b.clone()).expect("problem");
+    let res = GaussNewton::new(GaussNewtonSettings {
+        initial_damping: 0.0,
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })
+    .expect("settings")
+    .solve(&problem, &[0.0; 4])
+    .expect("solve");
+    let ata = a.transpose() * &a;
+    let atb = a.transpose() * Mat::from_fn(7, 1, |i, _| b[i]);
+    let x = ata.llt(Side::Lower).expect("spd").solve(&atb);
+    for j in 0..4 {
+        assert!(
+            (res.theta[j] - x[(j, 0)]).abs() < 1e-10,
+            "{} vs {}",
+            res.theta[j],
+            x[(j, 0)]
+        );
+    }
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(24))]
+
+    #[test]
+    fn newton_never_increases_the_cost(
+        lambda in prop_oneof![Just(0.0), 1e-2..1e5f64],
+        seed in 0u32..1000,
+        horizon in 12usize..80,
+    ) {
+        let (p, theta0) = pendulum_swingup(horizon, lambda).expect("problem");
+        let theta = perturbed(&theta0, seed as f64);
+        let res = GaussNewton::new(GaussNewtonSettings { max_iters: 30, second_order: true, ..GaussNewtonSettings::default() })
+            .expect("settings")
+            .solve(&p, &theta)
+            .expect("solve");
+        prop_assert!(res.cost <= res.initial_cost);
+        prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
+        prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+    }
+}
+
+/// The pendulum with a second derivative that its Jacobian structure rules out.
+struct Inconsistent(Pendulum);
+
+impl Model for Inconsistent {
+    fn state_dim(&self) -> usize {
+        4
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.0.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.0.jacobians(x, u, fx, fu)
+    }
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        self.0.jacobian_structure(fx, fu)
+    }
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        self.0.weighted_hessian(x, u, w, hess)?;
+        // theta and the hand position never meet in one row of the structure
+        hess[2] = 1.0;
+        hess[10] = 1.0;
+        Ok(true)
+    }
+}
+
+#[test]
+fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result<()> {
+    let horizon = 30;
+    let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
+    let (x, _) = reference.trajectory(&theta0)?;
+    let times: Vec<f64> = (0..=horizon)
+        .map(|k| k as f64 * trajopt::problems::PENDULUM_DT)
+        .collect();
+    let cost = TrackingCost::new(x, Mat::zeros(horizon, 1), &[1.0; 4], &[0.1], &[10.0; 4])?;
+    let xb = splines::BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
+    let ub = splines::BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
+    let p = Eq3Problem::new(
+        Inconsistent(Pendulum::default()),
+        cost,
+        &xb,
+        &ub,
+        &times,
+        trajopt::Lambda::Constant(10.0),
+    )?;
+    let solver = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })?;
+    assert!(matches!(
+        solver.solve(&p, &perturbed(&theta0, 3.0)),
+        Err(trajopt::TrajoptError::InvalidParameter { name: "model", .. })
+    ));
+    Ok(())
+}
