@@ -833,7 +833,7 @@ pub fn markdown(report: &ExperimentsReport) -> String {
     }
     let worth = demonstration_worth(&report.variants);
     if !worth.is_empty() {
-        md.push_str("\n## The demonstration's worth (beyond the paper)\n\nLearning with the demonstration against learning from scratch ([`Start::Scratch`]: a random exploration trial first, the cost tracking upright throughout, each plan starting from the previous trial). Robot seconds count every trial up to success, the demonstration itself not included; runs that never succeed are not in the medians.\n\n| model | with the demonstration | from scratch |\n|---|---|---|\n");
+        md.push_str("\n## The demonstration's worth (beyond the paper)\n\nLearning with the demonstration against learning from scratch (`start = \"scratch\"` in the configuration: a random exploration trial first, the cost tracking upright throughout, each plan starting from the previous trial). Robot seconds count every trial up to success, the demonstration itself not included; runs that never succeed are not in the medians.\n\n| model | with the demonstration | from scratch |\n|---|---|---|\n");
         for (model, with, without) in worth {
             md.push_str(&format!(
                 "| {model} | {} | {} |\n",
