@@ -449,8 +449,10 @@ fn powell_and_gauss_newton_agree_on_a_small_eq3_problem() {
         gn.cost
     );
     assert!(
-        pw.cost_evals > 100 * gn.residual_evals,
-        "derivative-free costs many more evaluations"
+        pw.cost_evals > 50 * gn.residual_evals,
+        "derivative-free costs many more evaluations: {} vs {}",
+        pw.cost_evals,
+        gn.residual_evals
     );
     // the same problem under argmin's executor
     let res = Executor::new(p, PowellArgmin::new(settings).expect("settings"))

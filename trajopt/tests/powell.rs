@@ -111,34 +111,64 @@ fn rosenbrock_matches_scipy_with_fewer_evaluations() {
 
 /// scipy stops on this degenerate (quartic) minimum when its direction set
 /// has become linearly dependent (two of its final directions are parallel)
-/// and no sweep decreases f any more, at f ≈ 1.7e-13 with x ≈ 2.6e-4 away
-/// from the minimiser. Our sweeps keep decreasing f, so the relative-decrease
-/// test fires later (f ≈ 1e-21): the fair count is the number of evaluations
-/// needed to reach scipy's final cost, and scipy's x is no reference at 1e-4.
+/// and a sweep no longer decreases f by the relative `ftol`, at f ≈ 1.7e-13
+/// with x ≈ 2.6e-4 away from the minimiser. Our stopping rule is the same,
+/// but our sweeps keep decreasing f, so it fires much lower (f ≈ 3e-19);
+/// scipy's x is no reference at 1e-4.
 #[test]
-fn powell_singular_reaches_scipys_cost_with_as_many_evaluations() {
+fn powell_singular_goes_lower_than_scipy_in_fewer_evaluations() {
     let g = golden("powell_singular");
     let f = Recorder::new(powell_singular);
     let result = default_powell().solve(&f, &g.x0).expect("solve");
-    assert!(result.status.converged(), "{:?}", result.status);
-    assert!((result.cost - g.cost).abs() < 1e-8, "{} vs {}", result.cost, g.cost);
-    assert!(result.cost <= g.cost, "{} vs {}", result.cost, g.cost);
+    assert_eq!(result.status, PowellStatus::ConvergedCost);
+    assert!(result.cost <= 1e-4 * g.cost, "{} vs scipy {}", result.cost, g.cost);
     for (ours, best) in result.x.iter().zip(&g.minimiser) {
         assert!((ours - best).abs() < 1e-4, "{:?}", result.x);
     }
     let reach = f.evals_to_reach(g.cost).expect("reaches scipy's cost");
     assert!(
-        reach as f64 <= 1.2 * g.nfev_to_final as f64,
+        reach < g.nfev_to_final,
         "{reach} evaluations to reach scipy's cost, scipy {}",
         g.nfev_to_final
     );
-    // and the whole run, to a 1e8 times lower cost, stays within 1.6x
-    assert!(
-        result.cost_evals as f64 <= 1.6 * g.nfev as f64,
-        "{} evaluations, scipy {}",
-        result.cost_evals,
-        g.nfev
-    );
+}
+
+/// The target: no more evaluations than scipy's Powell at its
+/// default (matched) tolerances, on the classic problems of the golden file.
+/// Deterministic; when written, the counts were 313 (scipy 607) and 778
+/// (scipy 908). Not asserted exactly: `powi` may round differently between
+/// optimisation levels, and a last-bit change moves the count a little.
+#[test]
+fn evaluation_counts_stay_at_or_below_scipys() {
+    for (name, f) in [
+        ("rosenbrock", rosenbrock as fn(&[f64]) -> f64),
+        ("powell_singular", powell_singular),
+    ] {
+        let g = golden(name);
+        let objective = |x: &[f64]| -> trajopt::Result<f64> { Ok(f(x)) };
+        let result = default_powell().solve(&objective, &g.x0).expect("solve");
+        assert!(result.status.converged(), "{name}: {:?}", result.status);
+        assert!(
+            result.cost_evals <= g.nfev,
+            "{name}: {} evaluations, scipy {}",
+            result.cost_evals,
+            g.nfev
+        );
+        assert!(
+            result.cost <= g.cost.max(1e-20),
+            "{name}: {} vs scipy {}",
+            result.cost,
+            g.cost
+        );
+        assert_eq!(f(&result.x), result.cost, "{name}: the cost is the cost at x");
+        // the argmin solver does the same iterations
+        let solver = PowellArgmin::new(PowellSettings::default()).expect("settings");
+        let run = Executor::new(Argmin(f), solver)
+            .configure(|state| state.param(g.x0.clone()))
+            .run()
+            .expect("argmin run");
+        assert_eq!(run.solver().cost_evals(), result.cost_evals, "{name}");
+    }
 }
 
 #[test]
@@ -257,6 +287,17 @@ fn input_errors() {
 }
 
 struct ArgminRosenbrock;
+
+/// Any test function as an argmin problem.
+struct Argmin(fn(&[f64]) -> f64);
+
+impl CostFunction for Argmin {
+    type Param = Vec<f64>;
+    type Output = f64;
+    fn cost(&self, x: &Vec<f64>) -> Result<f64, argmin::core::Error> {
+        Ok((self.0)(x))
+    }
+}
 
 impl CostFunction for ArgminRosenbrock {
     type Param = Vec<f64>;
