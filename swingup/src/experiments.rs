@@ -61,17 +61,15 @@ pub struct ExperimentSettings {
 }
 
 impl ExperimentSettings {
-    /// The full grid: 20 seeds for the main learning variant (C2), 10 for
-    /// the wavelet and Powell variants (a run takes 2 to 20 minutes of CPU
-    /// there, one coefficient per sample or derivative-free), 6 for every
+    /// The full grid: 20 seeds for each learning variant (C2), 6 for every
     /// other variant, 8 trials (the run time of the committed grid is in
     /// `results/experiments.md`).
     pub fn full() -> Self {
         Self {
             seeds: 6,
             learning_seeds: 20,
-            wavelet_seeds: 10,
-            powell_seeds: 10,
+            wavelet_seeds: 20,
+            powell_seeds: 20,
             max_trials: 8,
             powell_evals: 10_000,
             lambdas: vec![0.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e8],
