@@ -25,6 +25,11 @@
 //! 5. Success: within `success_angle` of upright over the last
 //!    `success_seconds`, the hand inside its workspace throughout.
 //!
+//! Without a demonstration ([`Start::Scratch`], a baseline beyond the
+//! paper) trial 1 explores with random smooth commands, the task cost
+//! tracks upright at rest throughout, and each plan starts from the
+//! previous trial's observed trajectory.
+//!
 //! **The default model is the LWR on top of the parametric model**, not the
 //! paper's pure LWR: with the pure LWR the robot learned the swing-up
 //! within 8 trials in 8 of 20 seeds (median trial 5.5; `swingup
