@@ -13,7 +13,7 @@ use proptest::prelude::*;
 
 use crate::error::Result;
 use crate::model::LwrModel;
-use crate::settings::LwrSettings;
+use crate::settings::{Kernel, LwrSettings};
 
 /// A data set: inputs and outputs, one row per point.
 #[derive(Debug, Clone, PartialEq)]
@@ -41,6 +41,16 @@ impl DataSet {
         m.insert_many(&self.inputs, &self.outputs)?;
         Ok(m)
     }
+}
+
+/// Any of the four kernels.
+pub fn kernels() -> impl Strategy<Value = Kernel> {
+    prop_oneof![
+        Just(Kernel::Gaussian),
+        Just(Kernel::Tricube),
+        Just(Kernel::Epanechnikov),
+        Just(Kernel::Bisquare)
+    ]
 }
 
 /// `n` input points in $[-1, 1]^d$; with `duplicates`, about one in five

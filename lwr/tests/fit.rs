@@ -1,22 +1,13 @@
 //! Local fits: exactness on polynomials, multi-output, conditioning,
 //! confidence and the exact query Jacobian.
 
-use lwr::strategies::{linear_data, smooth_data};
+use lwr::strategies::{kernels, linear_data, smooth_data};
 use lwr::{Degree, FitStatus, Kernel, LwrError, LwrModel, LwrSettings};
 use proptest::prelude::*;
 
 fn lcg(seed: &mut u64) -> f64 {
     *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
     (*seed >> 11) as f64 / (1u64 << 53) as f64
-}
-
-fn kernel_strategy() -> impl Strategy<Value = Kernel> {
-    prop_oneof![
-        Just(Kernel::Gaussian),
-        Just(Kernel::Tricube),
-        Just(Kernel::Epanechnikov),
-        Just(Kernel::Bisquare)
-    ]
 }
 
 proptest! {
@@ -27,7 +18,7 @@ proptest! {
     #[test]
     fn reproduces_linear_functions(
         data in linear_data(2, 2, 12..80, true),
-        kernel in kernel_strategy(),
+        kernel in kernels(),
         quadratic in any::<bool>(),
         bandwidth in 0.6..3.0f64,
         q in proptest::collection::vec(-0.8..0.8f64, 2),
@@ -72,7 +63,7 @@ proptest! {
     #[test]
     fn jacobian_matches_central_differences(
         data in smooth_data(2, 2, 15..70, true, 0.05),
-        kernel in kernel_strategy(),
+        kernel in kernels(),
         degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
         bandwidth in 0.5..2.0f64,
         scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 2),
@@ -283,7 +274,7 @@ fn settings_are_validated_on_use() {
 
 fn any_settings() -> impl Strategy<Value = LwrSettings> {
     (
-        kernel_strategy(),
+        kernels(),
         prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
         prop_oneof![Just(1e-9), Just(1e6), 1e-3..10.0f64],
         proptest::collection::vec(prop_oneof![Just(0.0), Just(1e-12), Just(1e8), 0.0..5.0f64], 3),

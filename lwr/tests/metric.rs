@@ -3,7 +3,7 @@
 //! data when $M$ is a rotation, an exact Jacobian, tuning along $M$'s axes,
 //! save and load, validation.
 
-use lwr::strategies::smooth_data;
+use lwr::strategies::{kernels, smooth_data};
 use lwr::{Degree, FitStatus, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneSettings};
 use proptest::prelude::*;
 
@@ -66,15 +66,6 @@ fn same_prediction(a: &Prediction, b: &Prediction, tol: f64) -> std::result::Res
     Ok(())
 }
 
-fn kernel_strategy() -> impl Strategy<Value = Kernel> {
-    prop_oneof![
-        Just(Kernel::Gaussian),
-        Just(Kernel::Tricube),
-        Just(Kernel::Epanechnikov),
-        Just(Kernel::Bisquare)
-    ]
-}
-
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
 
@@ -84,7 +75,7 @@ proptest! {
     #[test]
     fn diagonal_matrix_equals_diagonal_scales(
         data in smooth_data(3, 2, 10..80, true, 0.1),
-        kernel in kernel_strategy(),
+        kernel in kernels(),
         degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
         bandwidth in 0.4..2.0f64,
         scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 3),
@@ -123,7 +114,7 @@ proptest! {
     #[test]
     fn rotated_metric_equals_diagonal_metric_on_rotated_data(
         data in smooth_data(3, 1, 15..80, true, 0.1),
-        kernel in kernel_strategy(),
+        kernel in kernels(),
         degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
         bandwidth in 0.5..2.0f64,
         scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 3),
@@ -166,7 +157,7 @@ proptest! {
     #[test]
     fn full_metric_jacobian_matches_central_differences(
         data in smooth_data(3, 1, 20..80, true, 0.05),
-        kernel in kernel_strategy(),
+        kernel in kernels(),
         degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
         bandwidth in 0.5..2.0f64,
         matrix in proptest::collection::vec(prop_oneof![Just(0.0), -1.5..1.5f64], 9),
