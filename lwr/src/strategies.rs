@@ -1,4 +1,4 @@
-//! [proptest] strategies for data sets (enabled by the `proptest` feature).
+//! `proptest` strategies for data sets (enabled by the `proptest` feature).
 //! The crate's own property tests use them.
 //!
 //! Inputs lie in $[-1, 1]^d$ and may repeat (duplicate points are common in
