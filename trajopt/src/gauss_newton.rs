@@ -33,6 +33,7 @@
 //! | `tol_cost` | 1e-14 | stop when an accepted step lowers $F$ by less than `tol_cost` $F$ |
 //! | `initial_damping` | 1e-6 | $\mu_0 = $ `initial_damping` (relative to $D$) |
 //! | `second_order` | false | Newton steps with the problem's exact $S$ |
+//! | `band` | true | the band form of the normal equations, when the problem has one |
 //!
 //! With `second_order`, a problem that evaluates the second-order term
 //! $S = \sum_i r_i \nabla^2 r_i$ ([`LeastSquaresProblem::second_order_values`])
@@ -64,6 +65,7 @@
 
 use std::time::{Duration, Instant};
 
+use faer::Side;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
 use faer::linalg::cholesky::llt::factor::LltRegularization;
 use faer::sparse::SparseColMatRef;
@@ -73,10 +75,10 @@ use faer::sparse::linalg::cholesky::{
 use faer::sparse::linalg::matmul::sparse_sparse_matmul_symbolic;
 use faer::sparse::{SparseColMat, SparseRowMat, SymbolicSparseColMat, SymbolicSparseRowMat};
 use faer::{Conj, MatMut, Par};
-use faer::{Mat, Side};
 
+use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError, check_finite};
-use crate::least_squares::LeastSquaresProblem;
+use crate::least_squares::{LeastSquaresProblem, LinearBounds};
 
 /// Settings of [`GaussNewton`]; see the [module docs](self) for the defaults.
 #[derive(Debug, Clone, PartialEq)]
@@ -105,6 +107,13 @@ pub struct GaussNewtonSettings {
     /// $\lambda = 10^3, 10^4$ and Gauss-Newton does in 102 for $10^5$, and
     /// the Newton mode ends at a higher cost each time.
     pub second_order: bool,
+    /// Work on the band form of the normal equations when the problem has
+    /// one ([`LeastSquaresProblem::band_layout`]; [`Eq3Problem`](crate::Eq3Problem)
+    /// does) and there are no bounds: the problem forms $J^\top J$ (and
+    /// $S$) directly in band storage and a band Cholesky factorisation
+    /// replaces the sparse one. The iterates are the same up to rounding;
+    /// `false` forces the general sparse path.
+    pub band: bool,
 }
 
 impl Default for GaussNewtonSettings {
@@ -116,6 +125,7 @@ impl Default for GaussNewtonSettings {
             tol_cost: 1e-14,
             initial_damping: 1e-6,
             second_order: false,
+            band: true,
         }
     }
 }
@@ -270,53 +280,29 @@ impl GaussNewton {
         let mut jacobian_evals = 0;
         let mut cost_history = Vec::new();
 
-        // fixed structures: J (rows), J^T J pattern, its diagonal, symbolic Cholesky
-        // J is augmented with structurally present, zero-valued unit rows so that
-        // the diagonal of J^T J is always in its pattern (a parameter that no
-        // residual touches is then simply left alone by the damped step)
-        let pattern = augment_with_diagonal(&problem.jacobian_pattern(), n_r, n_p)?;
-        let nnz = pattern.col_idx().len();
-        let nnz_problem = nnz - n_p;
-        let mut jac = SparseRowMat::new(pattern, vec![0.0; nnz]);
-        let jac_cols = jac.to_col_major().map_err(alloc_error)?;
-        let (jtj_symbolic, _) = sparse_sparse_matmul_symbolic(jac.as_ref().transpose().symbolic(), jac_cols.symbolic())
-            .map_err(alloc_error)?;
-        // the second-order term, merged into the pattern of J^T J
-        let second_order = match (s.second_order, bounds) {
-            (true, None) => problem.second_order_pattern(),
+        // the band form only when it is narrow (a basis with wide supports,
+        // such as a multilevel wavelet, makes it dense)
+        let band = match bounds {
+            None if s.band => problem.band_layout().filter(|l| l.half_bandwidth <= MAX_HALF_BANDWIDTH),
             _ => None,
         };
-        let (h_symbolic, second_order) = match second_order {
-            Some(pattern) => {
-                if pattern.nrows() != n_p || pattern.ncols() != n_p {
-                    return Err(TrajoptError::DimensionMismatch {
-                        what: "second-order pattern size",
-                        expected: n_p,
-                        actual: if pattern.nrows() != n_p {
-                            pattern.nrows()
-                        } else {
-                            pattern.ncols()
-                        },
-                    });
-                }
-                let union = upper_union(&jtj_symbolic, Some(&pattern));
-                let positions = positions_in(&union, &pattern);
-                let values = vec![0.0; pattern.row_idx().len()];
-                (union, Some((positions, values)))
+        let mut system = match band {
+            Some(layout) => {
+                layout.validate(n_p)?;
+                System::Band(BandSystem::new(layout, s.second_order))
             }
-            None => (upper_union(&jtj_symbolic, None), None),
+            None => System::Sparse(Box::new(SparseSystem::new(
+                problem,
+                n_r,
+                n_p,
+                s.second_order && bounds.is_none(),
+            )?)),
         };
-        let mut second_order = second_order;
-        let diag_pos = diagonal_positions(&h_symbolic)?;
-        let h_nnz = h_symbolic.row_idx().len();
-        let mut h = SparseColMat::new(h_symbolic, vec![0.0; h_nnz]);
-        let mut factor = Factor::new(h.symbolic())?;
-        let mut h_damped = h.clone();
-        // J^T J + S when the second-order term is used
-        let mut h_full = h.clone();
-        let mut normal = NormalEquations::new(&jac, jac_cols, &h.symbolic().to_owned().map_err(alloc_error)?)?;
 
-        let mut grad = Mat::<f64>::zeros(n_p, 1);
+        let mut grad = vec![0.0; n_p];
+        let mut scale = vec![0.0; n_p];
+        let mut step = vec![0.0; n_p];
+        let mut h_step = vec![0.0; n_p];
         let mut trial = vec![0.0; n_p];
         let mut r_trial = vec![0.0; n_r];
         let mut mu = s.initial_damping;
@@ -329,38 +315,17 @@ impl GaussNewton {
 
         'outer: while iterations < s.max_iters {
             iterations += 1;
-            problem.jacobian_values(&theta, &mut jac.val_mut()[..nnz_problem])?;
             jacobian_evals += 1;
-            if jac.val().iter().any(|v| !v.is_finite()) {
+            let Some(mut newton) = system.assemble(problem, &theta, &r, &mut grad)? else {
                 status = GaussNewtonStatus::NumericalError;
                 break;
-            }
-            normal.form(&jac, &mut h);
+            };
             // the damping scale comes from J^T J alone (positive)
-            let scale: Vec<f64> = diag_pos.iter().map(|&p| h.val()[p].max(1e-12)).collect();
-            let mut newton = false;
-            if let Some((positions, values)) = second_order.as_mut()
-                && problem.second_order_values(&theta, &r, values)?
-            {
-                let h_vals = h_full.val_mut();
-                h_vals.copy_from_slice(h.val());
-                for &(p, q) in positions.iter() {
-                    h_vals[q] += values[p];
-                }
-                newton = h_vals.iter().all(|v| v.is_finite());
+            system.jtj_diagonal(&mut scale);
+            for d in &mut scale {
+                *d = d.max(1e-12);
             }
-            // g = J^T r
-            for j in 0..n_p {
-                grad[(j, 0)] = 0.0;
-            }
-            for (i, &ri) in r.iter().enumerate() {
-                // (the augmented rows have zero residual and contribute nothing)
-                let cols = jac.symbolic().col_idx_of_row_raw(i);
-                for (&c, &v) in cols.iter().zip(jac.val_of_row(i)) {
-                    grad[(c, 0)] += v * ri;
-                }
-            }
-            let g_inf = (0..n_p).map(|j| grad[(j, 0)].abs()).fold(0.0, f64::max);
+            let g_inf = grad.iter().fold(0.0f64, |a, g| a.max(g.abs()));
             if g_inf <= s.tol_grad * cost.max(1.0) {
                 status = GaussNewtonStatus::ConvergedGradient;
                 break;
@@ -371,29 +336,17 @@ impl GaussNewton {
                 shift *= SHIFT_DECREASE;
             }
             loop {
-                let model = if newton { &h_full } else { &h };
-                h_damped.val_mut().copy_from_slice(model.val());
                 let total = if newton { mu + shift } else { mu };
-                for (&p, &d) in diag_pos.iter().zip(&scale) {
-                    h_damped.val_mut()[p] += total * d;
-                }
-                let step = match bounds {
+                let solved = match bounds {
                     // bounded: the damped model minimised subject to the bounds (a QP)
-                    Some(b) => {
-                        crate::qp::bounded_step(&h_damped, &grad, b, &theta).map(|d| Mat::from_fn(n_p, 1, |j, _| d[j]))
-                    }
+                    Some(b) => system.bounded_step(newton, total, &scale, &grad, b, &theta, &mut step),
                     None => {
                         factorizations += 1;
-                        let mut rhs = grad.clone();
-                        for j in 0..n_p {
-                            rhs[(j, 0)] = -rhs[(j, 0)];
-                        }
-                        factor.solve(h_damped.as_ref(), rhs.as_mut()).then_some(rhs)
+                        system.damped_step(newton, total, &scale, &grad, &mut step)
                     }
                 };
-                let step = match step {
-                    Some(st) if (0..n_p).all(|j| st[(j, 0)].is_finite()) => st,
-                    _ if newton => {
+                if !(solved && step.iter().all(|v| v.is_finite())) {
+                    if newton {
                         // J^T J + S + mu D is indefinite: shift it, or
                         // take a Gauss-Newton step if it takes a large shift
                         shift = (shift * SHIFT_INCREASE).max(SHIFT_MIN);
@@ -402,16 +355,14 @@ impl GaussNewton {
                         }
                         continue;
                     }
-                    _ => {
-                        // not positive definite: more damping
-                        if !raise_damping(&mut mu, &mut nu) {
-                            status = GaussNewtonStatus::NumericalError;
-                            break 'outer;
-                        }
-                        continue;
+                    // not positive definite: more damping
+                    if !raise_damping(&mut mu, &mut nu) {
+                        status = GaussNewtonStatus::NumericalError;
+                        break 'outer;
                     }
-                };
-                let step_norm = (0..n_p).map(|j| step[(j, 0)].powi(2)).sum::<f64>().sqrt();
+                    continue;
+                }
+                let step_norm = sum_sq(&step).sqrt();
                 let theta_norm = sum_sq(&theta).sqrt();
                 if step_norm <= s.tol_step * (theta_norm + s.tol_step) {
                     // a negligible step is convergence only if the damping did
@@ -426,9 +377,11 @@ impl GaussNewton {
                 }
                 // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
                 // (with S, the second-order Taylor model of F)
-                let h_step = sym_mat_vec(model, &step);
-                let predicted: f64 = -(0..n_p)
-                    .map(|j| step[(j, 0)] * (2.0 * grad[(j, 0)] + h_step[j]))
+                system.model_mul(newton, &step, &mut h_step);
+                let predicted: f64 = -step
+                    .iter()
+                    .zip(grad.iter().zip(&h_step))
+                    .map(|(d, (g, hd))| d * (2.0 * g + hd))
                     .sum::<f64>();
                 if predicted >= 0.0 && predicted <= s.tol_cost * cost && mu < 1.0 {
                     // the (barely damped) model has nothing left to gain: further
@@ -437,7 +390,7 @@ impl GaussNewton {
                     break 'outer;
                 }
                 for j in 0..n_p {
-                    trial[j] = theta[j] + step[(j, 0)];
+                    trial[j] = theta[j] + step[j];
                 }
                 problem.residuals(&trial, &mut r_trial)?;
                 residual_evals += 1;
@@ -479,6 +432,312 @@ impl GaussNewton {
             cost_history,
             elapsed: start.elapsed(),
         })
+    }
+}
+
+/// The normal equations in one of two forms: the general sparse one (a
+/// sparse Jacobian, $J^\top J$ by a sparse product, a sparse Cholesky
+/// factorisation) or the band form of problems that provide one
+/// ([`LeastSquaresProblem::band_layout`]).
+enum System {
+    Sparse(Box<SparseSystem>),
+    Band(BandSystem),
+}
+
+impl System {
+    /// Forms $J^\top J$ (and $J^\top J + S$ when asked and available) and
+    /// $g = J^\top r$ at $\theta$. `None` if the Jacobian is not finite;
+    /// otherwise whether the Newton matrix $J^\top J + S$ is ready.
+    fn assemble<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        grad: &mut [f64],
+    ) -> Result<Option<bool>> {
+        match self {
+            Self::Sparse(s) => s.assemble(problem, theta, r, grad),
+            Self::Band(b) => b.assemble(problem, theta, r, grad),
+        }
+    }
+
+    /// The diagonal of $J^\top J$, in the parameter order.
+    fn jtj_diagonal(&self, out: &mut [f64]) {
+        match self {
+            Self::Sparse(s) => {
+                for (o, &p) in out.iter_mut().zip(&s.diag_pos) {
+                    *o = s.h.val()[p];
+                }
+            }
+            Self::Band(b) => {
+                for (o, &p) in out.iter_mut().zip(&b.layout.position) {
+                    *o = b.jtj.diagonal(p);
+                }
+            }
+        }
+    }
+
+    /// Solves $(H + \text{total}\, D)\,\delta = -g$ ($H$ the Newton matrix
+    /// if `newton`, else $J^\top J$); false if it is not numerically
+    /// positive definite.
+    fn damped_step(&mut self, newton: bool, total: f64, scale: &[f64], grad: &[f64], step: &mut [f64]) -> bool {
+        for (d, g) in step.iter_mut().zip(grad) {
+            *d = -g;
+        }
+        match self {
+            Self::Sparse(s) => {
+                s.damp(newton, total, scale);
+                let n = step.len();
+                let rhs = MatMut::from_column_major_slice_mut(step, n, 1);
+                s.factor.solve(s.h_damped.as_ref(), rhs)
+            }
+            Self::Band(b) => b.damped_step(newton, total, scale, step),
+        }
+    }
+
+    /// The damped model minimised subject to the bounds (sparse form only).
+    #[allow(clippy::too_many_arguments)]
+    fn bounded_step(
+        &mut self,
+        newton: bool,
+        total: f64,
+        scale: &[f64],
+        grad: &[f64],
+        bounds: &LinearBounds,
+        theta: &[f64],
+        step: &mut [f64],
+    ) -> bool {
+        let Self::Sparse(s) = self else {
+            return false;
+        };
+        s.damp(newton, total, scale);
+        match crate::qp::bounded_step(&s.h_damped, grad, bounds, theta) {
+            Some(d) => {
+                step.copy_from_slice(&d);
+                true
+            }
+            None => false,
+        }
+    }
+
+    /// $H \delta$ with the undamped model matrix.
+    fn model_mul(&self, newton: bool, step: &[f64], out: &mut [f64]) {
+        match self {
+            Self::Sparse(s) => sym_mat_vec(if newton { &s.h_full } else { &s.h }, step, out),
+            Self::Band(b) => b.model_mul(newton, step, out),
+        }
+    }
+}
+
+/// For each value of the problem's $S$, its index and its position in the
+/// values of $H$; and $S$'s values.
+type SecondOrderValues = (Vec<(usize, usize)>, Vec<f64>);
+
+/// The general form: $J$ sparse, $J^\top J$ (+ $S$) in a fixed sparse
+/// pattern, a sparse Cholesky factorisation with a reused symbolic part.
+struct SparseSystem {
+    jac: SparseRowMat<usize, f64>,
+    nnz_problem: usize,
+    /// $J^\top J$, $J^\top J + S$, and the damped matrix (upper triangles).
+    h: SparseColMat<usize, f64>,
+    h_full: SparseColMat<usize, f64>,
+    h_damped: SparseColMat<usize, f64>,
+    diag_pos: Vec<usize>,
+    /// Where each value of $S$ goes in $H$, and $S$'s values.
+    second_order: Option<SecondOrderValues>,
+    normal: NormalEquations,
+    factor: Factor,
+}
+
+impl SparseSystem {
+    fn new<P: LeastSquaresProblem + ?Sized>(problem: &P, n_r: usize, n_p: usize, second_order: bool) -> Result<Self> {
+        // J is augmented with structurally present, zero-valued unit rows so that
+        // the diagonal of J^T J is always in its pattern (a parameter that no
+        // residual touches is then simply left alone by the damped step)
+        let pattern = augment_with_diagonal(&problem.jacobian_pattern(), n_r, n_p)?;
+        let nnz = pattern.col_idx().len();
+        let jac = SparseRowMat::new(pattern, vec![0.0; nnz]);
+        let jac_cols = jac.to_col_major().map_err(alloc_error)?;
+        let (jtj_symbolic, _) = sparse_sparse_matmul_symbolic(jac.as_ref().transpose().symbolic(), jac_cols.symbolic())
+            .map_err(alloc_error)?;
+        // the second-order term, merged into the pattern of J^T J
+        let (h_symbolic, second_order) = match second_order.then(|| problem.second_order_pattern()).flatten() {
+            Some(pattern) => {
+                if pattern.nrows() != n_p || pattern.ncols() != n_p {
+                    return Err(TrajoptError::DimensionMismatch {
+                        what: "second-order pattern size",
+                        expected: n_p,
+                        actual: if pattern.nrows() != n_p {
+                            pattern.nrows()
+                        } else {
+                            pattern.ncols()
+                        },
+                    });
+                }
+                let union = upper_union(&jtj_symbolic, Some(&pattern));
+                let positions = positions_in(&union, &pattern);
+                let values = vec![0.0; pattern.row_idx().len()];
+                (union, Some((positions, values)))
+            }
+            None => (upper_union(&jtj_symbolic, None), None),
+        };
+        let diag_pos = diagonal_positions(&h_symbolic)?;
+        let h_nnz = h_symbolic.row_idx().len();
+        let h = SparseColMat::new(h_symbolic, vec![0.0; h_nnz]);
+        let factor = Factor::new(h.symbolic())?;
+        let normal = NormalEquations::new(&jac, jac_cols, &h.symbolic().to_owned().map_err(alloc_error)?)?;
+        Ok(Self {
+            jac,
+            nnz_problem: nnz - n_p,
+            h_full: h.clone(),
+            h_damped: h.clone(),
+            h,
+            diag_pos,
+            second_order,
+            normal,
+            factor,
+        })
+    }
+
+    fn assemble<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        grad: &mut [f64],
+    ) -> Result<Option<bool>> {
+        problem.jacobian_values(theta, &mut self.jac.val_mut()[..self.nnz_problem])?;
+        if self.jac.val().iter().any(|v| !v.is_finite()) {
+            return Ok(None);
+        }
+        self.normal.form(&self.jac, &mut self.h);
+        let mut newton = false;
+        if let Some((positions, values)) = self.second_order.as_mut()
+            && problem.second_order_values(theta, r, values)?
+        {
+            let h_vals = self.h_full.val_mut();
+            h_vals.copy_from_slice(self.h.val());
+            for &(p, q) in positions.iter() {
+                h_vals[q] += values[p];
+            }
+            newton = h_vals.iter().all(|v| v.is_finite());
+        }
+        // g = J^T r (the augmented rows have zero residual and contribute nothing)
+        grad.fill(0.0);
+        for (i, &ri) in r.iter().enumerate() {
+            let cols = self.jac.symbolic().col_idx_of_row_raw(i);
+            for (&c, &v) in cols.iter().zip(self.jac.val_of_row(i)) {
+                grad[c] += v * ri;
+            }
+        }
+        Ok(Some(newton))
+    }
+
+    /// `h_damped` = the model matrix + `total` D.
+    fn damp(&mut self, newton: bool, total: f64, scale: &[f64]) {
+        let model = if newton { &self.h_full } else { &self.h };
+        self.h_damped.val_mut().copy_from_slice(model.val());
+        let vals = self.h_damped.val_mut();
+        for (&p, &d) in self.diag_pos.iter().zip(scale) {
+            vals[p] += total * d;
+        }
+    }
+}
+
+/// The band form: $J^\top J$ and $S$ formed by the problem in band storage,
+/// a band Cholesky factorisation ([`crate::banded`]).
+struct BandSystem {
+    layout: BandLayout,
+    jtj: BandedSym,
+    /// $S$, then $J^\top J + S$ once formed.
+    full: Option<BandedSym>,
+    /// The damped matrix and its factor (the same storage).
+    work: Option<BandedSym>,
+    /// The right-hand side in the band order.
+    rhs: Vec<f64>,
+    /// A product in the band order.
+    product: Vec<f64>,
+}
+
+impl BandSystem {
+    fn new(layout: BandLayout, second_order: bool) -> Self {
+        let n = layout.position.len();
+        let jtj = BandedSym::zeros(n, layout.half_bandwidth);
+        Self {
+            full: second_order.then(|| jtj.clone()),
+            work: Some(jtj.clone()),
+            jtj,
+            layout,
+            rhs: vec![0.0; n],
+            product: vec![0.0; n],
+        }
+    }
+
+    fn assemble<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        grad: &mut [f64],
+    ) -> Result<Option<bool>> {
+        let with_s = problem.band_normal_equations(theta, r, &self.layout, &mut self.jtj, grad, self.full.as_mut())?;
+        if self.jtj.band().iter().chain(grad.iter()).any(|v| !v.is_finite()) {
+            return Ok(None);
+        }
+        let Some(full) = self.full.as_mut().filter(|_| with_s) else {
+            return Ok(Some(false));
+        };
+        full.add_scaled(1.0, &self.jtj);
+        Ok(Some(full.band().iter().all(|v| v.is_finite())))
+    }
+
+    /// `step` holds $-g$ on entry and $\delta$ on success.
+    fn damped_step(&mut self, newton: bool, total: f64, scale: &[f64], step: &mut [f64]) -> bool {
+        let model = match (&self.full, newton) {
+            (Some(full), true) => full,
+            _ => &self.jtj,
+        };
+        let Some(mut work) = self.work.take() else {
+            return false;
+        };
+        work.copy_from(model);
+        let pos = &self.layout.position;
+        for ((&p, &d), &g) in pos.iter().zip(scale).zip(step.iter()) {
+            self.rhs[p] = g;
+            self.product[p] = total * d;
+        }
+        work.add_to_diagonal(&self.product);
+        match work.cholesky_in_place() {
+            Ok(chol) => {
+                chol.solve_in_place(&mut self.rhs);
+                for (d, &p) in step.iter_mut().zip(pos) {
+                    *d = self.rhs[p];
+                }
+                self.work = Some(chol.into_inner());
+                true
+            }
+            Err(work) => {
+                self.work = Some(work);
+                false
+            }
+        }
+    }
+
+    fn model_mul(&self, newton: bool, step: &[f64], out: &mut [f64]) {
+        let model = match (&self.full, newton) {
+            (Some(full), true) => full,
+            _ => &self.jtj,
+        };
+        let pos = &self.layout.position;
+        let mut x = vec![0.0; step.len()];
+        for (&d, &p) in step.iter().zip(pos) {
+            x[p] = d;
+        }
+        let mut y = vec![0.0; step.len()];
+        model.mul_vec(&x, &mut y);
+        for (o, &p) in out.iter_mut().zip(pos) {
+            *o = y[p];
+        }
     }
 }
 
@@ -547,6 +806,10 @@ const SHIFT_INCREASE: f64 = 8.0;
 const SHIFT_DECREASE: f64 = 1.0 / 3.0;
 const SHIFT_MAX: f64 = 1e-3;
 
+/// The widest band worth factorising as a band: beyond it the sparse
+/// factorisation with a fill-reducing ordering wins.
+const MAX_HALF_BANDWIDTH: usize = 96;
+
 /// $\mu \leftarrow \max(\mu \nu, 10^{-12})$, $\nu \leftarrow 2\nu$; false once
 /// the damping is hopelessly large.
 fn raise_damping(mu: &mut f64, nu: &mut f64) -> bool {
@@ -594,21 +857,20 @@ fn augment_with_diagonal(
     ))
 }
 
-/// $H d$ for a symmetric CSC matrix stored as its upper triangle.
-fn sym_mat_vec(h: &SparseColMat<usize, f64>, d: &Mat<f64>) -> Vec<f64> {
-    let mut out = vec![0.0; h.nrows()];
+/// `out` $= H d$ for a symmetric CSC matrix stored as its upper triangle.
+fn sym_mat_vec(h: &SparseColMat<usize, f64>, d: &[f64], out: &mut [f64]) {
+    out.fill(0.0);
     for j in 0..h.ncols() {
-        let dj = d[(j, 0)];
+        let dj = d[j];
         let mut acc = 0.0;
         for (&i, &v) in h.symbolic().row_idx_of_col_raw(j).iter().zip(h.val_of_col(j)) {
             out[i] += v * dj;
             if i != j {
-                acc += v * d[(i, 0)];
+                acc += v * d[i];
             }
         }
         out[j] += acc;
     }
-    out
 }
 
 /// The upper triangle of the union of two square CSC patterns (sorted rows).
@@ -758,6 +1020,7 @@ impl NormalEquations {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use faer::Mat;
 
     /// A random-looking sparse symmetric pattern with its diagonal, both triangles.
     fn symmetric_pattern(n: usize, seed: usize) -> SymbolicSparseColMat<usize> {
@@ -814,7 +1077,12 @@ mod tests {
         }
         let d = Mat::from_fn(n, 1, |i, _| (i as f64 * 0.9).cos());
         let expected = &dense * &d;
-        let got = sym_mat_vec(&h, &d);
+        let mut got = vec![0.0; n];
+        sym_mat_vec(
+            &h,
+            d.col(0).try_as_col_major().expect("contiguous").as_slice(),
+            &mut got,
+        );
         for i in 0..n {
             assert!(
                 (got[i] - expected[(i, 0)]).abs() < 1e-12,

@@ -2,7 +2,8 @@
 
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
 
-use crate::error::Result;
+use crate::banded::{BandLayout, BandedSym};
+use crate::error::{Result, TrajoptError};
 
 /// A problem $\min_\theta F(\theta) = \lVert r(\theta) \rVert^2$ whose Jacobian
 /// $J = \partial r / \partial \theta$ is sparse with a pattern that does not
@@ -48,6 +49,44 @@ pub trait LeastSquaresProblem {
     fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
         let _ = (theta, r, values);
         Ok(false)
+    }
+
+    /// A parameter order under which $J^\top J$ (and $S$) is banded, if the
+    /// problem can form its normal equations in that band form itself
+    /// ([`band_normal_equations`](Self::band_normal_equations)); none by
+    /// default. [`GaussNewton`](crate::GaussNewton) then skips the sparse
+    /// Jacobian and the sparse Cholesky factorisation and works on band
+    /// matrices ([`crate::banded`]), which for trajectory problems is
+    /// several times faster.
+    fn band_layout(&self) -> Option<BandLayout> {
+        None
+    }
+
+    /// Writes $J^\top J$ at $\theta$ into `jtj` (rows and columns in the
+    /// order of `layout`, which came from [`band_layout`](Self::band_layout)),
+    /// $J^\top r$ into `grad` (in the parameter order), and, when
+    /// `second_order` is given, $S(\theta)$ into it (band layout too); `r`
+    /// $= r(\theta)$. Returns whether $S$ was written (`false`: not
+    /// available at this point, as for
+    /// [`second_order_values`](Self::second_order_values)).
+    ///
+    /// # Errors
+    /// Wrong sizes, or an error from evaluating the problem. The default
+    /// (for problems without a band form) always fails.
+    fn band_normal_equations(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        jtj: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut BandedSym>,
+    ) -> Result<bool> {
+        let _ = (theta, r, layout, jtj, grad, second_order);
+        Err(TrajoptError::InvalidParameter {
+            name: "problem",
+            reason: "it has no band form of its normal equations".into(),
+        })
     }
 }
 

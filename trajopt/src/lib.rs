@@ -62,6 +62,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod banded;
 pub mod error;
 pub mod gauss_newton;
 pub mod least_squares;

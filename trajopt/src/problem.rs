@@ -21,8 +21,11 @@ use faer::Mat;
 use faer::sparse::{SparseRowMat, SymbolicSparseColMat, SymbolicSparseRowMat};
 use splines::TrajectoryBasis;
 
+use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError, check_finite};
 use crate::least_squares::{LeastSquaresProblem, LinearBounds};
+
+mod band;
 
 /// A discrete-time dynamics model $x_{k+1} = f(x_k, u_k)$.
 pub trait Model {
@@ -1156,6 +1159,22 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
 
     fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
         self.hessian_values(theta, r, values)
+    }
+
+    fn band_layout(&self) -> Option<BandLayout> {
+        Some(self.band_layout_impl())
+    }
+
+    fn band_normal_equations(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        jtj: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut BandedSym>,
+    ) -> Result<bool> {
+        self.band_normal_equations_impl(theta, r, layout, jtj, grad, second_order)
     }
 
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {

@@ -2,7 +2,6 @@
 
 use clarabel::algebra::CscMatrix;
 use clarabel::solver::{DefaultSettings, DefaultSolver, IPSolver, NonnegativeConeT, SolverStatus};
-use faer::Mat;
 use faer::sparse::SparseColMat;
 
 use crate::least_squares::LinearBounds;
@@ -13,7 +12,7 @@ use crate::least_squares::LinearBounds;
 /// the QP could not be solved.
 pub(crate) fn bounded_step(
     h: &SparseColMat<usize, f64>,
-    grad: &Mat<f64>,
+    grad: &[f64],
     bounds: &LinearBounds,
     theta: &[f64],
 ) -> Option<Vec<f64>> {
@@ -30,8 +29,7 @@ pub(crate) fn bounded_step(
         colptr.push(rowval.len());
     }
     let p = CscMatrix::new(n, n, colptr, rowval, nzval);
-    let q: Vec<f64> = (0..n).map(|j| grad[(j, 0)]).collect();
-    solve(&p, &q, bounds, theta)
+    solve(&p, grad, bounds, theta)
 }
 
 /// The smallest step (in the Euclidean norm) onto $\ell \le A(\theta + \delta) \le u$.

@@ -498,3 +498,75 @@ fn a_jacobian_that_contradicts_the_residuals_stalls_not_converges() {
     assert!(!res.status.converged());
     assert_eq!(res.theta, vec![3.0], "no step was accepted");
 }
+
+/// The band form of the normal equations (the default for Eq. 3) and the
+/// general sparse form take the same steps: same iterations, same answer to
+/// rounding, for Gauss-Newton and for Newton steps, with and without a
+/// model Jacobian (the finite-difference path).
+#[test]
+fn band_and_sparse_normal_equations_take_the_same_steps() {
+    for (second_order, analytic, lambda) in [(false, true, 1e2), (false, false, 1e4), (true, true, 1e2)] {
+        let (p, ..) = pendulum_problem(90, Lambda::Constant(lambda), analytic);
+        let theta0 = theta_guess(&p);
+        let run = |band: bool| {
+            let settings = GaussNewtonSettings {
+                band,
+                second_order,
+                max_iters: 40,
+                ..GaussNewtonSettings::default()
+            };
+            GaussNewton::new(settings)
+                .expect("settings")
+                .solve(&p, &theta0)
+                .expect("solve")
+        };
+        let (band, sparse) = (run(true), run(false));
+        assert!(
+            band.cost < 0.5 * band.initial_cost,
+            "{} from {}",
+            band.cost,
+            band.initial_cost
+        );
+        // the first iterations agree to rounding; rounding may shift a late stopping test
+        let n = band.cost_history.len().min(sparse.cost_history.len()).min(10);
+        for (a, b) in band.cost_history[..n].iter().zip(&sparse.cost_history[..n]) {
+            assert!(
+                (a - b).abs() <= 1e-9 * b,
+                "{a} vs {b} (second order {second_order}, analytic {analytic})"
+            );
+        }
+        assert!(
+            (band.cost - sparse.cost).abs() <= 1e-8 * sparse.cost,
+            "{} vs {}",
+            band.cost,
+            sparse.cost
+        );
+    }
+    // Newton steps need the model's second derivatives: the benchmark pendulum has them
+    let (p, theta0) = trajopt::problems::pendulum_swingup(150, 1e2).expect("problem");
+    let run = |band: bool| {
+        let settings = GaussNewtonSettings {
+            band,
+            second_order: true,
+            ..GaussNewtonSettings::default()
+        };
+        GaussNewton::new(settings)
+            .expect("settings")
+            .solve(&p, &theta0)
+            .expect("solve")
+    };
+    let (band, sparse) = (run(true), run(false));
+    assert!(band.status.converged() && sparse.status.converged());
+    assert!(
+        (band.cost - sparse.cost).abs() <= 1e-10 * sparse.cost,
+        "{} vs {}",
+        band.cost,
+        sparse.cost
+    );
+    assert!(
+        band.iterations.abs_diff(sparse.iterations) <= 2,
+        "{} vs {}",
+        band.iterations,
+        sparse.iterations
+    );
+}

@@ -1,0 +1,373 @@
+//! Symmetric band matrices: storage, Cholesky factorisation, solves.
+//!
+//! A symmetric $n \times n$ matrix $A$ with half-bandwidth $k$
+//! ($A_{ij} = 0$ for $|i - j| > k$) is stored as its lower band, column by
+//! column: entry $(i, j)$, $j \le i \le j + k$, at `j * (k + 1) + (i - j)`
+//! (LAPACK's `dpbtrf` layout with `uplo = 'L'`). The Cholesky factor
+//! $A = LL^\top$ has the same band, so it is computed in place in
+//! $O(n k^2)$ time: for trajectory problems, whose normal equations are
+//! banded once the parameters are ordered by time, that is linear in the
+//! horizon with a small constant (no fill-reducing ordering, no symbolic
+//! phase, contiguous inner loops).
+//!
+//! [`BandLayout`] tells a solver where each parameter of a
+//! [`LeastSquaresProblem`](crate::LeastSquaresProblem) sits in the band
+//! matrix, and [`GaussNewton`](crate::GaussNewton) uses it when the problem
+//! can form its normal equations in band form
+//! ([`LeastSquaresProblem::band_layout`](crate::LeastSquaresProblem::band_layout)).
+
+use crate::error::{Result, TrajoptError};
+
+/// Where the parameters go in a band matrix: parameter `i` is row and
+/// column `position[i]`, and the matrix has half-bandwidth
+/// `half_bandwidth`.
+#[derive(Debug, Clone, PartialEq, Eq)]
+pub struct BandLayout {
+    /// Row (and column) of each parameter; a permutation of $0..n$.
+    pub position: Vec<usize>,
+    /// The half-bandwidth $k$.
+    pub half_bandwidth: usize,
+}
+
+impl BandLayout {
+    /// Checks that `position` is a permutation of $0..n$ for `n` parameters.
+    pub fn validate(&self, n: usize) -> Result<()> {
+        if self.position.len() != n {
+            return Err(TrajoptError::DimensionMismatch {
+                what: "band layout positions",
+                expected: n,
+                actual: self.position.len(),
+            });
+        }
+        let mut seen = vec![false; n];
+        for (i, &p) in self.position.iter().enumerate() {
+            if p >= n || std::mem::replace(&mut seen[p], true) {
+                return Err(TrajoptError::InvalidParameter {
+                    name: "band layout",
+                    reason: format!("position {p} of parameter {i} is out of range or taken twice"),
+                });
+            }
+        }
+        Ok(())
+    }
+}
+
+/// A symmetric band matrix (lower band stored); see the [module docs](self).
+#[derive(Debug, Clone, PartialEq)]
+pub struct BandedSym {
+    n: usize,
+    kd: usize,
+    /// Column-major lower band, `kd + 1` entries per column (the entries
+    /// below row $n - 1$ are padding and stay zero).
+    ab: Vec<f64>,
+}
+
+impl BandedSym {
+    /// The zero matrix of size `n` and half-bandwidth `kd`.
+    pub fn zeros(n: usize, kd: usize) -> Self {
+        Self {
+            n,
+            kd,
+            ab: vec![0.0; n * (kd + 1)],
+        }
+    }
+
+    /// Its size $n$.
+    pub fn size(&self) -> usize {
+        self.n
+    }
+
+    /// Its half-bandwidth $k$.
+    pub fn half_bandwidth(&self) -> usize {
+        self.kd
+    }
+
+    /// The stored lower band (see the [module docs](self) for the layout).
+    pub fn band(&self) -> &[f64] {
+        &self.ab
+    }
+
+    /// Sets every entry to zero.
+    pub fn clear(&mut self) {
+        self.ab.fill(0.0);
+    }
+
+    /// Copies the values of `other` (same size and bandwidth).
+    ///
+    /// # Panics
+    /// If the shapes differ (a programming error inside the solver).
+    pub fn copy_from(&mut self, other: &Self) {
+        assert_eq!((self.n, self.kd), (other.n, other.kd), "band shapes differ");
+        self.ab.copy_from_slice(&other.ab);
+    }
+
+    /// The index of entry $(i, j)$ in the band, $j \le i \le j + k$.
+    #[inline]
+    fn index(&self, i: usize, j: usize) -> usize {
+        debug_assert!(j <= i && i - j <= self.kd && i < self.n);
+        j * (self.kd + 1) + (i - j)
+    }
+
+    /// Entry $(i, j)$ (either triangle; zero outside the band).
+    pub fn get(&self, i: usize, j: usize) -> f64 {
+        let (i, j) = if i >= j { (i, j) } else { (j, i) };
+        if i >= self.n || i - j > self.kd {
+            return 0.0;
+        }
+        self.ab[self.index(i, j)]
+    }
+
+    /// Adds `v` to entry $(i, j)$ and, off the diagonal, to $(j, i)$.
+    ///
+    /// # Errors
+    /// [`TrajoptError::InvalidParameter`] if $(i, j)$ lies outside the band.
+    pub fn add(&mut self, i: usize, j: usize, v: f64) -> Result<()> {
+        let (i, j) = if i >= j { (i, j) } else { (j, i) };
+        if i >= self.n || i - j > self.kd {
+            return Err(TrajoptError::InvalidParameter {
+                name: "band matrix",
+                reason: format!(
+                    "entry ({i}, {j}) is outside a band of half-width {} and size {}",
+                    self.kd, self.n
+                ),
+            });
+        }
+        let p = self.index(i, j);
+        self.ab[p] += v;
+        Ok(())
+    }
+
+    /// Adds `v` to the lower-band entry $(i, j)$, $j \le i \le j + k$,
+    /// unchecked beyond a debug assertion (for assembly loops that know
+    /// their indices are in the band).
+    #[inline]
+    pub fn add_lower(&mut self, i: usize, j: usize, v: f64) {
+        let p = self.index(i, j);
+        self.ab[p] += v;
+    }
+
+    /// The diagonal entry $(j, j)$.
+    #[inline]
+    pub fn diagonal(&self, j: usize) -> f64 {
+        self.ab[j * (self.kd + 1)]
+    }
+
+    /// Adds `v[j]` to each diagonal entry $(j, j)$.
+    pub fn add_to_diagonal(&mut self, v: &[f64]) {
+        let w = self.kd + 1;
+        for (j, &d) in v.iter().enumerate().take(self.n) {
+            self.ab[j * w] += d;
+        }
+    }
+
+    /// Adds `scale * other` entrywise (same size and bandwidth).
+    ///
+    /// # Panics
+    /// If the shapes differ (a programming error inside the solver).
+    pub fn add_scaled(&mut self, scale: f64, other: &Self) {
+        assert_eq!((self.n, self.kd), (other.n, other.kd), "band shapes differ");
+        for (a, b) in self.ab.iter_mut().zip(&other.ab) {
+            *a += scale * b;
+        }
+    }
+
+    /// $y = A x$.
+    ///
+    /// # Panics
+    /// If `x` or `y` does not have length $n$.
+    pub fn mul_vec(&self, x: &[f64], y: &mut [f64]) {
+        assert!(
+            x.len() == self.n && y.len() == self.n,
+            "vector length differs from the matrix size"
+        );
+        y.fill(0.0);
+        let w = self.kd + 1;
+        for j in 0..self.n {
+            let kn = self.kd.min(self.n - 1 - j);
+            let col = &self.ab[j * w..j * w + kn + 1];
+            let xj = x[j];
+            let mut acc = col[0] * xj;
+            for (i, &a) in col.iter().enumerate().skip(1) {
+                y[j + i] += a * xj;
+                acc += a * x[j + i];
+            }
+            y[j] += acc;
+        }
+    }
+
+    /// Overwrites the matrix with its Cholesky factor $L$ ($A = LL^\top$,
+    /// lower band) and returns it, or returns `None` (leaving the matrix
+    /// partly overwritten) if a pivot is not positive and finite: the matrix
+    /// is not numerically positive definite.
+    pub fn cholesky_in_place(mut self) -> std::result::Result<BandCholesky, Self> {
+        let (n, kd) = (self.n, self.kd);
+        let w = kd + 1;
+        for j in 0..n {
+            let (head, tail) = self.ab.split_at_mut((j + 1) * w);
+            let col = &mut head[j * w..];
+            let d = col[0];
+            if !(d > 0.0 && d.is_finite()) {
+                return Err(self);
+            }
+            let l = d.sqrt();
+            col[0] = l;
+            let kn = kd.min(n - 1 - j);
+            let inv = 1.0 / l;
+            for v in &mut col[1..=kn] {
+                *v *= inv;
+            }
+            // A[j+c.., j+c] -= L[j+c.., j] L[j+c, j]
+            for c in 1..=kn {
+                let lc = col[c];
+                if lc == 0.0 {
+                    continue;
+                }
+                let target = &mut tail[(c - 1) * w..(c - 1) * w + (kn - c + 1)];
+                for (t, &lr) in target.iter_mut().zip(&col[c..=kn]) {
+                    *t -= lr * lc;
+                }
+            }
+        }
+        Ok(BandCholesky { factor: self })
+    }
+}
+
+/// The Cholesky factor of a [`BandedSym`], from
+/// [`BandedSym::cholesky_in_place`].
+#[derive(Debug, Clone)]
+pub struct BandCholesky {
+    factor: BandedSym,
+}
+
+impl BandCholesky {
+    /// Solves $A x = b$ in place (`x` holds $b$ on entry).
+    ///
+    /// # Panics
+    /// If `x` does not have length $n$.
+    pub fn solve_in_place(&self, x: &mut [f64]) {
+        let f = &self.factor;
+        assert_eq!(x.len(), f.n, "vector length differs from the matrix size");
+        let w = f.kd + 1;
+        // L y = b
+        for j in 0..f.n {
+            let kn = f.kd.min(f.n - 1 - j);
+            let col = &f.ab[j * w..j * w + kn + 1];
+            let yj = x[j] / col[0];
+            x[j] = yj;
+            for (xi, &l) in x[j + 1..=j + kn].iter_mut().zip(&col[1..]) {
+                *xi -= l * yj;
+            }
+        }
+        // L^T x = y
+        for j in (0..f.n).rev() {
+            let kn = f.kd.min(f.n - 1 - j);
+            let col = &f.ab[j * w..j * w + kn + 1];
+            let s: f64 = x[j + 1..=j + kn].iter().zip(&col[1..]).map(|(a, b)| a * b).sum();
+            x[j] = (x[j] - s) / col[0];
+        }
+    }
+
+    /// Gives the storage back (its values are the factor's) for reuse.
+    pub fn into_inner(self) -> BandedSym {
+        self.factor
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use faer::Mat;
+    use faer::linalg::solvers::Solve;
+    use proptest::prelude::*;
+
+    /// A random symmetric band matrix made positive definite by a diagonal shift.
+    fn spd(n: usize, kd: usize, seed: u64, shift: f64) -> BandedSym {
+        let mut a = BandedSym::zeros(n, kd);
+        let mut s = seed;
+        for j in 0..n {
+            for i in j..(j + kd + 1).min(n) {
+                s = s.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+                let v = ((s >> 11) as f64 / (1u64 << 53) as f64) - 0.5;
+                a.add(i, j, v).expect("in band");
+            }
+        }
+        a.add_to_diagonal(&vec![shift; n]);
+        a
+    }
+
+    fn dense(a: &BandedSym) -> Mat<f64> {
+        Mat::from_fn(a.size(), a.size(), |i, j| a.get(i, j))
+    }
+
+    proptest! {
+        /// The band Cholesky solve equals faer's dense Cholesky solve, and
+        /// L L^T reproduces A.
+        #[test]
+        fn band_cholesky_matches_dense(n in 1usize..40, kd in 0usize..8, seed in any::<u64>()) {
+            let a = spd(n, kd, seed, (2 * kd + 2) as f64);
+            let full = dense(&a);
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let chol = a.clone().cholesky_in_place().expect("positive definite");
+            let mut x = b.clone();
+            chol.solve_in_place(&mut x);
+            let llt = full.llt(faer::Side::Lower).expect("dense llt");
+            let reference = llt.solve(&Mat::from_fn(n, 1, |i, _| b[i]));
+            for i in 0..n {
+                prop_assert!((x[i] - reference[(i, 0)]).abs() <= 1e-10 * (1.0 + reference[(i, 0)].abs()));
+            }
+            let l = dense(&chol.into_inner());
+            let l = Mat::from_fn(n, n, |i, j| if i >= j { l[(i, j)] } else { 0.0 });
+            let rebuilt = &l * l.transpose();
+            for i in 0..n {
+                for j in 0..n {
+                    prop_assert!((rebuilt[(i, j)] - full[(i, j)]).abs() <= 1e-12 * (kd + 2) as f64 * 4.0);
+                }
+            }
+        }
+
+        /// The band product equals the dense product.
+        #[test]
+        fn band_product_matches_dense(n in 1usize..30, kd in 0usize..6, seed in any::<u64>()) {
+            let a = spd(n, kd, seed, 0.0);
+            let x: Vec<f64> = (0..n).map(|i| (i as f64 * 1.3).cos()).collect();
+            let mut y = vec![0.0; n];
+            a.mul_vec(&x, &mut y);
+            let reference = dense(&a) * Mat::from_fn(n, 1, |i, _| x[i]);
+            for i in 0..n {
+                prop_assert!((y[i] - reference[(i, 0)]).abs() <= 1e-12);
+            }
+        }
+    }
+
+    #[test]
+    fn an_indefinite_matrix_is_refused() {
+        let mut a = BandedSym::zeros(3, 1);
+        a.add_to_diagonal(&[1.0, 1.0, 1.0]);
+        a.add(1, 0, 2.0).expect("in band");
+        assert!(a.cholesky_in_place().is_err());
+        let mut nan = BandedSym::zeros(2, 1);
+        nan.add_to_diagonal(&[f64::NAN, 1.0]);
+        assert!(nan.cholesky_in_place().is_err());
+    }
+
+    #[test]
+    fn entries_outside_the_band_are_an_error_and_layouts_are_checked() {
+        let mut a = BandedSym::zeros(4, 1);
+        assert!(a.add(3, 1, 1.0).is_err());
+        assert!(a.add(1, 3, 1.0).is_err());
+        assert!(a.add(2, 1, 1.0).is_ok());
+        assert_eq!(a.get(1, 2), 1.0);
+        assert_eq!(a.get(3, 0), 0.0);
+        let ok = BandLayout {
+            position: vec![2, 0, 1],
+            half_bandwidth: 1,
+        };
+        assert!(ok.validate(3).is_ok());
+        assert!(ok.validate(4).is_err());
+        let twice = BandLayout {
+            position: vec![0, 0, 1],
+            half_bandwidth: 1,
+        };
+        assert!(twice.validate(3).is_err());
+    }
+}
