@@ -108,6 +108,15 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
     }
 
+    /// The basis rows of step `k` into `rows`; false if one of them is not
+    /// a contiguous range of coefficients (then the window cannot be used).
+    fn contiguous_rows(&self, k: usize, rows: &mut BasisRows) -> bool {
+        let terminal = k == self.horizon;
+        contiguous_row(&self.phi_x, k, &mut rows.x)
+            && (terminal || contiguous_row(&self.phi_x, k + 1, &mut rows.x_next))
+            && (terminal || contiguous_row(&self.phi_u, k, &mut rows.u))
+    }
+
     /// $J^\top J$ (and $S$) in band form and $J^\top r$; see the module docs.
     pub(super) fn band_normal_equations_impl(
         &self,
@@ -160,6 +169,16 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let (mut carry_diag, mut carry_grad) = (vec![0.0; n], vec![0.0; n]);
         let (mut hz, mut hm, mut wm) = (vec![0.0; nz * nz], vec![0.0; nz * nz], vec![0.0; n]);
         let (mut g_row, mut f_rows) = (vec![0.0; nz], vec![0.0; n * nz]);
+        let (ncx, ncu) = (self.n_state_coeffs(), self.n_control_coeffs());
+        // parameter index of coefficient 0 of each channel, and its number of coefficients
+        let base: Vec<usize> = (0..n)
+            .map(|c| c * ncx)
+            .chain((0..m).map(|j| n * ncx + j * ncu))
+            .collect();
+        let limit: Vec<usize> = (0..nz).map(|a| if a < n { ncx } else { ncu }).collect();
+        let (mut window, mut s_window) = (Window::new(nz), Window::new(nz));
+        let mut rows_k = BasisRows::new(n);
+        let (mut need_first, mut need_len) = (vec![0; nz], vec![0; nz]);
         let mut spread = vec![Vec::new(); nz];
         let mut next = vec![Vec::new(); n];
         // the initial-state rows r = sqrt(w0) (x_0 - x0) sit after all steps
@@ -216,16 +235,56 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     carry_grad[i] = w * r_cons[i];
                 }
             }
-            self.spread_at(k, &layout.position, &mut spread, &mut next);
+            // the basis rows as coefficient ranges, when they are contiguous
+            let rows = self.contiguous_rows(k, &mut rows_k);
+            if !rows {
+                self.spread_at(k, &layout.position, &mut spread, &mut next);
+            }
             // gradient
-            for (a, s) in spread.iter().enumerate().take(dim) {
-                for &(p, v) in s {
-                    band_grad[p] += gl[a] * v;
+            for (a, &ga) in gl.iter().enumerate().take(dim) {
+                if rows {
+                    let (first, vals) = rows_k.row(a);
+                    for (i, &v) in vals.iter().enumerate() {
+                        band_grad[layout.position[base[a] + first + i]] += ga * v;
+                    }
+                } else {
+                    for &(p, v) in &spread[a] {
+                        band_grad[p] += ga * v;
+                    }
                 }
             }
-            spread_block(jtj, &q, nz, dim, &spread);
-            if !terminal {
-                spread_cross(jtj, &cross, n, nz, &spread, &next);
+            if rows {
+                let mut fits = true;
+                for a in 0..nz {
+                    let (f, l) = if a >= dim {
+                        (0, 0)
+                    } else if a < n && !terminal {
+                        let (f, l) = (rows_k.x.0, rows_k.x.1.len());
+                        let (f1, l1) = (rows_k.x_next.0, rows_k.x_next.1.len());
+                        let lo = f.min(f1);
+                        (lo, (f + l).max(f1 + l1) - lo)
+                    } else {
+                        let row = rows_k.row(a);
+                        (row.0, row.1.len())
+                    };
+                    need_first[a] = f;
+                    need_len[a] = l;
+                    fits &= l == 0 || window.holds(a, f, l);
+                }
+                if !fits {
+                    window.flush(jtj, &base, &layout.position)?;
+                    window.open(&need_first, &need_len, &limit);
+                }
+                rows_k.accumulate(&mut window, &q, nz, dim);
+                if !terminal {
+                    rows_k.accumulate_cross(&mut window, &cross, n, nz);
+                }
+            } else {
+                window.flush(jtj, &base, &layout.position)?;
+                spread_block(jtj, &q, nz, dim, &spread);
+                if !terminal {
+                    spread_cross(jtj, &cross, n, nz, &spread, &next);
+                }
             }
             // the second-order term on (x_k, u_k)
             if let (true, Some(s)) = (with_s, second_order.as_deref_mut()) {
@@ -273,9 +332,22 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     for a in 0..dim {
                         q[a * nz..a * nz + dim].copy_from_slice(&hz[a * dim..(a + 1) * dim]);
                     }
-                    spread_block(s, &q, nz, dim, &spread);
+                    if rows {
+                        if !(0..nz).all(|a| need_len[a] == 0 || s_window.holds(a, need_first[a], need_len[a])) {
+                            s_window.flush(s, &base, &layout.position)?;
+                            s_window.open(&need_first, &need_len, &limit);
+                        }
+                        rows_k.accumulate(&mut s_window, &q, nz, dim);
+                    } else {
+                        s_window.flush(s, &base, &layout.position)?;
+                        spread_block(s, &q, nz, dim, &spread);
+                    }
                 }
             }
+        }
+        window.flush(jtj, &base, &layout.position)?;
+        if let Some(s) = second_order.as_deref_mut() {
+            s_window.flush(s, &base, &layout.position)?;
         }
         debug_assert_eq!(row + self.initial_state.as_ref().map_or(0, |_| n), self.n_residuals());
         for (g, &p) in grad.iter_mut().zip(&layout.position) {
@@ -283,6 +355,199 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
         Ok(with_s && second_order.is_some())
     }
+}
+
+/// How far a window's coefficient block reaches beyond the first support
+/// that opened it: the window then serves the next few spans before it is
+/// flushed (a wider block costs nothing per step, only per flush).
+const WINDOW_REACH: usize = 4;
+
+/// A dense accumulator for the contributions of a run of consecutive steps
+/// whose basis rows all fall in the same coefficient ranges (one range per
+/// local channel: $n$ state channels, then $m$ control channels). Each step
+/// adds small dense outer products at fixed offsets (no position lookups,
+/// no branches, contiguous rows); the block is added to the band matrix
+/// once, when a step leaves the ranges. Only the blocks $(a, b)$ with
+/// $a \le b$ are kept (the matrix is symmetric), the diagonal blocks whole.
+struct Window {
+    /// First coefficient index of each channel's range (`usize::MAX`: closed).
+    start: Vec<usize>,
+    len: Vec<usize>,
+    /// Offset of each channel's range in the slots.
+    off: Vec<usize>,
+    size: usize,
+    acc: Vec<f64>,
+}
+
+impl Window {
+    fn new(channels: usize) -> Self {
+        Self {
+            start: vec![usize::MAX; channels],
+            len: vec![0; channels],
+            off: vec![0; channels],
+            size: 0,
+            acc: Vec::new(),
+        }
+    }
+
+    /// Whether coefficients `first..first + len` of channel `a` are inside.
+    fn holds(&self, a: usize, first: usize, len: usize) -> bool {
+        self.start[a] != usize::MAX && first >= self.start[a] && first + len <= self.start[a] + self.len[a]
+    }
+
+    /// Opens ranges starting at `first[a]` of `len[a] + WINDOW_REACH` (clipped to `limit[a]` coefficients).
+    fn open(&mut self, first: &[usize], len: &[usize], limit: &[usize]) {
+        let mut size = 0;
+        for a in 0..self.start.len() {
+            self.start[a] = first[a];
+            self.len[a] = (len[a] + WINDOW_REACH).min(limit[a] - first[a]);
+            self.off[a] = size;
+            size += self.len[a];
+        }
+        self.size = size;
+        self.acc.clear();
+        self.acc.resize(size * size, 0.0);
+    }
+
+    /// `block(a, b) += q u v^T`, `u` from coefficient `fa` of channel `a`
+    /// on, `v` from `fb` of channel `b` on (requires `a <= b`).
+    #[inline]
+    fn add_outer(&mut self, a: usize, (fa, u): (usize, &[f64]), b: usize, (fb, v): (usize, &[f64]), q: f64) {
+        debug_assert!(a <= b);
+        let row0 = self.off[a] + fa - self.start[a];
+        let col0 = self.off[b] + fb - self.start[b];
+        let size = self.size;
+        // cubic B-splines: 4 x 4, unrolled and vectorised
+        if let (Ok(u4), Ok(v4)) = (<&[f64; 4]>::try_from(u), <&[f64; 4]>::try_from(v)) {
+            for (i, &ui) in u4.iter().enumerate() {
+                let qu = q * ui;
+                let start = (row0 + i) * size + col0;
+                if let Ok(row) = <&mut [f64; 4]>::try_from(&mut self.acc[start..start + 4]) {
+                    for (h, &vj) in row.iter_mut().zip(v4) {
+                        *h += qu * vj;
+                    }
+                }
+            }
+            return;
+        }
+        for (i, &ui) in u.iter().enumerate() {
+            let qu = q * ui;
+            let start = (row0 + i) * size + col0;
+            for (h, &vj) in self.acc[start..start + v.len()].iter_mut().zip(v) {
+                *h += qu * vj;
+            }
+        }
+    }
+
+    /// Adds the accumulated block into `h` (coefficient `c` of channel `a`
+    /// is parameter `base[a] + c`, at `position[..]`) and closes the window.
+    fn flush(&mut self, h: &mut BandedSym, base: &[usize], position: &[usize]) -> Result<()> {
+        let channels = self.start.len();
+        if self.size == 0 {
+            return Ok(());
+        }
+        for a in 0..channels {
+            for i in 0..self.len[a] {
+                let pa = position[base[a] + self.start[a] + i];
+                let row = (self.off[a] + i) * self.size;
+                for b in a..channels {
+                    // a diagonal block is whole: its upper triangle suffices
+                    let first = if b == a { i } else { 0 };
+                    for j in first..self.len[b] {
+                        let v = self.acc[row + self.off[b] + j];
+                        if v != 0.0 {
+                            h.add(pa, position[base[b] + self.start[b] + j], v)?;
+                        }
+                    }
+                }
+            }
+        }
+        self.start.fill(usize::MAX);
+        self.size = 0;
+        Ok(())
+    }
+}
+
+/// The basis rows of one step as (first coefficient, values) over
+/// contiguous coefficients: $x_k$'s (shared by the state channels),
+/// $x_{k+1}$'s and $u_k$'s.
+struct BasisRows {
+    n: usize,
+    x: (usize, Vec<f64>),
+    x_next: (usize, Vec<f64>),
+    u: (usize, Vec<f64>),
+}
+
+impl BasisRows {
+    fn new(n: usize) -> Self {
+        Self {
+            n,
+            x: (0, Vec::new()),
+            x_next: (0, Vec::new()),
+            u: (0, Vec::new()),
+        }
+    }
+
+    /// The row of local channel `a` at step k.
+    fn row(&self, a: usize) -> (usize, &[f64]) {
+        let r = if a < self.n { &self.x } else { &self.u };
+        (r.0, &r.1)
+    }
+
+    /// Adds $P^\top Q P$ for the local block `q` (upper triangle, stride
+    /// `nz`, size `dim`).
+    fn accumulate(&self, window: &mut Window, q: &[f64], nz: usize, dim: usize) {
+        for a in 0..dim {
+            let (fa, ua) = self.row(a);
+            for b in a..dim {
+                let qab = q[a * nz + b];
+                if qab != 0.0 {
+                    let (fb, ub) = self.row(b);
+                    window.add_outer(a, (fa, ua), b, (fb, ub), qab);
+                }
+            }
+        }
+    }
+
+    /// Adds $P_k^\top E P_{k+1} + P_{k+1}^\top E^\top P_k$ for the cross
+    /// block `cross` ($(x_k, u_k) \times x_{k+1}$, stride `n`).
+    fn accumulate_cross(&self, window: &mut Window, cross: &[f64], n: usize, nz: usize) {
+        let (f1, u1) = (self.x_next.0, &self.x_next.1[..]);
+        for a in 0..nz {
+            let (fa, ua) = self.row(a);
+            for i in 0..n {
+                let e = cross[a * n + i];
+                if e == 0.0 {
+                    continue;
+                }
+                match a.cmp(&i) {
+                    std::cmp::Ordering::Less => window.add_outer(a, (fa, ua), i, (f1, u1), e),
+                    std::cmp::Ordering::Greater => window.add_outer(i, (f1, u1), a, (fa, ua), e),
+                    std::cmp::Ordering::Equal => {
+                        window.add_outer(a, (fa, ua), a, (f1, u1), e);
+                        window.add_outer(a, (f1, u1), a, (fa, ua), e);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// Row `k` of `phi` as (first column, values) if its columns are contiguous.
+fn contiguous_row(phi: &faer::sparse::SparseRowMat<usize, f64>, k: usize, out: &mut (usize, Vec<f64>)) -> bool {
+    let cols = phi.symbolic().col_idx_of_row_raw(k);
+    let Some(&first) = cols.first() else {
+        out.0 = 0;
+        out.1.clear();
+        return true;
+    };
+    if cols[cols.len() - 1] - first + 1 != cols.len() {
+        return false;
+    }
+    out.0 = first;
+    out.1.clear();
+    out.1.extend_from_slice(phi.val_of_row(k));
+    true
 }
 
 /// `q += weight g g^T` (upper triangle, stride `nz`) and `gl += r_weight g`
