@@ -175,10 +175,8 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             .map(|c| c * ncx)
             .chain((0..m).map(|j| n * ncx + j * ncu))
             .collect();
-        let limit: Vec<usize> = (0..nz).map(|a| if a < n { ncx } else { ncu }).collect();
-        let (mut window, mut s_window) = (Window::new(nz), Window::new(nz));
-        let mut rows_k = BasisRows::new(n);
-        let (mut need_first, mut need_len) = (vec![0; nz], vec![0; nz]);
+        let (mut window, mut s_window) = (KronWindow::new(n, m), KronWindow::new(n, m));
+        let mut rows_k = BasisRows::new();
         let mut spread = vec![Vec::new(); nz];
         let mut next = vec![Vec::new(); n];
         // the initial-state rows r = sqrt(w0) (x_0 - x0) sit after all steps
@@ -243,7 +241,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             // gradient
             for (a, &ga) in gl.iter().enumerate().take(dim) {
                 if rows {
-                    let (first, vals) = rows_k.row(a);
+                    let (first, vals) = if a < n { &rows_k.x } else { &rows_k.u };
                     for (i, &v) in vals.iter().enumerate() {
                         band_grad[layout.position[base[a] + first + i]] += ga * v;
                     }
@@ -253,34 +251,24 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     }
                 }
             }
+            // the local block whole (only its upper triangle was formed)
+            for a in 0..dim {
+                for b in 0..a {
+                    q[a * nz + b] = q[b * nz + a];
+                }
+            }
+            let ranges = rows_k.ranges(terminal);
             if rows {
-                let mut fits = true;
-                for a in 0..nz {
-                    let (f, l) = if a >= dim {
-                        (0, 0)
-                    } else if a < n && !terminal {
-                        let (f, l) = (rows_k.x.0, rows_k.x.1.len());
-                        let (f1, l1) = (rows_k.x_next.0, rows_k.x_next.1.len());
-                        let lo = f.min(f1);
-                        (lo, (f + l).max(f1 + l1) - lo)
-                    } else {
-                        let row = rows_k.row(a);
-                        (row.0, row.1.len())
-                    };
-                    need_first[a] = f;
-                    need_len[a] = l;
-                    fits &= l == 0 || window.holds(a, f, l);
+                if !window.holds(ranges.0, ranges.1) {
+                    window.flush(jtj)?;
+                    window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
                 }
-                if !fits {
-                    window.flush(jtj, &base, &layout.position)?;
-                    window.open(&need_first, &need_len, &limit);
-                }
-                rows_k.accumulate(&mut window, &q, nz, dim);
+                rows_k.accumulate(&mut window, &q, n, nz, terminal);
                 if !terminal {
-                    rows_k.accumulate_cross(&mut window, &cross, n, nz);
+                    rows_k.accumulate_cross(&mut window, &cross, n);
                 }
             } else {
-                window.flush(jtj, &base, &layout.position)?;
+                window.flush(jtj)?;
                 spread_block(jtj, &q, nz, dim, &spread);
                 if !terminal {
                     spread_cross(jtj, &cross, n, nz, &spread, &next);
@@ -333,21 +321,21 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                         q[a * nz..a * nz + dim].copy_from_slice(&hz[a * dim..(a + 1) * dim]);
                     }
                     if rows {
-                        if !(0..nz).all(|a| need_len[a] == 0 || s_window.holds(a, need_first[a], need_len[a])) {
-                            s_window.flush(s, &base, &layout.position)?;
-                            s_window.open(&need_first, &need_len, &limit);
+                        if !s_window.holds(ranges.0, ranges.1) {
+                            s_window.flush(s)?;
+                            s_window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
                         }
-                        rows_k.accumulate(&mut s_window, &q, nz, dim);
+                        rows_k.accumulate(&mut s_window, &q, n, nz, terminal);
                     } else {
-                        s_window.flush(s, &base, &layout.position)?;
+                        s_window.flush(s)?;
                         spread_block(s, &q, nz, dim, &spread);
                     }
                 }
             }
         }
-        window.flush(jtj, &base, &layout.position)?;
+        window.flush(jtj)?;
         if let Some(s) = second_order.as_deref_mut() {
-            s_window.flush(s, &base, &layout.position)?;
+            s_window.flush(s)?;
         }
         debug_assert_eq!(row + self.initial_state.as_ref().map_or(0, |_| n), self.n_residuals());
         for (g, &p) in grad.iter_mut().zip(&layout.position) {
@@ -357,114 +345,225 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     }
 }
 
-/// How far a window's coefficient block reaches beyond the first support
-/// that opened it: the window then serves the next few spans before it is
-/// flushed (a wider block costs nothing per step, only per flush).
+/// How far a window's coefficient ranges reach beyond the supports that
+/// opened it: the window then serves the next few spans before it is
+/// flushed (a wider window costs nothing per step, only per flush).
 const WINDOW_REACH: usize = 4;
 
-/// A dense accumulator for the contributions of a run of consecutive steps
-/// whose basis rows all fall in the same coefficient ranges (one range per
-/// local channel: $n$ state channels, then $m$ control channels). Each step
-/// adds small dense outer products at fixed offsets (no position lookups,
-/// no branches, contiguous rows); the block is added to the band matrix
-/// once, when a step leaves the ranges. Only the blocks $(a, b)$ with
-/// $a \le b$ are kept (the matrix is symmetric), the diagonal blocks whole.
-struct Window {
-    /// First coefficient index of each channel's range (`usize::MAX`: closed).
-    start: Vec<usize>,
-    len: Vec<usize>,
-    /// Offset of each channel's range in the slots.
-    off: Vec<usize>,
+/// A dense accumulator for a run of consecutive steps whose basis rows fall
+/// in the same coefficient ranges: `x_len` state coefficients from
+/// `x_start` (shared by the $n$ state channels) and `u_len` control
+/// coefficients from `u_start`. The slots are coefficient-major (slot
+/// `i * n + a` is coefficient `x_start + i` of state channel `a`, the
+/// control slots follow), so that a local block $Q$ spread over basis rows
+/// $\phi, \psi$ is a Kronecker product $\phi \psi^\top \otimes Q$ whose rows
+/// are contiguous: a step adds a few dense vectors of length
+/// $|\psi| \cdot$ channels, with no position lookups.
+///
+/// It holds $A$ with $H = A + A^\top$, so that a symmetric pair of blocks
+/// $X + X^\top$ is added once (as $X$); the window goes into the band
+/// matrix when a step leaves its ranges.
+struct KronWindow {
+    n: usize,
+    m: usize,
+    x_start: usize,
+    x_len: usize,
+    u_start: usize,
+    u_len: usize,
     size: usize,
+    /// Row-major `size x size`.
     acc: Vec<f64>,
+    /// The band position of each slot.
+    slot_pos: Vec<usize>,
+    /// One row of a Kronecker product.
+    row: Vec<f64>,
 }
 
-impl Window {
-    fn new(channels: usize) -> Self {
+/// One side of a Kronecker block: the basis row `phi` from coefficient
+/// `first` on, of the state channels or of the control channels.
+#[derive(Clone, Copy)]
+struct Side<'a> {
+    first: usize,
+    phi: &'a [f64],
+    state: bool,
+}
+
+impl KronWindow {
+    fn new(n: usize, m: usize) -> Self {
         Self {
-            start: vec![usize::MAX; channels],
-            len: vec![0; channels],
-            off: vec![0; channels],
+            n,
+            m,
+            x_start: 0,
+            x_len: 0,
+            u_start: 0,
+            u_len: 0,
             size: 0,
             acc: Vec::new(),
+            slot_pos: Vec::new(),
+            row: Vec::new(),
         }
     }
 
-    /// Whether coefficients `first..first + len` of channel `a` are inside.
-    fn holds(&self, a: usize, first: usize, len: usize) -> bool {
-        self.start[a] != usize::MAX && first >= self.start[a] && first + len <= self.start[a] + self.len[a]
+    /// Whether the state range `x` and the control range `u`
+    /// ((first, length); length 0: not needed) are inside.
+    fn holds(&self, x: (usize, usize), u: (usize, usize)) -> bool {
+        let inside = |(f, l): (usize, usize), start: usize, len: usize| l == 0 || (f >= start && f + l <= start + len);
+        self.size > 0 && inside(x, self.x_start, self.x_len) && inside(u, self.u_start, self.u_len)
     }
 
-    /// Opens ranges starting at `first[a]` of `len[a] + WINDOW_REACH` (clipped to `limit[a]` coefficients).
-    fn open(&mut self, first: &[usize], len: &[usize], limit: &[usize]) {
-        let mut size = 0;
-        for a in 0..self.start.len() {
-            self.start[a] = first[a];
-            self.len[a] = (len[a] + WINDOW_REACH).min(limit[a] - first[a]);
-            self.off[a] = size;
-            size += self.len[a];
-        }
-        self.size = size;
+    /// Opens the window on ranges from `x.0` and `u.0`, reaching
+    /// `WINDOW_REACH` coefficients beyond the lengths (clipped to the
+    /// `ncx` and `ncu` coefficients); `base` and `position` map a
+    /// channel's coefficient to its band position.
+    fn open(
+        &mut self,
+        x: (usize, usize),
+        u: (usize, usize),
+        (ncx, ncu): (usize, usize),
+        base: &[usize],
+        position: &[usize],
+    ) {
+        let (n, m) = (self.n, self.m);
+        self.x_start = x.0.min(ncx);
+        self.x_len = (x.1 + WINDOW_REACH).min(ncx - self.x_start);
+        self.u_start = u.0.min(ncu);
+        self.u_len = (u.1 + WINDOW_REACH).min(ncu - self.u_start);
+        self.size = self.x_len * n + self.u_len * m;
         self.acc.clear();
-        self.acc.resize(size * size, 0.0);
+        self.acc.resize(self.size * self.size, 0.0);
+        self.slot_pos.clear();
+        for i in 0..self.x_len {
+            self.slot_pos
+                .extend((0..n).map(|a| position[base[a] + self.x_start + i]));
+        }
+        for i in 0..self.u_len {
+            self.slot_pos
+                .extend((0..m).map(|j| position[base[n + j] + self.u_start + i]));
+        }
     }
 
-    /// `block(a, b) += q u v^T`, `u` from coefficient `fa` of channel `a`
-    /// on, `v` from `fb` of channel `b` on (requires `a <= b`).
-    #[inline]
-    fn add_outer(&mut self, a: usize, (fa, u): (usize, &[f64]), b: usize, (fb, v): (usize, &[f64]), q: f64) {
-        debug_assert!(a <= b);
-        let row0 = self.off[a] + fa - self.start[a];
-        let col0 = self.off[b] + fb - self.start[b];
+    /// The slot of coefficient `first` of `side`'s first channel.
+    fn slot(&self, side: Side<'_>) -> usize {
+        if side.state {
+            (side.first - self.x_start) * self.n
+        } else {
+            self.x_len * self.n + (side.first - self.u_start) * self.m
+        }
+    }
+
+    /// $A \mathrel{+}= \text{scale} \cdot (\phi_r \phi_c^\top) \otimes Q$, $Q$
+    /// the `rows.channels x cols.channels` block of `q` (row stride
+    /// `stride`) at (`q_row`, `q_col`).
+    #[allow(clippy::too_many_arguments)]
+    fn kron(
+        &mut self,
+        rows: Side<'_>,
+        cols: Side<'_>,
+        q: &[f64],
+        stride: usize,
+        q_row: usize,
+        q_col: usize,
+        scale: f64,
+    ) {
+        let (nr, ncl) = (
+            if rows.state { self.n } else { self.m },
+            if cols.state { self.n } else { self.m },
+        );
+        let (r0, c0) = (self.slot(rows), self.slot(cols));
+        // the common shapes, unrolled: cubic B-splines, n = 4 or 2 states, m = 1 control
+        macro_rules! fixed {
+            ($($nr:literal, $nc:literal);*) => {
+                match (rows.phi.len(), cols.phi.len(), nr, ncl) {
+                    $((4, 4, $nr, $nc) => {
+                        return kron_fixed::<$nr, $nc>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale);
+                    })*
+                    _ => {}
+                }
+            };
+        }
+        fixed!(4, 4; 1, 4; 1, 1; 2, 2; 1, 2);
+        let width = cols.phi.len() * ncl;
+        self.row.resize(width, 0.0);
+        for a in 0..nr {
+            // the row of the Kronecker product for channel a, up to phi_r[i]
+            let qa = &q[(q_row + a) * stride + q_col..(q_row + a) * stride + q_col + ncl];
+            if qa.iter().all(|&v| v == 0.0) {
+                continue;
+            }
+            for (chunk, &pj) in self.row.chunks_exact_mut(ncl).zip(cols.phi) {
+                for (w, &qb) in chunk.iter_mut().zip(qa) {
+                    *w = scale * pj * qb;
+                }
+            }
+            for (i, &pi) in rows.phi.iter().enumerate() {
+                let start = (r0 + i * nr + a) * self.size + c0;
+                for (h, &w) in self.acc[start..start + width].iter_mut().zip(&self.row) {
+                    *h += pi * w;
+                }
+            }
+        }
+    }
+
+    /// Adds $H = A + A^\top$ into `h` and closes the window.
+    fn flush(&mut self, h: &mut BandedSym) -> Result<()> {
         let size = self.size;
-        // cubic B-splines: 4 x 4, unrolled and vectorised
-        if let (Ok(u4), Ok(v4)) = (<&[f64; 4]>::try_from(u), <&[f64; 4]>::try_from(v)) {
-            for (i, &ui) in u4.iter().enumerate() {
-                let qu = q * ui;
-                let start = (row0 + i) * size + col0;
-                if let Ok(row) = <&mut [f64; 4]>::try_from(&mut self.acc[start..start + 4]) {
-                    for (h, &vj) in row.iter_mut().zip(v4) {
-                        *h += qu * vj;
-                    }
-                }
+        for s1 in 0..size {
+            let p1 = self.slot_pos[s1];
+            let v = 2.0 * self.acc[s1 * size + s1];
+            if v != 0.0 {
+                h.add(p1, p1, v)?;
             }
-            return;
-        }
-        for (i, &ui) in u.iter().enumerate() {
-            let qu = q * ui;
-            let start = (row0 + i) * size + col0;
-            for (h, &vj) in self.acc[start..start + v.len()].iter_mut().zip(v) {
-                *h += qu * vj;
-            }
-        }
-    }
-
-    /// Adds the accumulated block into `h` (coefficient `c` of channel `a`
-    /// is parameter `base[a] + c`, at `position[..]`) and closes the window.
-    fn flush(&mut self, h: &mut BandedSym, base: &[usize], position: &[usize]) -> Result<()> {
-        let channels = self.start.len();
-        if self.size == 0 {
-            return Ok(());
-        }
-        for a in 0..channels {
-            for i in 0..self.len[a] {
-                let pa = position[base[a] + self.start[a] + i];
-                let row = (self.off[a] + i) * self.size;
-                for b in a..channels {
-                    // a diagonal block is whole: its upper triangle suffices
-                    let first = if b == a { i } else { 0 };
-                    for j in first..self.len[b] {
-                        let v = self.acc[row + self.off[b] + j];
-                        if v != 0.0 {
-                            h.add(pa, position[base[b] + self.start[b] + j], v)?;
-                        }
-                    }
+            for s2 in s1 + 1..size {
+                let v = self.acc[s1 * size + s2] + self.acc[s2 * size + s1];
+                if v != 0.0 {
+                    h.add(p1, self.slot_pos[s2], v)?;
                 }
             }
         }
-        self.start.fill(usize::MAX);
         self.size = 0;
         Ok(())
+    }
+}
+
+/// [`KronWindow::kron`] for 4 x 4 basis rows and `NR x NC` channel blocks.
+#[allow(clippy::too_many_arguments)]
+#[inline(always)]
+fn kron_fixed<const NR: usize, const NC: usize>(
+    acc: &mut [f64],
+    size: usize,
+    (r0, c0): (usize, usize),
+    phi: &[f64],
+    psi: &[f64],
+    q: &[f64],
+    stride: usize,
+    (q_row, q_col): (usize, usize),
+    scale: f64,
+) {
+    let (Ok(phi), Ok(psi)) = (<&[f64; 4]>::try_from(phi), <&[f64; 4]>::try_from(psi)) else {
+        return;
+    };
+    for a in 0..NR {
+        let start = (q_row + a) * stride + q_col;
+        let Ok(qa) = <&[f64; NC]>::try_from(&q[start..start + NC]) else {
+            return;
+        };
+        let mut row = [[0.0; NC]; 4];
+        for (chunk, &pj) in row.iter_mut().zip(psi) {
+            for (w, &qb) in chunk.iter_mut().zip(qa) {
+                *w = scale * pj * qb;
+            }
+        }
+        for (i, &pi) in phi.iter().enumerate() {
+            let start = (r0 + i * NR + a) * size + c0;
+            for (j, chunk) in row.iter().enumerate() {
+                let Ok(h) = <&mut [f64; NC]>::try_from(&mut acc[start + j * NC..start + (j + 1) * NC]) else {
+                    return;
+                };
+                for (hv, &w) in h.iter_mut().zip(chunk) {
+                    *hv += pi * w;
+                }
+            }
+        }
     }
 }
 
@@ -472,64 +571,60 @@ impl Window {
 /// contiguous coefficients: $x_k$'s (shared by the state channels),
 /// $x_{k+1}$'s and $u_k$'s.
 struct BasisRows {
-    n: usize,
     x: (usize, Vec<f64>),
     x_next: (usize, Vec<f64>),
     u: (usize, Vec<f64>),
 }
 
 impl BasisRows {
-    fn new(n: usize) -> Self {
+    fn new() -> Self {
         Self {
-            n,
             x: (0, Vec::new()),
             x_next: (0, Vec::new()),
             u: (0, Vec::new()),
         }
     }
 
-    /// The row of local channel `a` at step k.
-    fn row(&self, a: usize) -> (usize, &[f64]) {
-        let r = if a < self.n { &self.x } else { &self.u };
-        (r.0, &r.1)
+    fn side(row: &(usize, Vec<f64>), state: bool) -> Side<'_> {
+        Side {
+            first: row.0,
+            phi: &row.1,
+            state,
+        }
     }
 
-    /// Adds $P^\top Q P$ for the local block `q` (upper triangle, stride
-    /// `nz`, size `dim`).
-    fn accumulate(&self, window: &mut Window, q: &[f64], nz: usize, dim: usize) {
-        for a in 0..dim {
-            let (fa, ua) = self.row(a);
-            for b in a..dim {
-                let qab = q[a * nz + b];
-                if qab != 0.0 {
-                    let (fb, ub) = self.row(b);
-                    window.add_outer(a, (fa, ua), b, (fb, ub), qab);
-                }
-            }
+    /// The state and control coefficient ranges step `k` touches.
+    fn ranges(&self, terminal: bool) -> ((usize, usize), (usize, usize)) {
+        let (f, l) = (self.x.0, self.x.1.len());
+        if terminal {
+            return ((f, l), (0, 0));
+        }
+        let (f1, l1) = (self.x_next.0, self.x_next.1.len());
+        let lo = f.min(f1);
+        ((lo, (f + l).max(f1 + l1) - lo), (self.u.0, self.u.1.len()))
+    }
+
+    /// Adds $P^\top Q P$ for the symmetric local block `q` (full, stride
+    /// `nz`, on $(x_k, u_k)$, or $x_N$ alone when `terminal`).
+    fn accumulate(&self, window: &mut KronWindow, q: &[f64], n: usize, nz: usize, terminal: bool) {
+        let (x, u) = (Self::side(&self.x, true), Self::side(&self.u, false));
+        window.kron(x, x, q, nz, 0, 0, 0.5);
+        if !terminal {
+            window.kron(u, x, q, nz, n, 0, 1.0);
+            window.kron(u, u, q, nz, n, n, 0.5);
         }
     }
 
     /// Adds $P_k^\top E P_{k+1} + P_{k+1}^\top E^\top P_k$ for the cross
     /// block `cross` ($(x_k, u_k) \times x_{k+1}$, stride `n`).
-    fn accumulate_cross(&self, window: &mut Window, cross: &[f64], n: usize, nz: usize) {
-        let (f1, u1) = (self.x_next.0, &self.x_next.1[..]);
-        for a in 0..nz {
-            let (fa, ua) = self.row(a);
-            for i in 0..n {
-                let e = cross[a * n + i];
-                if e == 0.0 {
-                    continue;
-                }
-                match a.cmp(&i) {
-                    std::cmp::Ordering::Less => window.add_outer(a, (fa, ua), i, (f1, u1), e),
-                    std::cmp::Ordering::Greater => window.add_outer(i, (f1, u1), a, (fa, ua), e),
-                    std::cmp::Ordering::Equal => {
-                        window.add_outer(a, (fa, ua), a, (f1, u1), e);
-                        window.add_outer(a, (f1, u1), a, (fa, ua), e);
-                    }
-                }
-            }
-        }
+    fn accumulate_cross(&self, window: &mut KronWindow, cross: &[f64], n: usize) {
+        let (x, u, x1) = (
+            Self::side(&self.x, true),
+            Self::side(&self.u, false),
+            Self::side(&self.x_next, true),
+        );
+        window.kron(x, x1, cross, n, 0, 0, 1.0);
+        window.kron(u, x1, cross, n, n, 0, 1.0);
     }
 }
 
@@ -671,30 +766,17 @@ mod tests {
         (jtj, s, grad, r)
     }
 
-    #[test]
-    fn band_normal_equations_equal_the_sparse_ones() {
-        let (problem, theta0) = pendulum_swingup(120, 1e2).expect("problem");
-        // a zero weight at one step, and the initial-state rows
-        let mut lambda = vec![1e2; 120];
-        lambda[7] = 0.0;
-        lambda[8] = 3e3;
-        let mut problem = problem.with_initial_state(&[0.1, 0.0, 0.0, 0.0], 7.0).expect("x0");
-        problem.set_lambda(Lambda::PerStep(lambda)).expect("lambda");
-        let theta: Vec<f64> = theta0
-            .iter()
-            .enumerate()
-            .map(|(i, t)| t + 0.3 * (i as f64 * 0.77).sin())
-            .collect();
-        let (jtj_ref, s_ref, grad_ref, r) = reference(&problem, &theta);
+    /// Compares the band form with the sparse one at a point away from the start.
+    fn check_band_equals_sparse<P: LeastSquaresProblem>(problem: &P, theta: &[f64]) {
+        let (jtj_ref, s_ref, grad_ref, r) = reference(problem, theta);
         let layout = problem.band_layout().expect("band form");
         let n_p = problem.n_params();
         layout.validate(n_p).expect("permutation");
-        assert!(layout.half_bandwidth < n_p / 3, "not banded: {}", layout.half_bandwidth);
         let mut jtj = BandedSym::zeros(n_p, layout.half_bandwidth);
         let mut s = jtj.clone();
         let mut grad = vec![0.0; n_p];
         let with_s = problem
-            .band_normal_equations(&theta, &r, &layout, &mut jtj, &mut grad, Some(&mut s))
+            .band_normal_equations(theta, &r, &layout, &mut jtj, &mut grad, Some(&mut s))
             .expect("band");
         assert!(with_s);
         let pos = &layout.position;
@@ -726,7 +808,7 @@ mod tests {
         let mut small = BandedSym::zeros(n_p - 1, layout.half_bandwidth);
         assert!(
             problem
-                .band_normal_equations(&theta, &r, &layout, &mut small, &mut grad, None)
+                .band_normal_equations(theta, &r, &layout, &mut small, &mut grad, None)
                 .is_err()
         );
         assert!(
@@ -734,5 +816,59 @@ mod tests {
                 .band_normal_equations(&theta[1..], &r, &layout, &mut jtj, &mut grad, None)
                 .is_err()
         );
+    }
+
+    fn perturbed(theta: &[f64]) -> Vec<f64> {
+        theta
+            .iter()
+            .enumerate()
+            .map(|(i, t)| t + 0.3 * (i as f64 * 0.77).sin())
+            .collect()
+    }
+
+    #[test]
+    fn band_normal_equations_equal_the_sparse_ones() {
+        let (problem, theta0) = pendulum_swingup(120, 1e2).expect("problem");
+        // a zero weight at one step, and the initial-state rows
+        let mut lambda = vec![1e2; 120];
+        lambda[7] = 0.0;
+        lambda[8] = 3e3;
+        let mut problem = problem.with_initial_state(&[0.1, 0.0, 0.0, 0.0], 7.0).expect("x0");
+        problem.set_lambda(Lambda::PerStep(lambda)).expect("lambda");
+        let layout = problem.band_layout().expect("band form");
+        assert!(
+            layout.half_bandwidth < problem.n_params() / 3,
+            "not banded: {}",
+            layout.half_bandwidth
+        );
+        check_band_equals_sparse(&problem, &perturbed(&theta0));
+    }
+
+    /// Bases whose rows are not 4 contiguous coefficients: a wavelet basis
+    /// for the states (rows spread over levels: the per-entry path), a
+    /// quadratic B-spline for the controls (3 coefficients per row).
+    #[test]
+    fn band_normal_equations_hold_for_other_bases() {
+        use splines::wavelet::{Boundary, Wavelet, WaveletBasis};
+        let horizon = 40;
+        let dt = crate::problems::PENDULUM_DT;
+        let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * dt).collect();
+        let state_ref = faer::Mat::from_fn(horizon + 1, 4, |k, i| crate::problems::swingup_reference(k)[i]);
+        let cost = crate::TrackingCost::new(state_ref, faer::Mat::zeros(horizon, 1), &[1.0; 4], &[0.01], &[10.0; 4])
+            .expect("cost");
+        let state_basis =
+            WaveletBasis::new(Wavelet::Db2, Boundary::Periodization, horizon + 1, None, 0.0, dt).expect("basis");
+        let control_basis = splines::BSplineBasis::clamped_uniform(9, 2, 0.0, times[horizon]).expect("basis");
+        let problem = Eq3Problem::new(
+            crate::problems::Pendulum::default(),
+            cost,
+            &state_basis,
+            &control_basis,
+            &times,
+            Lambda::Constant(50.0),
+        )
+        .expect("problem");
+        let theta: Vec<f64> = (0..problem.n_params()).map(|i| 0.2 * (i as f64 * 0.37).cos()).collect();
+        check_band_equals_sparse(&problem, &theta);
     }
 }
