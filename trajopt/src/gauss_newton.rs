@@ -289,7 +289,7 @@ impl GaussNewton {
         let mut system = match band {
             Some(layout) => {
                 layout.validate(n_p)?;
-                System::Band(BandSystem::new(layout, s.second_order))
+                System::Band(Box::new(BandSystem::new(layout, s.second_order)))
             }
             None => System::Sparse(Box::new(SparseSystem::new(
                 problem,
@@ -352,6 +352,10 @@ impl GaussNewton {
                         shift = (shift * SHIFT_INCREASE).max(SHIFT_MIN);
                         if shift > SHIFT_MAX {
                             newton = false;
+                            if !system.ensure_gauss_newton(problem, &theta, &r)? {
+                                status = GaussNewtonStatus::NumericalError;
+                                break 'outer;
+                            }
                         }
                         continue;
                     }
@@ -441,7 +445,7 @@ impl GaussNewton {
 /// ([`LeastSquaresProblem::band_layout`]).
 enum System {
     Sparse(Box<SparseSystem>),
-    Band(BandSystem),
+    Band(Box<BandSystem>),
 }
 
 impl System {
@@ -469,11 +473,7 @@ impl System {
                     *o = s.h.val()[p];
                 }
             }
-            Self::Band(b) => {
-                for (o, &p) in out.iter_mut().zip(&b.layout.position) {
-                    *o = b.jtj.diagonal(p);
-                }
-            }
+            Self::Band(b) => b.jtj_diagonal(out),
         }
     }
 
@@ -492,6 +492,21 @@ impl System {
                 s.factor.solve(s.h_damped.as_ref(), rhs)
             }
             Self::Band(b) => b.damped_step(newton, total, scale, step),
+        }
+    }
+
+    /// Makes the Gauss-Newton matrix $J^\top J$ available at this iterate
+    /// (the band form may hold only $J^\top J + S$); false if it is not
+    /// finite.
+    fn ensure_gauss_newton<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+    ) -> Result<bool> {
+        match self {
+            Self::Sparse(_) => Ok(true),
+            Self::Band(b) => b.ensure_gauss_newton(problem, theta, r),
         }
     }
 
@@ -521,7 +536,7 @@ impl System {
     }
 
     /// $H \delta$ with the undamped model matrix.
-    fn model_mul(&self, newton: bool, step: &[f64], out: &mut [f64]) {
+    fn model_mul(&mut self, newton: bool, step: &[f64], out: &mut [f64]) {
         match self {
             Self::Sparse(s) => sym_mat_vec(if newton { &s.h_full } else { &s.h }, step, out),
             Self::Band(b) => b.model_mul(newton, step, out),
@@ -644,32 +659,44 @@ impl SparseSystem {
     }
 }
 
-/// The band form: $J^\top J$ and $S$ formed by the problem in band storage,
-/// a band Cholesky factorisation ([`crate::banded`]).
+/// The band form: $J^\top J$ (or $J^\top J + S$) formed by the problem in
+/// band storage, a band Cholesky factorisation ([`crate::banded`]).
 struct BandSystem {
     layout: BandLayout,
-    jtj: BandedSym,
-    /// $S$, then $J^\top J + S$ once formed.
-    full: Option<BandedSym>,
+    second_order: bool,
+    /// The model matrix: $J^\top J + S$ when `has_s`, else $J^\top J$.
+    h: BandedSym,
+    has_s: bool,
+    /// The diagonal of $S$ (parameter order), to recover $D$ from `h`.
+    diag_s: Vec<f64>,
+    /// $J^\top J$ when `h` holds $J^\top J + S$ and a Gauss-Newton step is
+    /// wanted (formed on demand: most Newton iterations need no second pass).
+    jtj: Option<BandedSym>,
+    jtj_current: bool,
     /// The damped matrix and its factor (the same storage).
     work: Option<BandedSym>,
-    /// The right-hand side in the band order.
+    /// Vectors in the band order.
     rhs: Vec<f64>,
-    /// A product in the band order.
     product: Vec<f64>,
+    scratch: Vec<f64>,
 }
 
 impl BandSystem {
     fn new(layout: BandLayout, second_order: bool) -> Self {
         let n = layout.position.len();
-        let jtj = BandedSym::zeros(n, layout.half_bandwidth);
+        let h = BandedSym::zeros(n, layout.half_bandwidth);
         Self {
-            full: second_order.then(|| jtj.clone()),
-            work: Some(jtj.clone()),
-            jtj,
+            second_order,
+            work: Some(h.clone()),
+            h,
+            has_s: false,
+            diag_s: vec![0.0; n],
+            jtj: None,
+            jtj_current: false,
             layout,
             rhs: vec![0.0; n],
             product: vec![0.0; n],
+            scratch: vec![0.0; n],
         }
     }
 
@@ -680,27 +707,67 @@ impl BandSystem {
         r: &[f64],
         grad: &mut [f64],
     ) -> Result<Option<bool>> {
-        let with_s = problem.band_normal_equations(theta, r, &self.layout, &mut self.jtj, grad, self.full.as_mut())?;
-        if self.jtj.band().iter().chain(grad.iter()).any(|v| !v.is_finite()) {
-            return Ok(None);
+        let diag_s = self.second_order.then_some(&mut self.diag_s[..]);
+        self.has_s = problem.band_normal_equations(theta, r, &self.layout, &mut self.h, grad, diag_s)?;
+        self.jtj_current = false;
+        let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
+        if !(finite(self.h.band()) && finite(grad)) {
+            // a non-finite S only rules out Newton steps
+            if !self.has_s || !self.form_jtj(problem, theta, r)? {
+                return Ok(None);
+            }
+            self.has_s = false;
+            grad.copy_from_slice(&self.scratch);
+            if let Some(jtj) = self.jtj.as_mut() {
+                std::mem::swap(&mut self.h, jtj);
+            }
         }
-        let Some(full) = self.full.as_mut().filter(|_| with_s) else {
-            return Ok(Some(false));
-        };
-        full.add_scaled(1.0, &self.jtj);
-        Ok(Some(full.band().iter().all(|v| v.is_finite())))
+        Ok(Some(self.has_s))
+    }
+
+    /// Forms $J^\top J$ alone into `jtj`; false if it is not finite.
+    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
+        let jtj = self
+            .jtj
+            .get_or_insert_with(|| BandedSym::zeros(self.h.size(), self.h.half_bandwidth()));
+        problem.band_normal_equations(theta, r, &self.layout, jtj, &mut self.scratch, None)?;
+        self.jtj_current = true;
+        Ok(jtj.band().iter().chain(&self.scratch).all(|v| v.is_finite()))
+    }
+
+    /// Makes $J^\top J$ available for Gauss-Newton steps at this iterate.
+    fn ensure_gauss_newton<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+    ) -> Result<bool> {
+        if !self.has_s || self.jtj_current {
+            return Ok(true);
+        }
+        self.form_jtj(problem, theta, r)
+    }
+
+    /// The diagonal of $J^\top J$ in the parameter order.
+    fn jtj_diagonal(&self, out: &mut [f64]) {
+        for (i, (o, &p)) in out.iter_mut().zip(&self.layout.position).enumerate() {
+            *o = self.h.diagonal(p) - if self.has_s { self.diag_s[i] } else { 0.0 };
+        }
+    }
+
+    fn model(&self, newton: bool) -> &BandedSym {
+        match (&self.jtj, self.has_s && !newton) {
+            (Some(jtj), true) => jtj,
+            _ => &self.h,
+        }
     }
 
     /// `step` holds $-g$ on entry and $\delta$ on success.
     fn damped_step(&mut self, newton: bool, total: f64, scale: &[f64], step: &mut [f64]) -> bool {
-        let model = match (&self.full, newton) {
-            (Some(full), true) => full,
-            _ => &self.jtj,
-        };
         let Some(mut work) = self.work.take() else {
             return false;
         };
-        work.copy_from(model);
+        work.copy_from(self.model(newton));
         let pos = &self.layout.position;
         for ((&p, &d), &g) in pos.iter().zip(scale).zip(step.iter()) {
             self.rhs[p] = g;
@@ -723,20 +790,18 @@ impl BandSystem {
         }
     }
 
-    fn model_mul(&self, newton: bool, step: &[f64], out: &mut [f64]) {
-        let model = match (&self.full, newton) {
-            (Some(full), true) => full,
-            _ => &self.jtj,
-        };
+    fn model_mul(&mut self, newton: bool, step: &[f64], out: &mut [f64]) {
         let pos = &self.layout.position;
-        let mut x = vec![0.0; step.len()];
         for (&d, &p) in step.iter().zip(pos) {
-            x[p] = d;
+            self.rhs[p] = d;
         }
-        let mut y = vec![0.0; step.len()];
-        model.mul_vec(&x, &mut y);
+        let model = match (&self.jtj, self.has_s && !newton) {
+            (Some(jtj), true) => jtj,
+            _ => &self.h,
+        };
+        model.mul_vec(&self.rhs, &mut self.product);
         for (o, &p) in out.iter_mut().zip(pos) {
-            *o = y[p];
+            *o = self.product[p];
         }
     }
 }

@@ -62,13 +62,15 @@ pub trait LeastSquaresProblem {
         None
     }
 
-    /// Writes $J^\top J$ at $\theta$ into `jtj` (rows and columns in the
-    /// order of `layout`, which came from [`band_layout`](Self::band_layout)),
-    /// $J^\top r$ into `grad` (in the parameter order), and, when
-    /// `second_order` is given, $S(\theta)$ into it (band layout too); `r`
-    /// $= r(\theta)$. Returns whether $S$ was written (`false`: not
-    /// available at this point, as for
-    /// [`second_order_values`](Self::second_order_values)).
+    /// Writes the normal equations at $\theta$ ($r = r(\theta)$) in the band
+    /// form of `layout` (from [`band_layout`](Self::band_layout)): $J^\top r$
+    /// into `grad` (in the parameter order) and $J^\top J$ into `h`; or,
+    /// when `second_order` is given, $J^\top J + S$ into `h` and the
+    /// diagonal of $S$ into `second_order` (parameter order), returning
+    /// `true`. Returns `false` when $S$ was not asked for or is not
+    /// available at this point (as for
+    /// [`second_order_values`](Self::second_order_values)); `h` then holds
+    /// $J^\top J$.
     ///
     /// # Errors
     /// Wrong sizes, or an error from evaluating the problem. The default
@@ -78,11 +80,11 @@ pub trait LeastSquaresProblem {
         theta: &[f64],
         r: &[f64],
         layout: &BandLayout,
-        jtj: &mut BandedSym,
+        h: &mut BandedSym,
         grad: &mut [f64],
-        second_order: Option<&mut BandedSym>,
+        second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
-        let _ = (theta, r, layout, jtj, grad, second_order);
+        let _ = (theta, r, layout, h, grad, second_order);
         Err(TrajoptError::InvalidParameter {
             name: "problem",
             reason: "it has no band form of its normal equations".into(),

@@ -1170,11 +1170,11 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         theta: &[f64],
         r: &[f64],
         layout: &BandLayout,
-        jtj: &mut BandedSym,
+        h: &mut BandedSym,
         grad: &mut [f64],
-        second_order: Option<&mut BandedSym>,
+        second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
-        self.band_normal_equations_impl(theta, r, layout, jtj, grad, second_order)
+        self.band_normal_equations_impl(theta, r, layout, h, grad, second_order)
     }
 
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {

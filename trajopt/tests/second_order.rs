@@ -286,3 +286,72 @@ fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result
     ));
     Ok(())
 }
+
+/// The pendulum with second derivatives so large that $J^\top J + S$
+/// overflows: the Newton mode must fall back to Gauss-Newton steps, not
+/// fail, in both forms of the normal equations.
+struct Overflowing(Pendulum);
+
+impl Model for Overflowing {
+    fn state_dim(&self) -> usize {
+        4
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.0.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.0.jacobians(x, u, fx, fu)
+    }
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        self.0.jacobian_structure(fx, fu)
+    }
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        self.0.weighted_hessian(x, u, w, hess)?;
+        for h in hess.iter_mut().filter(|h| **h != 0.0) {
+            *h = f64::MAX;
+        }
+        Ok(true)
+    }
+}
+
+#[test]
+fn an_overflowing_second_order_term_gives_gauss_newton_steps() -> Result<()> {
+    let horizon = 60;
+    let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
+    let (x, _) = reference.trajectory(&theta0)?;
+    let times: Vec<f64> = (0..=horizon)
+        .map(|k| k as f64 * trajopt::problems::PENDULUM_DT)
+        .collect();
+    let cost = TrackingCost::new(x, Mat::zeros(horizon, 1), &[1.0; 4], &[0.1], &[10.0; 4])?;
+    let xb = splines::BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
+    let ub = splines::BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
+    let p = Eq3Problem::new(
+        Overflowing(Pendulum::default()),
+        cost,
+        &xb,
+        &ub,
+        &times,
+        trajopt::Lambda::Constant(10.0),
+    )?;
+    let start = perturbed(&theta0, 3.0);
+    let solve = |second_order: bool, band: bool| {
+        GaussNewton::new(GaussNewtonSettings {
+            second_order,
+            band,
+            max_iters: 30,
+            ..GaussNewtonSettings::default()
+        })?
+        .solve(&p, &start)
+    };
+    let gauss_newton = solve(false, true)?;
+    for band in [true, false] {
+        let newton = solve(true, band)?;
+        assert_eq!(newton.status, gauss_newton.status, "band {band}");
+        assert_eq!(newton.iterations, gauss_newton.iterations, "band {band}");
+        assert!((newton.cost - gauss_newton.cost).abs() <= 1e-10 * gauss_newton.cost);
+    }
+    Ok(())
+}

@@ -108,6 +108,17 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
     }
 
+    /// Calls `f(parameter, value)` for each basis entry of local variable
+    /// `a` of step `k` (`base[a]`: the parameter of its channel's first
+    /// coefficient).
+    #[inline]
+    fn for_each_basis_entry(&self, k: usize, a: usize, base: &[usize], mut f: impl FnMut(usize, f64)) {
+        let phi = if a < self.n { &self.phi_x } else { &self.phi_u };
+        for (&c, &v) in phi.symbolic().col_idx_of_row_raw(k).iter().zip(phi.val_of_row(k)) {
+            f(base[a] + c, v);
+        }
+    }
+
     /// The basis rows of step `k` into `rows`; false if one of them is not
     /// a contiguous range of coefficients (then the window cannot be used).
     fn contiguous_rows(&self, k: usize, rows: &mut BasisRows) -> bool {
@@ -123,23 +134,24 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         theta: &[f64],
         r: &[f64],
         layout: &BandLayout,
-        jtj: &mut BandedSym,
+        h: &mut BandedSym,
         grad: &mut [f64],
-        mut second_order: Option<&mut BandedSym>,
+        second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
         let n_p = self.n_params();
         expect_len("parameters", n_p, theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
         expect_len("gradient", n_p, grad.len())?;
         expect_len("band layout", n_p, layout.position.len())?;
-        for b in std::iter::once(&*jtj).chain(second_order.as_deref()) {
-            if b.size() != n_p || b.half_bandwidth() < layout.half_bandwidth {
-                return Err(TrajoptError::DimensionMismatch {
-                    what: "band matrix size",
-                    expected: n_p,
-                    actual: b.size(),
-                });
-            }
+        if h.size() != n_p || h.half_bandwidth() < layout.half_bandwidth {
+            return Err(TrajoptError::DimensionMismatch {
+                what: "band matrix size",
+                expected: n_p,
+                actual: h.size(),
+            });
+        }
+        if let Some(diag) = &second_order {
+            expect_len("second-order diagonal", n_p, diag.len())?;
         }
         let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
         let nz = n + m;
@@ -157,12 +169,10 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             fx: vec![0.0; n * n],
             fu: vec![0.0; n * m],
         };
-        jtj.clear();
+        h.clear();
         let mut band_grad = vec![0.0; n_p];
         let mut with_s = second_order.is_some();
-        if let Some(s) = second_order.as_deref_mut() {
-            s.clear();
-        }
+        let mut diag_s = vec![0.0; if with_s { n_p } else { 0 }];
         // local Gauss-Newton block on (x_k, u_k), its gradient, the cross
         // block with x_{k+1}, and what step k leaves for x_{k+1}
         let (mut q, mut gl, mut cross) = (vec![0.0; nz * nz], vec![0.0; nz], vec![0.0; nz * n]);
@@ -175,7 +185,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             .map(|c| c * ncx)
             .chain((0..m).map(|j| n * ncx + j * ncu))
             .collect();
-        let (mut window, mut s_window) = (KronWindow::new(n, m), KronWindow::new(n, m));
+        let mut window = KronWindow::new(n, m);
         let mut rows_k = BasisRows::new();
         let mut spread = vec![Vec::new(); nz];
         let mut next = vec![Vec::new(); n];
@@ -240,42 +250,14 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             }
             // gradient
             for (a, &ga) in gl.iter().enumerate().take(dim) {
-                if rows {
-                    let (first, vals) = if a < n { &rows_k.x } else { &rows_k.u };
-                    for (i, &v) in vals.iter().enumerate() {
-                        band_grad[layout.position[base[a] + first + i]] += ga * v;
-                    }
-                } else {
-                    for &(p, v) in &spread[a] {
-                        band_grad[p] += ga * v;
-                    }
+                if ga != 0.0 {
+                    self.for_each_basis_entry(k, a, &base, |c, v| {
+                        band_grad[c] += ga * v;
+                    });
                 }
             }
-            // the local block whole (only its upper triangle was formed)
-            for a in 0..dim {
-                for b in 0..a {
-                    q[a * nz + b] = q[b * nz + a];
-                }
-            }
-            let ranges = rows_k.ranges(terminal);
-            if rows {
-                if !window.holds(ranges.0, ranges.1) {
-                    window.flush(jtj)?;
-                    window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
-                }
-                rows_k.accumulate(&mut window, &q, n, nz, terminal);
-                if !terminal {
-                    rows_k.accumulate_cross(&mut window, &cross, n);
-                }
-            } else {
-                window.flush(jtj)?;
-                spread_block(jtj, &q, nz, dim, &spread);
-                if !terminal {
-                    spread_cross(jtj, &cross, n, nz, &spread, &next);
-                }
-            }
-            // the second-order term on (x_k, u_k)
-            if let (true, Some(s)) = (with_s, second_order.as_deref_mut()) {
+            // the second-order term on (x_k, u_k), added to the local block
+            if with_s {
                 hz.fill(0.0);
                 let u_k = (!terminal).then(|| &u[k * m..(k + 1) * m]);
                 let xk = &x[k * n..(k + 1) * n];
@@ -291,57 +273,79 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                         *a += b;
                     }
                 }
-                if with_s {
-                    if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
-                        return Err(TrajoptError::NotFinite {
-                            what: "second derivatives",
-                            index: i,
-                            value: hz[i],
-                        });
-                    }
-                    let allowed = |i: usize| {
-                        if terminal {
-                            terminal_s[i]
-                        } else {
-                            stage_s[i] || (self.lambda[k] > 0.0 && model_s[i])
-                        }
-                    };
-                    if let Some(i) = (0..dim * dim).find(|&i| hz[i] != 0.0 && !allowed(i)) {
-                        return Err(TrajoptError::InvalidParameter {
-                            name: "model",
-                            reason: format!(
-                                "a second derivative at step {k} ({}, {}) lies outside the Jacobian structure",
-                                i / dim,
-                                i % dim
-                            ),
-                        });
-                    }
-                    // hz is dim x dim, row-major: to the nz stride of q
-                    for a in 0..dim {
-                        q[a * nz..a * nz + dim].copy_from_slice(&hz[a * dim..(a + 1) * dim]);
-                    }
-                    if rows {
-                        if !s_window.holds(ranges.0, ranges.1) {
-                            s_window.flush(s)?;
-                            s_window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
-                        }
-                        rows_k.accumulate(&mut s_window, &q, n, nz, terminal);
+                if !with_s {
+                    // not available here: J^T J alone, from the start
+                    return self.band_normal_equations_impl(theta, r, layout, h, grad, None);
+                }
+                if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
+                    return Err(TrajoptError::NotFinite {
+                        what: "second derivatives",
+                        index: i,
+                        value: hz[i],
+                    });
+                }
+                let allowed = |i: usize| {
+                    if terminal {
+                        terminal_s[i]
                     } else {
-                        s_window.flush(s)?;
-                        spread_block(s, &q, nz, dim, &spread);
+                        stage_s[i] || (self.lambda[k] > 0.0 && model_s[i])
+                    }
+                };
+                if let Some(i) = (0..dim * dim).find(|&i| hz[i] != 0.0 && !allowed(i)) {
+                    return Err(TrajoptError::InvalidParameter {
+                        name: "model",
+                        reason: format!(
+                            "a second derivative at step {k} ({}, {}) lies outside the Jacobian structure",
+                            i / dim,
+                            i % dim
+                        ),
+                    });
+                }
+                // hz is dim x dim, row-major, symmetric: onto the upper triangle
+                // of q, and its diagonal spread for diag(S)
+                for a in 0..dim {
+                    for b in a..dim {
+                        q[a * nz + b] += hz[a * dim + b];
+                    }
+                    let saa = hz[a * dim + a];
+                    if saa != 0.0 {
+                        self.for_each_basis_entry(k, a, &base, |c, v| {
+                            diag_s[c] += saa * v * v;
+                        });
                     }
                 }
             }
+            // the local block whole (only its upper triangle was formed)
+            for a in 0..dim {
+                for b in 0..a {
+                    q[a * nz + b] = q[b * nz + a];
+                }
+            }
+            let ranges = rows_k.ranges(terminal);
+            if rows {
+                if !window.holds(ranges.0, ranges.1) {
+                    window.flush(h)?;
+                    window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
+                }
+                rows_k.accumulate(&mut window, &q, n, nz, terminal);
+                if !terminal {
+                    rows_k.accumulate_cross(&mut window, &cross, n);
+                }
+            } else {
+                window.flush(h)?;
+                spread_block(h, &q, nz, dim, &spread);
+                if !terminal {
+                    spread_cross(h, &cross, n, nz, &spread, &next);
+                }
+            }
         }
-        window.flush(jtj)?;
-        if let Some(s) = second_order.as_deref_mut() {
-            s_window.flush(s)?;
-        }
+        window.flush(h)?;
         debug_assert_eq!(row + self.initial_state.as_ref().map_or(0, |_| n), self.n_residuals());
-        for (g, &p) in grad.iter_mut().zip(&layout.position) {
-            *g = band_grad[p];
+        grad.copy_from_slice(&band_grad);
+        if let Some(diag) = second_order {
+            diag.copy_from_slice(&diag_s);
         }
-        Ok(with_s && second_order.is_some())
+        Ok(with_s)
     }
 }
 
@@ -773,18 +777,29 @@ mod tests {
         let n_p = problem.n_params();
         layout.validate(n_p).expect("permutation");
         let mut jtj = BandedSym::zeros(n_p, layout.half_bandwidth);
-        let mut s = jtj.clone();
+        let mut full = jtj.clone();
         let mut grad = vec![0.0; n_p];
+        let mut grad_full = vec![0.0; n_p];
+        let mut diag_s = vec![0.0; n_p];
         let with_s = problem
-            .band_normal_equations(theta, &r, &layout, &mut jtj, &mut grad, Some(&mut s))
+            .band_normal_equations(theta, &r, &layout, &mut jtj, &mut grad, None)
+            .expect("band");
+        assert!(!with_s);
+        let with_s = problem
+            .band_normal_equations(theta, &r, &layout, &mut full, &mut grad_full, Some(&mut diag_s))
             .expect("band");
         assert!(with_s);
+        assert_eq!(grad, grad_full);
         let pos = &layout.position;
         let scale = jtj_ref.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
         for i in 0..n_p {
             assert!(
                 (grad[i] - grad_ref[i]).abs() <= 1e-9 * (1.0 + grad_ref[i].abs()),
                 "grad {i}"
+            );
+            assert!(
+                (diag_s[i] - s_ref[i][i]).abs() <= 1e-9 * (1.0 + s_ref[i][i].abs()),
+                "diag S {i}"
             );
             for j in 0..n_p {
                 // an entry outside the band must be zero in the reference
@@ -796,11 +811,11 @@ mod tests {
                     "J^T J ({i}, {j}): {got} vs {}",
                     jtj_ref[i][j]
                 );
-                let got_s = if inside { s.get(pos[i], pos[j]) } else { 0.0 };
+                let expected = jtj_ref[i][j] + s_ref[i][j];
+                let got_full = if inside { full.get(pos[i], pos[j]) } else { 0.0 };
                 assert!(
-                    (got_s - s_ref[i][j]).abs() <= 1e-9 * (1.0 + s_ref[i][j].abs()),
-                    "S ({i}, {j}): {got_s} vs {}",
-                    s_ref[i][j]
+                    (got_full - expected).abs() <= 1e-12 * scale + 1e-9 * s_ref[i][j].abs(),
+                    "J^T J + S ({i}, {j}): {got_full} vs {expected}"
                 );
             }
         }
