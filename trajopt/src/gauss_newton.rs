@@ -23,7 +23,17 @@
 //!
 //! For Eq. 3 ([`Eq3Problem`](crate::Eq3Problem)) every residual touches the
 //! few coefficients whose basis functions overlap one time step, so $J^\top J$
-//! is banded after ordering and an iteration costs time linear in the horizon.
+//! is banded once the coefficients are ordered by time, and an iteration costs
+//! time linear in the horizon. Such a problem can say so
+//! ([`LeastSquaresProblem::band_layout`]) and form its normal equations
+//! itself in band storage ([`LeastSquaresProblem::band_normal_equations`]):
+//! the solver then skips the sparse Jacobian, the sparse product and the
+//! sparse factorisation, and factorises band matrices ([`crate::banded`],
+//! $O(N k^2)$ for half-bandwidth $k$, 30 for the benchmark pendulum at every
+//! horizon). Without bounds this is the default (`band`); the iterates are
+//! those of the sparse form up to rounding. In Newton mode the band form
+//! holds $J^\top J + S$, and $J^\top J$ alone is formed a second time only
+//! when an iteration falls back to a Gauss-Newton step.
 //!
 //! | setting | default | meaning |
 //! |---|---|---|

@@ -11,8 +11,11 @@
 //!   [`StageCost`] in residual form ([`TrackingCost`] is the paper's Eq. 5),
 //!   per-step consistency weights ([`Lambda`]) and the cost split into task
 //!   and inconsistency ([`CostBreakdown`]).
-//! - [`GaussNewton`]: sparse Gauss-Newton / Levenberg-Marquardt; $J^\top J$ and
-//!   its symbolic Cholesky factorisation (faer) are structured once and reused.
+//! - [`GaussNewton`]: Gauss-Newton / Levenberg-Marquardt. On Eq. 3 it works on
+//!   band matrices ([`banded`]): the problem forms $J^\top J$ in band storage
+//!   from its per-step local blocks, and a band Cholesky factorisation solves
+//!   the steps. On any other sparse least-squares problem, $J^\top J$ and its
+//!   symbolic Cholesky factorisation (faer) are structured once and reused.
 //!   With [`GaussNewtonSettings::second_order`] and a model that gives its
 //!   second derivatives ([`Model::weighted_hessian`]), it takes safeguarded
 //!   Newton steps instead, which converge quadratically on Eq. 3's

@@ -170,7 +170,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             fu: vec![0.0; n * m],
         };
         h.clear();
-        let mut band_grad = vec![0.0; n_p];
+        let mut grad_acc = vec![0.0; n_p];
         let mut with_s = second_order.is_some();
         let mut diag_s = vec![0.0; if with_s { n_p } else { 0 }];
         // local Gauss-Newton block on (x_k, u_k), its gradient, the cross
@@ -252,7 +252,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             for (a, &ga) in gl.iter().enumerate().take(dim) {
                 if ga != 0.0 {
                     self.for_each_basis_entry(k, a, &base, |c, v| {
-                        band_grad[c] += ga * v;
+                        grad_acc[c] += ga * v;
                     });
                 }
             }
@@ -341,7 +341,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
         window.flush(h)?;
         debug_assert_eq!(row + self.initial_state.as_ref().map_or(0, |_| n), self.n_residuals());
-        grad.copy_from_slice(&band_grad);
+        grad.copy_from_slice(&grad_acc);
         if let Some(diag) = second_order {
             diag.copy_from_slice(&diag_s);
         }
