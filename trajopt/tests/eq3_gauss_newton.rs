@@ -499,6 +499,26 @@ fn a_jacobian_that_contradicts_the_residuals_stalls_not_converges() {
     assert_eq!(res.theta, vec![3.0], "no step was accepted");
 }
 
+/// Solves `p` from `theta0` with the band form or the sparse form.
+fn solve_with<P: LeastSquaresProblem>(
+    p: &P,
+    theta0: &[f64],
+    band: bool,
+    second_order: bool,
+    max_iters: usize,
+) -> trajopt::GaussNewtonResult {
+    let settings = GaussNewtonSettings {
+        band,
+        second_order,
+        max_iters,
+        ..GaussNewtonSettings::default()
+    };
+    GaussNewton::new(settings)
+        .expect("settings")
+        .solve(p, theta0)
+        .expect("solve")
+}
+
 /// The band form of the normal equations (the default for Eq. 3) and the
 /// general sparse form take the same steps: same iterations, same answer to
 /// rounding, for Gauss-Newton and for Newton steps, with and without a
@@ -508,19 +528,8 @@ fn band_and_sparse_normal_equations_take_the_same_steps() {
     for (second_order, analytic, lambda) in [(false, true, 1e2), (false, false, 1e4), (true, true, 1e2)] {
         let (p, ..) = pendulum_problem(90, Lambda::Constant(lambda), analytic);
         let theta0 = theta_guess(&p);
-        let run = |band: bool| {
-            let settings = GaussNewtonSettings {
-                band,
-                second_order,
-                max_iters: 40,
-                ..GaussNewtonSettings::default()
-            };
-            GaussNewton::new(settings)
-                .expect("settings")
-                .solve(&p, &theta0)
-                .expect("solve")
-        };
-        let (band, sparse) = (run(true), run(false));
+        let band = solve_with(&p, &theta0, true, second_order, 40);
+        let sparse = solve_with(&p, &theta0, false, second_order, 40);
         assert!(
             band.cost < 0.5 * band.initial_cost,
             "{} from {}",
@@ -544,18 +553,8 @@ fn band_and_sparse_normal_equations_take_the_same_steps() {
     }
     // Newton steps need the model's second derivatives: the benchmark pendulum has them
     let (p, theta0) = trajopt::problems::pendulum_swingup(150, 1e2).expect("problem");
-    let run = |band: bool| {
-        let settings = GaussNewtonSettings {
-            band,
-            second_order: true,
-            ..GaussNewtonSettings::default()
-        };
-        GaussNewton::new(settings)
-            .expect("settings")
-            .solve(&p, &theta0)
-            .expect("solve")
-    };
-    let (band, sparse) = (run(true), run(false));
+    let band = solve_with(&p, &theta0, true, true, 200);
+    let sparse = solve_with(&p, &theta0, false, true, 200);
     assert!(band.status.converged() && sparse.status.converged());
     assert!(
         (band.cost - sparse.cost).abs() <= 1e-10 * sparse.cost,
