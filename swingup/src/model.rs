@@ -28,8 +28,9 @@ use lwr::LwrModel;
 pub const INPUTS: [&str; 5] = ["theta", "theta_dot", "x", "x_dot", "u"];
 
 /// A learned regression of the pendulum's per-sample change of angular
-/// velocity on $z = (\theta, \dot\theta, x, \dot x, u)$.
-pub trait PendulumRegression {
+/// velocity on $z = (\theta, \dot\theta, x, \dot x, u)$. `Sync`, so that
+/// the planner can query it at many points in parallel.
+pub trait PendulumRegression: Sync {
     /// $g(z)$ and, when `jacobian` is given, $\partial g / \partial z$ written into it.
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64;
 
@@ -87,6 +88,10 @@ impl<G: PendulumRegression> KnownHand<G> {
     }
 }
 
+/// Points per parallel task in the batch evaluations: a regression query
+/// costs microseconds, so smaller tasks would spend more on scheduling.
+const BATCH_CHUNK: usize = 32;
+
 impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
     fn state_dim(&self) -> usize {
         4
@@ -117,6 +122,33 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
 
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
         self.regression.support(&[x[0], x[1], x[2], x[3], u[0]])
+    }
+
+    /// The points in parallel (rayon), each exactly as [`step`](trajopt::Model::step).
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+        use rayon::prelude::*;
+        next.par_chunks_mut(4 * BATCH_CHUNK).enumerate().for_each(|(c, out)| {
+            for (i, o) in out.chunks_exact_mut(4).enumerate() {
+                let k = c * BATCH_CHUNK + i;
+                self.next(&xs[4 * k..4 * k + 4], us[k], o);
+            }
+        });
+        Ok(())
+    }
+
+    /// The points in parallel (rayon), each exactly as [`jacobians`](trajopt::Model::jacobians).
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
+        use rayon::prelude::*;
+        fx.par_chunks_mut(16 * BATCH_CHUNK)
+            .zip(fu.par_chunks_mut(4 * BATCH_CHUNK))
+            .enumerate()
+            .for_each(|(c, (fx, fu))| {
+                for (i, (fx, fu)) in fx.chunks_exact_mut(16).zip(fu.chunks_exact_mut(4)).enumerate() {
+                    let k = c * BATCH_CHUNK + i;
+                    self.derivs(&xs[4 * k..4 * k + 4], us[k], fx, fu);
+                }
+            });
+        Ok(true)
     }
 }
 
@@ -400,6 +432,29 @@ mod tests {
     fn jacobians_match_central_differences() {
         for kernel in [Kernel::Gaussian, Kernel::Tricube] {
             jacobians_match_for(kernel);
+        }
+    }
+
+    /// The parallel batches give exactly the point-by-point values, for a
+    /// number of points that is not a multiple of the task size.
+    #[test]
+    fn batches_equal_point_by_point_evaluation() {
+        use trajopt::Model;
+        let model = model_of(300, 1.0, Kernel::Gaussian);
+        let k = 2 * BATCH_CHUNK + 13;
+        let xs: Vec<f64> = (0..4 * k).map(|i| (i as f64 * 0.37).sin() * 2.0).collect();
+        let us: Vec<f64> = (0..k).map(|i| (i as f64 * 0.91).cos() * 5.0).collect();
+        let (mut next, mut fx, mut fu) = (vec![0.0; 4 * k], vec![0.0; 16 * k], vec![0.0; 4 * k]);
+        model.step_batch(&xs, &us, &mut next).expect("batch");
+        assert!(model.jacobians_batch(&xs, &us, &mut fx, &mut fu).expect("batch"));
+        for p in 0..k {
+            let (x, u) = (&xs[4 * p..4 * p + 4], &us[p..p + 1]);
+            let (mut n1, mut fx1, mut fu1) = ([0.0; 4], [0.0; 16], [0.0; 4]);
+            model.step(x, u, &mut n1).expect("step");
+            assert!(model.jacobians(x, u, &mut fx1, &mut fu1).expect("jacobians"));
+            assert_eq!(&next[4 * p..4 * p + 4], &n1[..], "point {p}");
+            assert_eq!(&fx[16 * p..16 * p + 16], &fx1[..], "point {p}");
+            assert_eq!(&fu[4 * p..4 * p + 4], &fu1[..], "point {p}");
         }
     }
 

@@ -75,6 +75,45 @@ pub trait Model {
         let _ = (x, u);
         None
     }
+
+    /// [`step`](Self::step) at many points: `xs` ($K \times n$), `us`
+    /// ($K \times m$) and `next` ($K \times n$), row-major. The default
+    /// takes one point at a time; a model whose evaluation is expensive (a
+    /// learned model's regression) may evaluate the points in parallel.
+    /// [`Eq3Problem`] calls it once per residual evaluation. The results
+    /// must be those of `step`, point by point.
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
+        let (n, m) = (self.state_dim(), self.control_dim());
+        for k in 0..xs.len() / n.max(1) {
+            self.step(
+                &xs[k * n..(k + 1) * n],
+                &us[k * m..(k + 1) * m],
+                &mut next[k * n..(k + 1) * n],
+            )?;
+        }
+        Ok(())
+    }
+
+    /// [`jacobians`](Self::jacobians) at many points: `fx` ($K \times n
+    /// \times n$) and `fu` ($K \times n \times m$), row-major, point after
+    /// point; returns `false` if the model has no Jacobians (then nothing is
+    /// written). The default takes one point at a time (see
+    /// [`step_batch`](Self::step_batch)).
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        let (n, m) = (self.state_dim(), self.control_dim());
+        for k in 0..xs.len() / n.max(1) {
+            let (x, u) = (&xs[k * n..(k + 1) * n], &us[k * m..(k + 1) * m]);
+            if !self.jacobians(
+                x,
+                u,
+                &mut fx[k * n * n..(k + 1) * n * n],
+                &mut fu[k * n * m..(k + 1) * n * m],
+            )? {
+                return Ok(false);
+            }
+        }
+        Ok(true)
+    }
 }
 
 /// A reference to a model is a model, so that one model can serve several
@@ -106,6 +145,14 @@ impl<M: Model + ?Sized> Model for &M {
 
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
         (**self).confidence(x, u)
+    }
+
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
+        (**self).step_batch(xs, us, next)
+    }
+
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        (**self).jacobians_batch(xs, us, fx, fu)
     }
 }
 
@@ -1120,18 +1167,20 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         expect_len("residuals", self.n_residuals(), r.len())?;
         let (x, u) = self.sample(theta);
         let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
-        let mut next = vec![0.0; n];
+        let horizon = self.horizon;
+        // f(x_k, u_k) for every step at once (a model may evaluate them in parallel)
+        let mut next = vec![0.0; horizon * n];
+        self.model.step_batch(&x[..horizon * n], &u, &mut next)?;
         let mut row = 0;
-        for k in 0..=self.horizon {
+        for k in 0..=horizon {
             let xk = &x[k * n..(k + 1) * n];
-            let uk = (k < self.horizon).then(|| &u[k * m..(k + 1) * m]);
+            let uk = (k < horizon).then(|| &u[k * m..(k + 1) * m]);
             self.cost.residuals(k, xk, uk, &mut r[row..row + nc])?;
             row += nc;
-            if let Some(uk) = uk {
-                self.model.step(xk, uk, &mut next)?;
+            if k < horizon {
                 let w = self.scale * self.lambda[k].sqrt();
                 for i in 0..n {
-                    r[row + i] = w * (x[(k + 1) * n + i] - next[i]);
+                    r[row + i] = w * (x[(k + 1) * n + i] - next[k * n + i]);
                 }
                 row += n;
             }

@@ -45,14 +45,9 @@ impl Model for Pendulum {
     }
 }
 
-/// A swing-up-like problem: track a reference from hanging to upright.
-fn pendulum_problem(
-    horizon: usize,
-    lambda: Lambda,
-    analytic: bool,
-) -> (Eq3Problem<Pendulum, TrackingCost>, BSplineBasis, BSplineBasis, Vec<f64>) {
-    let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * DT).collect();
-    let t_end = times[horizon];
+/// Tracking a reference from hanging to upright over `horizon` steps.
+fn plain_cost(horizon: usize) -> TrackingCost {
+    let t_end = horizon as f64 * DT;
     let state_ref = Mat::from_fn(horizon + 1, 2, |k, i| {
         let s = k as f64 / horizon as f64;
         if i == 0 {
@@ -62,7 +57,18 @@ fn pendulum_problem(
         }
     });
     let control_ref = Mat::zeros(horizon, 1);
-    let cost = TrackingCost::new(state_ref, control_ref, &[1.0, 0.1], &[0.01], &[100.0, 10.0]).expect("valid cost");
+    TrackingCost::new(state_ref, control_ref, &[1.0, 0.1], &[0.01], &[100.0, 10.0]).expect("valid cost")
+}
+
+/// A swing-up-like problem: track a reference from hanging to upright.
+fn pendulum_problem(
+    horizon: usize,
+    lambda: Lambda,
+    analytic: bool,
+) -> (Eq3Problem<Pendulum, TrackingCost>, BSplineBasis, BSplineBasis, Vec<f64>) {
+    let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * DT).collect();
+    let t_end = times[horizon];
+    let cost = plain_cost(horizon);
     let xb = BSplineBasis::clamped_uniform(12, 3, 0.0, t_end).expect("basis");
     let ub = BSplineBasis::clamped_uniform(10, 3, 0.0, t_end).expect("basis");
     let problem = Eq3Problem::new(Pendulum { analytic }, cost, &xb, &ub, &times, lambda).expect("valid problem");
@@ -568,4 +574,64 @@ fn band_and_sparse_normal_equations_take_the_same_steps() {
         band.iterations,
         sparse.iterations
     );
+}
+
+/// A model that evaluates its batches back to front and counts them: the
+/// problem must use the batches, and get the same answer as point by point.
+struct Batched(Pendulum, std::sync::atomic::AtomicUsize);
+
+impl Model for Batched {
+    fn state_dim(&self) -> usize {
+        2
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.0.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.0.jacobians(x, u, fx, fu)
+    }
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        for k in (0..us.len()).rev() {
+            self.0
+                .step(&xs[2 * k..2 * k + 2], &us[k..k + 1], &mut next[2 * k..2 * k + 2])?;
+        }
+        Ok(())
+    }
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        for k in (0..us.len()).rev() {
+            self.0.jacobians(
+                &xs[2 * k..2 * k + 2],
+                &us[k..k + 1],
+                &mut fx[4 * k..4 * k + 4],
+                &mut fu[2 * k..2 * k + 2],
+            )?;
+        }
+        Ok(true)
+    }
+}
+
+#[test]
+fn batched_model_evaluation_is_used_and_changes_nothing() {
+    let (plain, xb, ub, times) = pendulum_problem(60, Lambda::Constant(1e3), true);
+    let batched = Eq3Problem::new(
+        Batched(Pendulum { analytic: true }, 0.into()),
+        plain_cost(60),
+        &xb,
+        &ub,
+        &times,
+        Lambda::Constant(1e3),
+    )
+    .expect("problem");
+    let theta0 = theta_guess(&plain);
+    let a = solve_with(&plain, &theta0, true, false, 50);
+    let b = solve_with(&batched, &theta0, true, false, 50);
+    assert_eq!(a.cost_history, b.cost_history);
+    assert_eq!(a.theta, b.theta);
+    let calls = batched.model().1.load(std::sync::atomic::Ordering::Relaxed);
+    assert!(calls >= b.residual_evals + b.jacobian_evals, "{calls} batch calls");
 }

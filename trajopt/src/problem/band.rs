@@ -19,7 +19,7 @@
 //! with a half-bandwidth set by how many coefficients overlap two
 //! consecutive samples.
 
-use super::{Eq3Problem, LocalDerivatives, Model, StageCost, expect_len};
+use super::{Eq3Problem, LocalDerivatives, Model, StageCost, central_differences, expect_len};
 use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError};
 use crate::least_squares::LeastSquaresProblem;
@@ -163,6 +163,24 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         } else {
             Default::default()
         };
+        // the model's Jacobians at every step at once (a model may evaluate
+        // them in parallel), central differences if it has none
+        let horizon = self.horizon;
+        let (mut model_fx, mut model_fu) = (vec![0.0; horizon * n * n], vec![0.0; horizon * n * m]);
+        if !self
+            .model
+            .jacobians_batch(&x[..horizon * n], &u, &mut model_fx, &mut model_fu)?
+        {
+            for k in 0..horizon {
+                central_differences(
+                    &self.model,
+                    &x[k * n..(k + 1) * n],
+                    &u[k * m..(k + 1) * m],
+                    &mut model_fx[k * n * n..(k + 1) * n * n],
+                    &mut model_fu[k * n * m..(k + 1) * n * m],
+                )?;
+            }
+        }
         let mut d = LocalDerivatives {
             jx: vec![0.0; nc * n],
             ju: vec![0.0; nc * m],
@@ -201,7 +219,14 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         for k in 0..=self.horizon {
             let terminal = k == self.horizon;
             let dim = if terminal { n } else { nz };
-            self.local_derivatives(k, &x, &u, &mut d)?;
+            // the stage cost's derivatives; the model's come from one batch
+            let xk = &x[k * n..(k + 1) * n];
+            let uk = (!terminal).then(|| &u[k * m..(k + 1) * m]);
+            self.cost.jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
+            if !terminal {
+                d.fx.copy_from_slice(&model_fx[k * n * n..(k + 1) * n * n]);
+                d.fu.copy_from_slice(&model_fu[k * n * m..(k + 1) * n * m]);
+            }
             mask(&mut d.jx, &st.jx);
             mask(&mut d.ju, &st.ju);
             mask(&mut d.fx, &st.fx);
