@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""Side by side: trajopt's sparse Gauss-Newton (and its Newton mode, exact
-second-order term) against scipy and CasADi + IPOPT on the same
+"""Side by side: trajopt's Gauss-Newton (and its Newton mode, exact
+second-order term) against scipy, CasADi + IPOPT and Ceres on the same
 soft-dynamics pendulum swing-up (trajopt::problems::pendulum_swingup).
 
     python3 scripts/compare_trajopt.py [--lambda L] [HORIZONS...]    (default 1e2; 150 1000)
@@ -11,9 +11,14 @@ solves the same problem (same bases, weights, lambda and starting point) with
   - scipy.optimize.least_squares, method 'trf', with the Jacobian's sparsity
     pattern (finite differences grouped by it) and tight inner tolerances
     (tr_options atol = btol = 1e-14, as the trf solver otherwise stalls here);
-  - CasADi's IPOPT with exact derivatives (if casadi installs).
+  - CasADi's IPOPT with exact derivatives (if casadi installs);
+  - Ceres through pyceres (if it installs; up to N = 5000): sparse normal
+    Cholesky, analytic Jacobians evaluated by numpy in blocks of 25 time
+    steps. Ceres calls back into Python for every block, so its time is
+    mostly that overhead: read it as "a general solver driven from Python",
+    not as Ceres' own speed.
 Prints wall times of the solves (model building excluded; trajopt best of 5,
-IPOPT best of 3, scipy one run), their ratios to
+IPOPT best of 3, scipy and Ceres one run), their ratios to
 trajopt's Newton mode (the ratio column: how many times slower than it), the
 time per iteration, and the final costs with their relative difference. Different
 solvers can stop at different local minima; the cost column shows it.
@@ -27,6 +32,8 @@ from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
 DT = 1.0 / 60.0
 # scipy's trf takes minutes beyond this horizon
 SCIPY_MAX_HORIZON = 2000
+# Ceres' Python callbacks take minutes beyond this horizon
+CERES_MAX_HORIZON = 5000
 
 
 def problem(horizon, lam):
@@ -150,6 +157,118 @@ def solve_casadi(p):
     return elapsed, float(sol["f"]), solver.stats().get("iter_count")
 
 
+def solve_ceres(p, chunk=25):
+    """Ceres (pyceres) with sparse normal Cholesky, if pyceres installs.
+
+    Parameter blocks: each state coefficient (its 4 channels) and each control
+    coefficient; residual blocks: runs of `chunk` time steps, evaluated with
+    numpy (Ceres calls back into Python once per block and evaluation, so its
+    time includes that overhead)."""
+    try:
+        import pyceres
+    except ImportError:
+        return None
+    import numpy as np
+
+    n, ncx, ncu = p["horizon"], p["ncx"], p["ncu"]
+    phix, phiu = p["phix"].toarray(), p["phiu"].toarray()
+    theta0 = p["theta0"]
+    xblocks = [np.array(theta0[[c * ncx + j for c in range(4)]], dtype=float) for j in range(ncx)]
+    ublocks = [np.array([theta0[4 * ncx + j]], dtype=float) for j in range(ncu)]
+    wq, wr, wqf, w = p["wq"], p["wr"], p["wqf"], p["w_cons"]
+    ref = p["ref"]
+
+    class Chunk(pyceres.CostFunction):
+        def __init__(self, k0, k1):
+            pyceres.CostFunction.__init__(self)
+            self.k0, self.k1 = k0, k1  # steps k0..k1-1, and the terminal stage if k1 == n + 1
+            rows_x = range(k0, min(k1 + 1, n + 1))
+            rows_u = range(k0, min(k1, n))
+            cols = lambda phi, rows: np.nonzero(phi[list(rows)].any(axis=0))[0]
+            self.jx, self.ju = cols(phix, rows_x), cols(phiu, rows_u)
+            self.px = phix[k0:min(k1 + 1, n + 1)][:, self.jx]
+            self.pu = phiu[k0:min(k1, n)][:, self.ju] if len(rows_u) else np.zeros((0, 0))
+            steps = min(k1, n) - k0
+            self.steps, self.terminal = steps, k1 == n + 1
+            self.nres = 9 * steps + (4 if self.terminal else 0)
+            self.set_num_residuals(self.nres)
+            self.set_parameter_block_sizes([4] * len(self.jx) + [1] * len(self.ju))
+
+        def blocks(self):
+            return [xblocks[j] for j in self.jx] + [ublocks[j] for j in self.ju]
+
+        def Evaluate(self, parameters, residuals, jacobians):
+            nx, nu, s = len(self.jx), len(self.ju), self.steps
+            cx = np.array(parameters[:nx])  # (nx, 4)
+            cu = np.array([q[0] for q in parameters[nx:]])
+            x = self.px @ cx
+            u = self.pu @ cu if nu else np.zeros(0)
+            r = np.zeros(self.nres)
+            jac = np.zeros((self.nres, 4 * nx + nu))
+            for i in range(s):
+                k = self.k0 + i
+                th, om, hx, hv = x[i]
+                uk = u[i]
+                acc = -(9.81 / 0.5) * np.sin(th) - (uk / 0.5) * np.cos(th) - 0.05 * om
+                om1 = om + DT * acc
+                f = np.array([th + DT * om1, om1, hx + DT * (hv + DT * uk), hv + DT * uk])
+                da = np.array([-(9.81 / 0.5) * np.cos(th) + (uk / 0.5) * np.sin(th), -0.05, 0.0, 0.0])
+                dom1 = np.array([DT * da[0], 1.0 + DT * da[1], 0.0, 0.0])
+                # f = (th + dt om1, om1, hx + dt (hv + dt u), hv + dt u)
+                fx = np.array([[1.0 + DT * dom1[0], DT * dom1[1], 0.0, 0.0], dom1,
+                               [0.0, 0.0, 1.0, DT], [0.0, 0.0, 0.0, 1.0]])
+                dom1_du = DT * (-np.cos(th) / 0.5)
+                fu = np.array([DT * dom1_du, dom1_du, DT * DT, DT])
+                row = 9 * i
+                r[row:row + 4] = wq * (x[i] - ref[k])
+                r[row + 4] = wr * uk
+                r[row + 5:row + 9] = w * (x[i + 1] - f)
+                # d/dC_j for the state blocks (columns 4 j + c), d/dU_j (columns 4 nx + j)
+                for j in range(nx):
+                    a, b = self.px[i, j], self.px[i + 1, j]
+                    for c in range(4):
+                        jac[row + c, 4 * j + c] = wq[c] * a
+                        jac[row + 5:row + 9, 4 * j + c] = w * ((np.arange(4) == c) * b - fx[:, c] * a)
+                for j in range(nu):
+                    jac[row + 4, 4 * nx + j] = wr * self.pu[i, j]
+                    jac[row + 5:row + 9, 4 * nx + j] = -w * fu * self.pu[i, j]
+            if self.terminal:
+                row = 9 * s
+                r[row:row + 4] = wqf * (x[s] - ref[n])
+                for j in range(nx):
+                    for c in range(4):
+                        jac[row + c, 4 * j + c] = wqf[c] * self.px[s, j]
+            residuals[:] = r
+            if jacobians is not None:
+                for bi in range(nx):
+                    if jacobians[bi] is not None:
+                        jacobians[bi][:] = jac[:, 4 * bi:4 * bi + 4].ravel()
+                for bj in range(nu):
+                    if jacobians[nx + bj] is not None:
+                        jacobians[nx + bj][:] = jac[:, 4 * nx + bj]
+            return True
+
+    problem = pyceres.Problem()
+    costs = []
+    for k0 in range(0, n + 1, chunk):
+        c = Chunk(k0, min(k0 + chunk, n + 1))
+        costs.append(c)
+        problem.add_residual_block(c, None, c.blocks())
+    options = pyceres.SolverOptions()
+    options.linear_solver_type = pyceres.LinearSolverType.SPARSE_NORMAL_CHOLESKY
+    options.function_tolerance = 1e-14
+    options.gradient_tolerance = 1e-14
+    options.parameter_tolerance = 1e-14
+    options.max_num_iterations = 1000
+    summary = pyceres.SolverSummary()
+    start = time.perf_counter()
+    pyceres.solve(options, problem, summary)
+    elapsed = time.perf_counter() - start
+    theta = np.r_[np.array(xblocks).T.ravel(), np.array(ublocks).ravel()]
+    r = residuals_np(theta, p)
+    return elapsed, float(r @ r), summary.num_successful_steps + summary.num_unsuccessful_steps
+
+
 def main():
     ensure_venv(__file__)
     args = sys.argv[1:]
@@ -176,6 +295,10 @@ def main():
         cas = solve_casadi(p)
         if cas is not None:
             rows.append(("CasADi + IPOPT", cas[0], cas[2], cas[1]))
+        if n <= CERES_MAX_HORIZON:
+            ceres = solve_ceres(p)
+            if ceres is not None:
+                rows.append(("Ceres (pyceres)", ceres[0], ceres[2], ceres[1]))
         for name, secs, its, cost in rows:
             per_iter = f"{1e3 * secs / its:>9.3f}" if its else f"{'':>9}"
             print(f"{n:>6} {name:<22}{secs:>10.4f}{secs / o['seconds']:>8.1f}x{its:>12}{per_iter}{cost:>18.10g}"
