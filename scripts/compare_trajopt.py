@@ -3,7 +3,8 @@
 second-order term) against scipy, CasADi + IPOPT and Ceres on the same
 soft-dynamics pendulum swing-up (trajopt::problems::pendulum_swingup).
 
-    python3 scripts/compare_trajopt.py [--lambda L] [HORIZONS...]    (default 1e2; 150 1000)
+    python3 scripts/compare_trajopt.py [--lambda L] [--max-iters K] [HORIZONS...]
+                                         (defaults: lambda 1e2, trajopt's cap of 200 iterations; 150 1000)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
 on first use, runs `cargo run --release -p trajopt --example eq3_timing`, and
@@ -272,11 +273,15 @@ def solve_ceres(p, chunk=25):
 def main():
     ensure_venv(__file__)
     args = sys.argv[1:]
-    lam = 1e2
-    if args[:1] == ["--lambda"]:
-        lam, args = float(args[1]), args[2:]
+    lam, max_iters = 1e2, []
+    while args[:1] in (["--lambda"], ["--max-iters"]):
+        if args[0] == "--lambda":
+            lam = float(args[1])
+        else:
+            max_iters = ["--max-iters", str(int(args[1]))]
+        args = args[2:]
     horizons = [int(a) for a in args] or [150, 1000]
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "trajopt", "--example", "eq3_timing", "--", str(lam),
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "trajopt", "--example", "eq3_timing", "--", *max_iters, str(lam),
            *map(str, horizons)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     ours = {(d["horizon"], d["mode"]): d for d in map(json.loads, (l for l in out.splitlines() if l.startswith("{")))}

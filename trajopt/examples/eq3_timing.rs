@@ -4,7 +4,9 @@
 //! iterations, evaluations, factorisations, final cost and its parts.
 //! `scripts/compare_trajopt.py` runs it beside scipy on the same problem.
 //!
-//! `cargo run --release -p trajopt --example eq3_timing -- [LAMBDA] [HORIZONS...]`
+//! `cargo run --release -p trajopt --example eq3_timing -- [--max-iters K] [LAMBDA] [HORIZONS...]`
+//! (`--max-iters` replaces the solver's default iteration cap of 200: at
+//! lambda >= 1e3 the swing-up needs a few hundred iterations to converge).
 
 use std::time::Instant;
 
@@ -12,7 +14,18 @@ use trajopt::problems::pendulum_swingup;
 use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem};
 
 fn main() -> anyhow::Result<()> {
-    let args: Vec<String> = std::env::args().skip(1).collect();
+    let mut args: Vec<String> = std::env::args().skip(1).collect();
+    let max_iters = match args.iter().position(|a| a == "--max-iters") {
+        Some(i) => {
+            let value = args
+                .get(i + 1)
+                .ok_or_else(|| anyhow::anyhow!("--max-iters needs a value"))?
+                .parse::<usize>()?;
+            args.drain(i..i + 2);
+            value
+        }
+        None => GaussNewtonSettings::default().max_iters,
+    };
     let lambda: f64 = args.first().map_or(Ok(1e3), |a| a.parse())?;
     let horizons: Vec<usize> = args.iter().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
     let horizons = if horizons.is_empty() {
@@ -22,15 +35,16 @@ fn main() -> anyhow::Result<()> {
     };
     for horizon in horizons {
         for (mode, second_order) in [("gauss_newton", false), ("newton", true)] {
-            run(horizon, lambda, mode, second_order)?;
+            run(horizon, lambda, max_iters, mode, second_order)?;
         }
     }
     Ok(())
 }
 
-fn run(horizon: usize, lambda: f64, mode: &str, second_order: bool) -> anyhow::Result<()> {
+fn run(horizon: usize, lambda: f64, max_iters: usize, mode: &str, second_order: bool) -> anyhow::Result<()> {
     let solver = GaussNewton::new(GaussNewtonSettings {
         second_order,
+        max_iters,
         ..GaussNewtonSettings::default()
     })?;
     let (problem, theta0) = pendulum_swingup(horizon, lambda)?;
