@@ -120,48 +120,9 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     Ok(())
 }
 
-/// The pendulum without second derivatives.
-struct FirstOrderOnly(Pendulum);
-
-impl Model for FirstOrderOnly {
-    fn state_dim(&self) -> usize {
-        self.0.state_dim()
-    }
-    fn control_dim(&self) -> usize {
-        self.0.control_dim()
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.0.step(x, u, next)
-    }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.0.jacobians(x, u, fx, fu)
-    }
-    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
-        self.0.jacobian_structure(fx, fu)
-    }
-}
-
 #[test]
 fn without_second_derivatives_newton_mode_is_gauss_newton() -> Result<()> {
-    let horizon = 90;
-    let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
-    let (x, _) = reference.trajectory(&theta0)?;
-    let times: Vec<f64> = (0..=horizon)
-        .map(|k| k as f64 * trajopt::problems::PENDULUM_DT)
-        .collect();
-    let t_end = times[horizon];
-    let cost = TrackingCost::new(x, Mat::zeros(horizon, 1), &[1.0; 4], &[0.1], &[10.0; 4])?;
-    let xb = splines::BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, t_end)?;
-    let ub = splines::BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, t_end)?;
-    let p = Eq3Problem::new(
-        FirstOrderOnly(Pendulum::default()),
-        cost,
-        &xb,
-        &ub,
-        &times,
-        trajopt::Lambda::Constant(10.0),
-    )?;
-    let theta = perturbed(&theta0, 2.0);
+    let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
     let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
     let newton = GaussNewton::new(GaussNewtonSettings {
         second_order: true,
@@ -229,10 +190,11 @@ proptest! {
     }
 }
 
-/// The pendulum with its second derivatives altered by `F`.
+/// The pendulum with its second derivatives altered by `F`, which says
+/// whether the model has them at all.
 struct AlteredHessian<F>(Pendulum, F);
 
-impl<F: Fn(&mut [f64])> Model for AlteredHessian<F> {
+impl<F: Fn(&mut [f64]) -> bool> Model for AlteredHessian<F> {
     fn state_dim(&self) -> usize {
         4
     }
@@ -250,17 +212,19 @@ impl<F: Fn(&mut [f64])> Model for AlteredHessian<F> {
     }
     fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
         self.0.weighted_hessian(x, u, w, hess)?;
-        (self.1)(hess);
-        Ok(true)
+        Ok((self.1)(hess))
     }
 }
 
 type AlteredProblem<F> = Eq3Problem<AlteredHessian<F>, TrackingCost>;
 
-/// A 30-step swing-up with the altered pendulum, tracking the benchmark's start (lambda 10),
-/// and a start away from it.
-fn altered_problem<F: Fn(&mut [f64])>(alter: F) -> Result<(AlteredProblem<F>, Vec<f64>)> {
-    let horizon = 30;
+/// A swing-up of `horizon` steps with the altered pendulum, tracking the
+/// benchmark's start (lambda 10), and a start away from it (`seed`).
+fn altered_problem<F: Fn(&mut [f64]) -> bool>(
+    horizon: usize,
+    seed: f64,
+    alter: F,
+) -> Result<(AlteredProblem<F>, Vec<f64>)> {
     let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
     let (x, _) = reference.trajectory(&theta0)?;
     let times: Vec<f64> = (0..=horizon)
@@ -277,15 +241,16 @@ fn altered_problem<F: Fn(&mut [f64])>(alter: F) -> Result<(AlteredProblem<F>, Ve
         &times,
         trajopt::Lambda::Constant(10.0),
     )?;
-    Ok((p, perturbed(&theta0, 3.0)))
+    Ok((p, perturbed(&theta0, seed)))
 }
 
 #[test]
 fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result<()> {
     // theta and the hand position never meet in one row of the structure
-    let (p, start) = altered_problem(|hess: &mut [f64]| {
+    let (p, start) = altered_problem(30, 3.0, |hess: &mut [f64]| {
         hess[2] = 1.0;
         hess[10] = 1.0;
+        true
     })?;
     for band in [true, false] {
         let solver = GaussNewton::new(GaussNewtonSettings {
@@ -306,10 +271,11 @@ fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result
 /// normal equations.
 #[test]
 fn an_overflowing_second_order_term_gives_gauss_newton_steps() -> Result<()> {
-    let (p, start) = altered_problem(|hess: &mut [f64]| {
+    let (p, start) = altered_problem(30, 3.0, |hess: &mut [f64]| {
         for h in hess.iter_mut().filter(|h| **h != 0.0) {
             *h = f64::MAX;
         }
+        true
     })?;
     let solve = |second_order: bool, band: bool| {
         GaussNewton::new(GaussNewtonSettings {
