@@ -1,5 +1,6 @@
 //! Solves the benchmark pendulum swing-up (`trajopt::problems`) with
-//! Gauss-Newton and with Newton steps (`second_order`) at several horizons
+//! Gauss-Newton, with Newton steps (`second_order`) and with the adaptive
+//! choice between the two (`adaptive`) at several horizons
 //! and prints one JSON object per line and mode: horizon, seconds,
 //! iterations, evaluations, factorisations, final cost and its parts.
 //! `scripts/compare_trajopt.py` runs it beside scipy on the same problem.
@@ -34,16 +35,28 @@ fn main() -> anyhow::Result<()> {
         horizons
     };
     for horizon in horizons {
-        for (mode, second_order) in [("gauss_newton", false), ("newton", true)] {
-            run(horizon, lambda, max_iters, mode, second_order)?;
+        for (mode, second_order, adaptive) in [
+            ("gauss_newton", false, false),
+            ("newton", true, false),
+            ("adaptive", true, true),
+        ] {
+            run(horizon, lambda, max_iters, mode, second_order, adaptive)?;
         }
     }
     Ok(())
 }
 
-fn run(horizon: usize, lambda: f64, max_iters: usize, mode: &str, second_order: bool) -> anyhow::Result<()> {
+fn run(
+    horizon: usize,
+    lambda: f64,
+    max_iters: usize,
+    mode: &str,
+    second_order: bool,
+    adaptive: bool,
+) -> anyhow::Result<()> {
     let solver = GaussNewton::new(GaussNewtonSettings {
         second_order,
+        adaptive,
         max_iters,
         ..GaussNewtonSettings::default()
     })?;

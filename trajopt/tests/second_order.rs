@@ -295,3 +295,78 @@ fn an_overflowing_second_order_term_gives_gauss_newton_steps() -> Result<()> {
     }
     Ok(())
 }
+
+/// The adaptive model choice (NL2SOL's switch between the Gauss-Newton and
+/// the Newton model) reaches the Gauss-Newton optimum where the residuals
+/// are large and Newton steps pay (lambda = 1e2: far fewer iterations), and
+/// where the dynamics are stiff and they do not (lambda = 1e4: about as many
+/// as Gauss-Newton); the band and the sparse forms take the same steps.
+#[test]
+fn adaptive_model_choice_takes_newton_steps_where_they_pay() -> Result<()> {
+    for (lambda, max_ratio) in [(1e2, 0.5), (1e4, 1.3)] {
+        let (p, theta0) = pendulum_swingup(150, lambda)?;
+        let settings = GaussNewtonSettings {
+            max_iters: 1000,
+            ..GaussNewtonSettings::default()
+        };
+        let gn = GaussNewton::new(settings.clone())?.solve(&p, &theta0)?;
+        let adaptive = |band| {
+            GaussNewton::new(GaussNewtonSettings {
+                second_order: true,
+                adaptive: true,
+                band,
+                ..settings.clone()
+            })?
+            .solve(&p, &theta0)
+        };
+        let (a, sparse) = (adaptive(true)?, adaptive(false)?);
+        assert!(
+            gn.status.converged() && a.status.converged(),
+            "{:?} {:?}",
+            gn.status,
+            a.status
+        );
+        assert!((gn.cost - a.cost).abs() <= 1e-9 * gn.cost, "{} vs {}", gn.cost, a.cost);
+        assert!(
+            (a.iterations as f64) < max_ratio * gn.iterations as f64,
+            "lambda {lambda}: {} adaptive vs {} Gauss-Newton iterations",
+            a.iterations,
+            gn.iterations
+        );
+        // never a higher cost than the last
+        assert!(a.cost_history.windows(2).all(|w| w[1] <= w[0]));
+        assert!(
+            (a.cost - sparse.cost).abs() <= 1e-10 * a.cost,
+            "{} vs {}",
+            a.cost,
+            sparse.cost
+        );
+        // rounding differences grow over hundreds of stiff iterations
+        assert!(
+            a.iterations.abs_diff(sparse.iterations) <= 2 + a.iterations / 20,
+            "{} vs {}",
+            a.iterations,
+            sparse.iterations
+        );
+    }
+    Ok(())
+}
+
+/// Without second derivatives the adaptive mode can only take Gauss-Newton
+/// steps: its curvature probes must not change the iterates.
+#[test]
+fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
+    let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
+    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
+    let adaptive = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        adaptive: true,
+        ..GaussNewtonSettings::default()
+    })?
+    .solve(&p, &theta)?;
+    assert_eq!(gn.iterations, adaptive.iterations);
+    assert_eq!(gn.theta, adaptive.theta);
+    // two probes per trial step
+    assert_eq!(adaptive.residual_evals, gn.residual_evals + 2 * (gn.residual_evals - 1));
+    Ok(())
+}
