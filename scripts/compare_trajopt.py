@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """Side by side: trajopt's Gauss-Newton (and its Newton mode, exact
-second-order term) against scipy, CasADi + IPOPT and Ceres on the same
-soft-dynamics pendulum swing-up (trajopt::problems::pendulum_swingup).
+second-order term, and its adaptive choice between the two) against scipy,
+CasADi + IPOPT and Ceres on the same soft-dynamics pendulum swing-up (trajopt::problems::pendulum_swingup).
 
     python3 scripts/compare_trajopt.py [--lambda L] [--max-iters K] [HORIZONS...]
                                          (defaults: lambda 1e2, trajopt's cap of 200 iterations; 150 1000)
@@ -290,10 +290,11 @@ def main():
     for n in horizons:
         p = problem(n, lam)
         r0 = residuals_np(p["theta0"], p)
-        o, gn = ours[(n, "newton")], ours[(n, "gauss_newton")]
+        o, gn, ad = ours[(n, "newton")], ours[(n, "gauss_newton")], ours[(n, "adaptive")]
         assert abs(float(r0 @ r0) - o["initial_cost"]) <= 1e-9 * o["initial_cost"], (float(r0 @ r0), o["initial_cost"])
         rows = [("trajopt Newton", o["seconds"], o["iterations"], o["cost"]),
-                ("trajopt Gauss-Newton", gn["seconds"], gn["iterations"], gn["cost"])]
+                ("trajopt Gauss-Newton", gn["seconds"], gn["iterations"], gn["cost"]),
+                ("trajopt adaptive", ad["seconds"], ad["iterations"], ad["cost"])]
         if n <= SCIPY_MAX_HORIZON:
             t, c, ev = solve_scipy(p)
             rows.append(("scipy least_squares", t, ev, c))
