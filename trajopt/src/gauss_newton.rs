@@ -126,8 +126,8 @@ pub struct GaussNewtonSettings {
     /// only at iterations that use it; the other model's prediction needs
     /// $\delta^\top S \delta$, taken from central differences of the
     /// residuals along the step (two residual evaluations per iteration,
-    /// counted in `residual_evals`; a probe the problem cannot evaluate
-    /// leaves the choice as it was).
+    /// counted in `residual_evals`, and only once the problem has given
+    /// $S$; a probe the problem cannot evaluate leaves the choice as it was).
     ///
     /// On the benchmark pendulum at $N = 1000$ it takes 48, 180 and 477
     /// iterations at $\lambda = 10^2, 10^3, 10^4$, where Gauss-Newton takes
@@ -349,6 +349,9 @@ impl GaussNewton {
         // on either side of a step (its curvature probe)
         let adaptive = s.adaptive && s.second_order && bounds.is_none();
         let mut prefer_newton = true;
+        // whether the problem has given S yet (no probes before: a problem
+        // without second derivatives takes Gauss-Newton steps at no extra cost)
+        let mut s_seen = false;
         let (mut r_plus, mut r_minus) = if adaptive {
             (vec![0.0; n_r], vec![0.0; n_r])
         } else {
@@ -363,6 +366,7 @@ impl GaussNewton {
                 status = GaussNewtonStatus::NumericalError;
                 break;
             };
+            s_seen |= newton;
             // the damping scale comes from J^T J alone (positive)
             system.jtj_diagonal(&mut scale);
             for d in &mut scale {
@@ -447,7 +451,7 @@ impl GaussNewton {
                 } else {
                     -1.0
                 };
-                if adaptive && trial_cost.is_finite() {
+                if adaptive && s_seen && trial_cost.is_finite() {
                     // delta^T S delta = sum_i r_i delta^T (grad^2 r_i) delta, by
                     // central differences of r along the step
                     let mut probed = true;

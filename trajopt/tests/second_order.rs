@@ -353,7 +353,7 @@ fn adaptive_model_choice_takes_newton_steps_where_they_pay() -> Result<()> {
 }
 
 /// Without second derivatives the adaptive mode can only take Gauss-Newton
-/// steps: its curvature probes must not change the iterates.
+/// steps, at Gauss-Newton's cost.
 #[test]
 fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
     let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
@@ -366,7 +366,7 @@ fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
     .solve(&p, &theta)?;
     assert_eq!(gn.iterations, adaptive.iterations);
     assert_eq!(gn.theta, adaptive.theta);
-    // two probes per trial step
-    assert_eq!(adaptive.residual_evals, gn.residual_evals + 2 * (gn.residual_evals - 1));
+    // and no curvature probes: without S they could not change the choice
+    assert_eq!(adaptive.residual_evals, gn.residual_evals);
     Ok(())
 }
