@@ -172,6 +172,8 @@ fn upper_triangular_storage_gives_the_symmetric_product() {
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(24))]
 
+    /// Newton steps, and the adaptive choice between Newton and
+    /// Gauss-Newton steps.
     #[test]
     fn newton_never_increases_the_cost(
         lambda in prop_oneof![Just(0.0), 1e-2..1e5f64],
@@ -180,13 +182,13 @@ proptest! {
     ) {
         let (p, theta0) = pendulum_swingup(horizon, lambda).expect("problem");
         let theta = perturbed(&theta0, seed as f64);
-        let res = GaussNewton::new(GaussNewtonSettings { max_iters: 30, second_order: true, ..GaussNewtonSettings::default() })
-            .expect("settings")
-            .solve(&p, &theta)
-            .expect("solve");
-        prop_assert!(res.cost <= res.initial_cost);
-        prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
-        prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+        for adaptive in [false, true] {
+            let settings = GaussNewtonSettings { max_iters: 30, second_order: true, adaptive, ..GaussNewtonSettings::default() };
+            let res = GaussNewton::new(settings).expect("settings").solve(&p, &theta).expect("solve");
+            prop_assert!(res.cost <= res.initial_cost);
+            prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
+            prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+        }
     }
 }
 
