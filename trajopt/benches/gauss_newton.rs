@@ -1,7 +1,8 @@
 //! Criterion benchmarks of the sparse Gauss-Newton solver on the benchmark
 //! pendulum swing-up (`trajopt::problems`) over horizons: one iteration (to
 //! show linear growth with the horizon; it includes the symbolic setup) and
-//! a full solve, Gauss-Newton and Newton (`second_order`).
+//! a full solve, Gauss-Newton, Newton (`second_order`) and the adaptive
+//! choice between the two (`adaptive`).
 //!
 //! `cargo bench -p trajopt --bench gauss_newton`
 
@@ -24,6 +25,12 @@ fn gauss_newton(c: &mut Criterion) {
         ..GaussNewtonSettings::default()
     })
     .expect("settings");
+    let adaptive = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        adaptive: true,
+        ..GaussNewtonSettings::default()
+    })
+    .expect("settings");
     for horizon in [50, 150, 500, 1000, 5000, 20000] {
         let (problem, theta0) = pendulum_swingup(horizon, 1e2).expect("problem");
         group.throughput(Throughput::Elements(horizon as u64));
@@ -38,6 +45,9 @@ fn gauss_newton(c: &mut Criterion) {
         if horizon <= 5000 {
             group.bench_with_input(BenchmarkId::new("solve_newton", horizon), &theta0, |b, t| {
                 b.iter(|| newton.solve(&problem, black_box(t)).expect("solve"))
+            });
+            group.bench_with_input(BenchmarkId::new("solve_adaptive", horizon), &theta0, |b, t| {
+                b.iter(|| adaptive.solve(&problem, black_box(t)).expect("solve"))
             });
         }
     }
