@@ -41,6 +41,7 @@
 //! ```
 //! use faer::Mat;
 //! use splines::BSplineBasis;
+//! use trajopt::powell::{Powell, PowellSettings};
 //! use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LinearModel, TrackingCost};
 //!
 //! // a double integrator (position, velocity) driven by an acceleration, 50 steps of 0.02 s
@@ -69,6 +70,17 @@
 //! }
 //! // the more the model is trusted, the more consistent the plan
 //! assert!(mismatch[0] > mismatch[1] && mismatch[1] > mismatch[2]);
+//!
+//! // the same problem by Powell's derivative-free method, the paper's solver:
+//! // at its default tolerances it lowers the cost, but stops well above
+//! // Gauss-Newton's minimum
+//! let problem = Eq3Problem::new(model, cost, &state_basis, &control_basis, &times, Lambda::Constant(1e2))?
+//!     .with_consistency_scale(1.0 / dt)?;
+//! let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
+//! let gauss_newton = solver.solve(&problem, &theta0)?;
+//! let powell = Powell::new(PowellSettings::default())?.solve(&problem, &theta0)?;
+//! assert!(powell.cost < 0.5 * powell.initial_cost);
+//! assert!(gauss_newton.cost <= powell.cost);
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 #![warn(missing_docs)]
