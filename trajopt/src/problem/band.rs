@@ -482,9 +482,7 @@ impl KronWindow {
 
     /// $A \mathrel{+}= \text{scale} \cdot (\phi_r \phi_c^\top) \otimes Q$, $Q$
     /// the `rows.channels x cols.channels` block of `q` (row stride
-    /// `stride`) at (`q_row`, `q_col`). `sym`: `rows` and `cols` are the same
-    /// basis row and $Q$ a diagonal block of a symmetric matrix, so that only
-    /// $A + A^\top$ has to come out right (see [`kron_fixed`]).
+    /// `stride`) at (`q_row`, `q_col`).
     #[allow(clippy::too_many_arguments)]
     fn kron(
         &mut self,
@@ -495,7 +493,6 @@ impl KronWindow {
         q_row: usize,
         q_col: usize,
         scale: f64,
-        sym: bool,
     ) {
         let (nr, ncl) = (
             if rows.state { self.n } else { self.m },
@@ -507,13 +504,7 @@ impl KronWindow {
             ($($nr:literal, $nc:literal);*) => {
                 match (rows.phi.len(), cols.phi.len(), nr, ncl) {
                     $((4, 4, $nr, $nc) => {
-                        // the same basis row on both sides, on a diagonal block of the
-                        // symmetric Q: only the coefficient pairs i <= j
-                        return if sym {
-                            kron_fixed::<$nr, $nc, true>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale)
-                        } else {
-                            kron_fixed::<$nr, $nc, false>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale)
-                        };
+                        return kron_fixed::<$nr, $nc>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale);
                     })*
                     _ => {}
                 }
@@ -564,13 +555,9 @@ impl KronWindow {
 }
 
 /// [`KronWindow::kron`] for 4 x 4 basis rows and `NR x NC` channel blocks.
-/// With `SYM` (the same basis row on both sides and a diagonal block of the
-/// symmetric $Q$, so that $X = \phi \phi^\top \otimes Q$ is symmetric), only
-/// the coefficient blocks $i \le j$ are added, the off-diagonal ones twice:
-/// $A + A^\top$ is the same, for about 60% of the work.
 #[allow(clippy::too_many_arguments)]
 #[inline(always)]
-fn kron_fixed<const NR: usize, const NC: usize, const SYM: bool>(
+fn kron_fixed<const NR: usize, const NC: usize>(
     acc: &mut [f64],
     size: usize,
     (r0, c0): (usize, usize),
@@ -589,22 +576,20 @@ fn kron_fixed<const NR: usize, const NC: usize, const SYM: bool>(
         let Ok(qa) = <&[f64; NC]>::try_from(&q[start..start + NC]) else {
             return;
         };
-        let qa = *qa;
+        let mut row = [[0.0; NC]; 4];
+        for (chunk, &pj) in row.iter_mut().zip(psi) {
+            for (w, &qb) in chunk.iter_mut().zip(qa) {
+                *w = scale * pj * qb;
+            }
+        }
         for (i, &pi) in phi.iter().enumerate() {
             let start = (r0 + i * NR + a) * size + c0;
-            let dst = &mut acc[start..start + 4 * NC];
-            for (j, &pj) in psi.iter().enumerate() {
-                let f = match (SYM, j.cmp(&i)) {
-                    (false, _) => scale * pi * pj,
-                    (true, std::cmp::Ordering::Less) => continue,
-                    (true, std::cmp::Ordering::Equal) => scale * pi * pj,
-                    (true, std::cmp::Ordering::Greater) => 2.0 * scale * pi * pj,
-                };
-                let Ok(h) = <&mut [f64; NC]>::try_from(&mut dst[j * NC..(j + 1) * NC]) else {
+            for (j, chunk) in row.iter().enumerate() {
+                let Ok(h) = <&mut [f64; NC]>::try_from(&mut acc[start + j * NC..start + (j + 1) * NC]) else {
                     return;
                 };
-                for (hv, &qb) in h.iter_mut().zip(&qa) {
-                    *hv += f * qb;
+                for (hv, &w) in h.iter_mut().zip(chunk) {
+                    *hv += pi * w;
                 }
             }
         }
@@ -652,10 +637,10 @@ impl BasisRows {
     /// `nz`, on $(x_k, u_k)$, or $x_N$ alone when `terminal`).
     fn accumulate(&self, window: &mut KronWindow, q: &[f64], n: usize, nz: usize, terminal: bool) {
         let (x, u) = (Self::side(&self.x, true), Self::side(&self.u, false));
-        window.kron(x, x, q, nz, 0, 0, 0.5, true);
+        window.kron(x, x, q, nz, 0, 0, 0.5);
         if !terminal {
-            window.kron(u, x, q, nz, n, 0, 1.0, false);
-            window.kron(u, u, q, nz, n, n, 0.5, true);
+            window.kron(u, x, q, nz, n, 0, 1.0);
+            window.kron(u, u, q, nz, n, n, 0.5);
         }
     }
 
@@ -667,8 +652,8 @@ impl BasisRows {
             Self::side(&self.u, false),
             Self::side(&self.x_next, true),
         );
-        window.kron(x, x1, cross, n, 0, 0, 1.0, false);
-        window.kron(u, x1, cross, n, n, 0, 1.0, false);
+        window.kron(x, x1, cross, n, 0, 0, 1.0);
+        window.kron(u, x1, cross, n, n, 0, 1.0);
     }
 }
 
