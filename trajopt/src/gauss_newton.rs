@@ -124,12 +124,15 @@ pub struct GaussNewtonSettings {
     /// relatively closer to the actual reduction (the model switch of
     /// NL2SOL: Dennis, Gay and Welsch, ACM TOMS 7, 1981). $S$ is formed
     /// only at iterations that use it; the other model's prediction needs
-    /// $\delta^\top S \delta$, taken from central differences of the
-    /// residuals along the step (two residual evaluations per iteration,
-    /// counted in `residual_evals`, and only once the problem has given
-    /// $S$; a probe the problem cannot evaluate leaves the choice as it was).
+    /// $\delta^\top S \delta$, from
+    /// [`LeastSquaresProblem::second_order_form`] ([`Eq3Problem`](crate::Eq3Problem)
+    /// evaluates it exactly, per step), or else from central differences of
+    /// the residuals along the step (two residual evaluations per iteration,
+    /// counted in `residual_evals`; a probe the problem cannot evaluate
+    /// leaves the choice as it was). Nothing is spent on the choice until
+    /// the problem has given $S$ once.
     ///
-    /// On the benchmark pendulum at $N = 1000$ it takes 48, 180 and 477
+    /// On the benchmark pendulum at $N = 1000$ it takes 48, 180 and 454
     /// iterations at $\lambda = 10^2, 10^3, 10^4$, where Gauss-Newton takes
     /// 115, 358 and 447 and the Newton mode 28, 324 and no convergence in
     /// 1000. Off by default.
@@ -452,23 +455,28 @@ impl GaussNewton {
                     -1.0
                 };
                 if adaptive && s_seen && trial_cost.is_finite() {
-                    // delta^T S delta = sum_i r_i delta^T (grad^2 r_i) delta, by
-                    // central differences of r along the step
-                    let mut probed = true;
-                    for (sign, out) in [(1.0, &mut r_plus), (-1.0, &mut r_minus)] {
-                        for j in 0..n_p {
-                            trial[j] = theta[j] + sign * PROBE * step[j];
+                    // delta^T S delta = sum_i r_i delta^T (grad^2 r_i) delta: from the
+                    // problem, or by central differences of r along the step
+                    let s_form = match problem.second_order_form(&theta, &r, &step).ok().flatten() {
+                        Some(form) => form,
+                        None => {
+                            let mut probed = true;
+                            for (sign, out) in [(1.0, &mut r_plus), (-1.0, &mut r_minus)] {
+                                for j in 0..n_p {
+                                    trial[j] = theta[j] + sign * PROBE * step[j];
+                                }
+                                probed &= problem.residuals(&trial, out).is_ok();
+                            }
+                            residual_evals += 2;
+                            if probed {
+                                (0..n_r)
+                                    .map(|i| r[i] * (r_plus[i] - 2.0 * r[i] + r_minus[i]))
+                                    .sum::<f64>()
+                                    / (PROBE * PROBE)
+                            } else {
+                                f64::NAN
+                            }
                         }
-                        probed &= problem.residuals(&trial, out).is_ok();
-                    }
-                    residual_evals += 2;
-                    let s_form: f64 = if probed {
-                        (0..n_r)
-                            .map(|i| r[i] * (r_plus[i] - 2.0 * r[i] + r_minus[i]))
-                            .sum::<f64>()
-                            / (PROBE * PROBE)
-                    } else {
-                        f64::NAN
                     };
                     if s_form.is_finite() {
                         // the predicted reductions of both models for this step

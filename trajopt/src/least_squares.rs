@@ -51,6 +51,19 @@ pub trait LeastSquaresProblem {
         Ok(false)
     }
 
+    /// $\delta^\top S(\theta) \delta$ for the residuals `r` $= r(\theta)$, if the
+    /// problem can evaluate it cheaply without forming $S$ (none by default).
+    /// The [adaptive](crate::GaussNewtonSettings::adaptive) solver uses it to
+    /// compare its two models; without it, it takes central differences of
+    /// the residuals along $\delta$.
+    ///
+    /// # Errors
+    /// Wrong sizes, or an error from evaluating the problem.
+    fn second_order_form(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
+        let _ = (theta, r, delta);
+        Ok(None)
+    }
+
     /// A parameter order under which $J^\top J$ (and $S$) is banded, if the
     /// problem can form its normal equations in that band form itself
     /// ([`band_normal_equations`](Self::band_normal_equations)); none by

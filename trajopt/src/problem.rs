@@ -845,6 +845,80 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
 
     /// Writes $S(\theta)$ into the values of the Hessian pattern; `false`
     /// if the model or the cost has no second derivatives.
+    /// The second-order term of step `k` over its local variables,
+    /// $\sum_i r_i \nabla^2 r_i$ for the step's cost and consistency
+    /// residuals, into `hz` (row-major, side $n + m$, or $n$ at the
+    /// terminal step; `hm` and `w` are workspace); false if the cost or the
+    /// model has no second derivatives.
+    fn local_hessian(
+        &self,
+        k: usize,
+        x: &[f64],
+        u: &[f64],
+        r: &[f64],
+        (hz, hm, w): (&mut [f64], &mut [f64], &mut [f64]),
+    ) -> Result<bool> {
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let xk = &x[k * n..(k + 1) * n];
+        let row = k * (nc + n);
+        hz.fill(0.0);
+        if k == self.horizon {
+            return self
+                .cost
+                .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n]);
+        }
+        let uk = &u[k * m..(k + 1) * m];
+        if !self.cost.weighted_hessian(k, xk, Some(uk), &r[row..row + nc], hz)? {
+            return Ok(false);
+        }
+        if self.lambda[k] > 0.0 {
+            // r = s sqrt(lambda) (x_{k+1} - f): its second derivative is -s sqrt(lambda) f''
+            let ws = self.scale * self.lambda[k].sqrt();
+            for (wi, ri) in w.iter_mut().zip(&r[row + nc..row + nc + n]) {
+                *wi = -ws * ri;
+            }
+            hm.fill(0.0);
+            if !self.model.weighted_hessian(xk, uk, w, hm)? {
+                return Ok(false);
+            }
+            for (a, b) in hz.iter_mut().zip(hm.iter()) {
+                *a += b;
+            }
+        }
+        Ok(true)
+    }
+
+    /// $\delta^\top S \delta$ from the per-step second derivatives; see
+    /// [`LeastSquaresProblem::second_order_form`].
+    fn second_order_form_impl(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        expect_len("residuals", self.n_residuals(), r.len())?;
+        expect_len("direction", self.n_params(), delta.len())?;
+        let (n, m) = (self.n, self.m);
+        let nz = n + m;
+        let (x, u) = self.sample(theta);
+        // the basis is linear: the local variables move by the sampled direction
+        let (dx, du) = self.sample(delta);
+        let (mut hz, mut hm, mut w) = (vec![0.0; nz * nz], vec![0.0; nz * nz], vec![0.0; n]);
+        let mut z = vec![0.0; nz];
+        let mut form = 0.0;
+        for k in 0..=self.horizon {
+            if !self.local_hessian(k, &x, &u, r, (&mut hz, &mut hm, &mut w))? {
+                return Ok(None);
+            }
+            let dim = if k == self.horizon { n } else { nz };
+            z[..n].copy_from_slice(&dx[k * n..(k + 1) * n]);
+            if k < self.horizon {
+                z[n..].copy_from_slice(&du[k * m..(k + 1) * m]);
+            }
+            for a in 0..dim {
+                let row: f64 = (0..dim).map(|b| hz[a * dim + b] * z[b]).sum();
+                form += z[a] * row;
+            }
+        }
+        Ok(form.is_finite().then_some(form))
+    }
+
     fn hessian_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
@@ -853,7 +927,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             self.hessian_pattern().row_idx().len(),
             values.len(),
         )?;
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m) = (self.n, self.m);
         let nz = n + m;
         let (x, u) = self.sample(theta);
         values.fill(0.0);
@@ -862,46 +936,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let mut loaded = vec![false; nz];
         let mut starts: Vec<((usize, usize, usize), Vec<usize>)> = vec![((usize::MAX, 0, 0), Vec::new()); nz * nz];
         let pattern = self.hessian_pattern();
-        let mut row = 0;
         for k in 0..=self.horizon {
-            let xk = &x[k * n..(k + 1) * n];
             let terminal = k == self.horizon;
             let dim = if terminal { n } else { nz };
-            hz.fill(0.0);
-            if terminal {
-                if !self
-                    .cost
-                    .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n])?
-                {
-                    return Ok(false);
-                }
-            } else {
-                let uk = &u[k * m..(k + 1) * m];
-                if !self
-                    .cost
-                    .weighted_hessian(k, xk, Some(uk), &r[row..row + nc], &mut hz)?
-                {
-                    return Ok(false);
-                }
-                row += nc;
-                if self.lambda[k] > 0.0 {
-                    // r = s sqrt(lambda) (x_{k+1} - f): its second derivative is -s sqrt(lambda) f''
-                    let ws = self.scale * self.lambda[k].sqrt();
-                    for (wi, ri) in w.iter_mut().zip(&r[row..row + n]) {
-                        *wi = -ws * ri;
-                    }
-                    hm.fill(0.0);
-                    if !self.model.weighted_hessian(xk, uk, &w, &mut hm)? {
-                        return Ok(false);
-                    }
-                    for (a, b) in hz.iter_mut().zip(&hm) {
-                        *a += b;
-                    }
-                }
-                row += n;
-            }
-            if terminal {
-                row += nc;
+            if !self.local_hessian(k, &x, &u, r, (&mut hz, &mut hm, &mut w))? {
+                return Ok(false);
             }
             loaded.fill(false);
             for a in 0..dim {
@@ -1208,6 +1247,10 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
 
     fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
         self.hessian_values(theta, r, values)
+    }
+
+    fn second_order_form(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
+        self.second_order_form_impl(theta, r, delta)
     }
 
     fn band_layout(&self) -> Option<BandLayout> {

@@ -372,3 +372,113 @@ fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
     assert_eq!(adaptive.residual_evals, gn.residual_evals);
     Ok(())
 }
+
+/// Eq. 3's exact $\delta^\top S \delta$ (per step, without forming $S$)
+/// equals the quadratic form of the assembled $S$, with a zero lambda at one
+/// step and a fixed initial state; a model without second derivatives has
+/// none.
+#[test]
+fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(60, 1e2)?;
+    let mut lambda = vec![1e2; 60];
+    lambda[5] = 0.0;
+    lambda[6] = 4e3;
+    let mut p = p.with_initial_state(&[0.1, 0.0, 0.0, 0.0], 3.0)?;
+    p.set_lambda(trajopt::Lambda::PerStep(lambda))?;
+    let theta = perturbed(&theta0, 3.0);
+    let mut r = vec![0.0; p.n_residuals()];
+    p.residuals(&theta, &mut r)?;
+    let pattern = p.second_order_pattern().expect("pattern");
+    let mut values = vec![0.0; pattern.row_idx().len()];
+    assert!(p.second_order_values(&theta, &r, &mut values)?);
+    for seed in 0..3 {
+        let delta: Vec<f64> = (0..p.n_params())
+            .map(|i| ((i * 7 + seed * 13) as f64 * 0.61).sin())
+            .collect();
+        let mut expected = 0.0;
+        for j in 0..p.n_params() {
+            for (q, &i) in pattern.row_idx_of_col_raw(j).iter().enumerate() {
+                expected += values[pattern.col_ptr()[j] + q] * delta[i] * delta[j];
+            }
+        }
+        let form = p.second_order_form(&theta, &r, &delta)?.expect("form");
+        assert!(
+            (form - expected).abs() <= 1e-10 * expected.abs().max(1.0),
+            "{form} vs {expected}"
+        );
+        assert!(expected.abs() > 1e-6, "S is negligible: {expected}");
+    }
+    // wrong sizes are errors; no second derivatives, no form
+    assert!(p.second_order_form(&theta, &r, &theta[1..]).is_err());
+    let (q, theta) = altered_problem(30, 2.0, |_: &mut [f64]| false)?;
+    let mut r = vec![0.0; q.n_residuals()];
+    q.residuals(&theta, &mut r)?;
+    assert_eq!(q.second_order_form(&theta, &r, &theta)?, None);
+    Ok(())
+}
+
+/// A least-squares problem that forwards everything to Eq. 3 but its exact
+/// $\delta^\top S \delta$ (sparse path: no band form either).
+struct WithoutForm<P>(P);
+
+impl<P: LeastSquaresProblem> LeastSquaresProblem for WithoutForm<P> {
+    fn n_params(&self) -> usize {
+        self.0.n_params()
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.0.n_residuals()
+    }
+
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        self.0.residuals(theta, r)
+    }
+
+    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
+        self.0.jacobian_pattern()
+    }
+
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
+        self.0.jacobian_values(theta, values)
+    }
+
+    fn second_order_pattern(&self) -> Option<faer::sparse::SymbolicSparseColMat<usize>> {
+        self.0.second_order_pattern()
+    }
+
+    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        self.0.second_order_values(theta, r, values)
+    }
+}
+
+/// Without the problem's exact $\delta^\top S \delta$ the adaptive mode
+/// takes it from central differences of the residuals (two more residual
+/// evaluations per step) and makes the same choices to within a few
+/// iterations.
+#[test]
+fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(150, 1e2)?;
+    let settings = GaussNewtonSettings {
+        second_order: true,
+        adaptive: true,
+        ..GaussNewtonSettings::default()
+    };
+    let exact = GaussNewton::new(settings.clone())?.solve(&p, &theta0)?;
+    let probed = GaussNewton::new(settings)?.solve(&WithoutForm(p), &theta0)?;
+    assert!(exact.status.converged() && probed.status.converged());
+    assert!(
+        (exact.cost - probed.cost).abs() <= 1e-9 * exact.cost,
+        "{} vs {}",
+        exact.cost,
+        probed.cost
+    );
+    assert!(
+        probed.iterations.abs_diff(exact.iterations) <= 3,
+        "{} vs {}",
+        probed.iterations,
+        exact.iterations
+    );
+    // the probes: two residual evaluations per trial step
+    assert!(probed.residual_evals >= exact.residual_evals + 2 * (probed.iterations - 1));
+    Ok(())
+}
