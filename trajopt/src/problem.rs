@@ -843,8 +843,6 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         SymbolicSparseColMat::new_checked(n_p, n_p, col_ptr, None, row_idx)
     }
 
-    /// Writes $S(\theta)$ into the values of the Hessian pattern; `false`
-    /// if the model or the cost has no second derivatives.
     /// The second-order term of step `k` over its local variables,
     /// $\sum_i r_i \nabla^2 r_i$ for the step's cost and consistency
     /// residuals, into `hz` (row-major, side $n + m$, or $n$ at the
@@ -889,7 +887,8 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     }
 
     /// $\delta^\top S \delta$ from the per-step second derivatives; see
-    /// [`LeastSquaresProblem::second_order_form`].
+    /// [`LeastSquaresProblem::second_order_form`]. `None` also when it is
+    /// not finite (the solver then probes the residuals instead).
     fn second_order_form_impl(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
@@ -919,6 +918,8 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         Ok(form.is_finite().then_some(form))
     }
 
+    /// Writes $S(\theta)$ into the values of the Hessian pattern; `false`
+    /// if the model or the cost has no second derivatives.
     fn hessian_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
