@@ -454,12 +454,15 @@ impl GaussNewton {
                 } else {
                     -1.0
                 };
+                // whether `trial` was overwritten by curvature probes
+                let mut probes_in_trial = false;
                 if adaptive && s_seen && trial_cost.is_finite() {
                     // delta^T S delta = sum_i r_i delta^T (grad^2 r_i) delta: from the
                     // problem, or by central differences of r along the step
                     let s_form = match problem.second_order_form(&theta, &r, &step).ok().flatten() {
                         Some(form) => form,
                         None => {
+                            probes_in_trial = true;
                             let mut probed = true;
                             for (sign, out) in [(1.0, &mut r_plus), (-1.0, &mut r_minus)] {
                                 for j in 0..n_p {
@@ -493,8 +496,7 @@ impl GaussNewton {
                 }
                 if rho > 0.0 && trial_cost.is_finite() && trial_cost <= cost {
                     let decrease = cost - trial_cost;
-                    if adaptive {
-                        // `trial` held the probes
+                    if probes_in_trial {
                         for j in 0..n_p {
                             trial[j] = theta[j] + step[j];
                         }
