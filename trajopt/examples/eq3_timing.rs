@@ -35,12 +35,15 @@ fn main() -> anyhow::Result<()> {
         horizons
     };
     for horizon in horizons {
-        for (mode, second_order, adaptive) in [
-            ("gauss_newton", false, false),
-            ("newton", true, false),
-            ("adaptive", true, true),
+        for (mode, second_order, adaptive, threads) in [
+            ("gauss_newton", false, false, 1),
+            ("newton", true, false, 1),
+            ("adaptive", true, true, 1),
+            ("gauss_newton_2t", false, false, 2),
+            ("newton_2t", true, false, 2),
+            ("adaptive_2t", true, true, 2),
         ] {
-            run(horizon, lambda, max_iters, mode, second_order, adaptive)?;
+            run(horizon, lambda, max_iters, mode, second_order, adaptive, threads)?;
         }
     }
     Ok(())
@@ -53,6 +56,7 @@ fn run(
     mode: &str,
     second_order: bool,
     adaptive: bool,
+    threads: usize,
 ) -> anyhow::Result<()> {
     let solver = GaussNewton::new(GaussNewtonSettings {
         second_order,
@@ -66,7 +70,7 @@ fn run(
     let mut result = None;
     for _ in 0..5 {
         let start = Instant::now();
-        let r = solver.solve(&problem, &theta0)?;
+        let r = solver.solve_parallel(&problem, &theta0, threads)?;
         best = best.min(start.elapsed().as_secs_f64());
         result = Some(r);
     }

@@ -103,6 +103,60 @@ pub trait LeastSquaresProblem {
             reason: "it has no band form of its normal equations".into(),
         })
     }
+
+    /// Part `part` of [`band_normal_equations`](Self::band_normal_equations)
+    /// when the residuals are split into `parts` groups: the same outputs,
+    /// from one group's residuals only. The parts add up (`h`, `grad` and
+    /// `second_order` each) to the whole, up to the rounding of that sum,
+    /// and can be formed at the same time on different threads
+    /// ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
+    /// The returned flag means what it means there; a part without
+    /// residuals returns whether `second_order` was given.
+    ///
+    /// The default forms everything in part 0 and nothing in the others:
+    /// the right sum, without a speed-up. [`Eq3Problem`](crate::Eq3Problem)
+    /// splits its time steps into `parts` consecutive runs.
+    ///
+    /// # Errors
+    /// `part >= parts`, and the errors of
+    /// [`band_normal_equations`](Self::band_normal_equations).
+    #[allow(clippy::too_many_arguments)]
+    fn band_normal_equations_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        check_part(part, parts)?;
+        if part == 0 {
+            return self.band_normal_equations(theta, r, layout, h, grad, second_order);
+        }
+        h.clear();
+        grad.fill(0.0);
+        Ok(match second_order {
+            Some(diag) => {
+                diag.fill(0.0);
+                true
+            }
+            None => false,
+        })
+    }
+}
+
+/// An error unless `part < parts`.
+pub(crate) fn check_part(part: usize, parts: usize) -> Result<()> {
+    if part < parts {
+        return Ok(());
+    }
+    Err(TrajoptError::InvalidParameter {
+        name: "part",
+        reason: format!("part {part} of {parts} does not exist"),
+    })
 }
 
 /// Linear bounds $\ell \le A \theta \le u$ on the parameters, $A$ sparse;

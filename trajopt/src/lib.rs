@@ -90,6 +90,7 @@ pub mod error;
 pub mod gauss_newton;
 pub mod least_squares;
 pub mod models;
+mod parallel;
 pub mod powell;
 pub mod problem;
 pub mod problems;

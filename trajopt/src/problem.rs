@@ -1267,7 +1267,25 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         grad: &mut [f64],
         second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
-        self.band_normal_equations_impl(theta, r, layout, h, grad, second_order)
+        self.band_normal_equations_impl(theta, r, layout, h, grad, second_order, 0..self.horizon + 1)
+    }
+
+    fn band_normal_equations_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        crate::least_squares::check_part(part, parts)?;
+        // stages 0..=horizon in `parts` consecutive runs
+        let stages = self.horizon + 1;
+        let steps = stages * part / parts..stages * (part + 1) / parts;
+        self.band_normal_equations_impl(theta, r, layout, h, grad, second_order, steps)
     }
 
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {

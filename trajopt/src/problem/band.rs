@@ -128,7 +128,12 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             && (terminal || contiguous_row(&self.phi_u, k, &mut rows.u))
     }
 
-    /// $J^\top J$ (and $S$) in band form and $J^\top r$; see the module docs.
+    /// $J^\top J$ (and $S$) in band form and $J^\top r$ from the residuals
+    /// of the stages `steps` (`0..=horizon` for all); see the module docs.
+    /// The stages of one call see the same sums in the same order whatever
+    /// range the call has: the contributions of disjoint ranges add up to
+    /// the whole up to the rounding of that addition.
+    #[allow(clippy::too_many_arguments)]
     pub(super) fn band_normal_equations_impl(
         &self,
         theta: &[f64],
@@ -137,6 +142,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         h: &mut BandedSym,
         grad: &mut [f64],
         second_order: Option<&mut [f64]>,
+        steps: std::ops::Range<usize>,
     ) -> Result<bool> {
         let n_p = self.n_params();
         expect_len("parameters", n_p, theta.len())?;
@@ -166,16 +172,34 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         // the model's Jacobians at every step at once (a model may evaluate
         // them in parallel), central differences if it has none
         let horizon = self.horizon;
-        let (mut model_fx, mut model_fu) = (vec![0.0; horizon * n * n], vec![0.0; horizon * n * m]);
-        if !self
-            .model
-            .jacobians_batch(&x[..horizon * n], &u, &mut model_fx, &mut model_fu)?
-        {
-            for k in 0..horizon {
+        let (k0, k1) = (steps.start.min(horizon + 1), steps.end.min(horizon + 1));
+        if k0 >= k1 {
+            // no stages: nothing to add
+            h.clear();
+            grad.fill(0.0);
+            return Ok(match second_order {
+                Some(diag) => {
+                    diag.fill(0.0);
+                    true
+                }
+                None => false,
+            });
+        }
+        // the model's steps among them (k0..k_model), offset by k0
+        let k_model = k1.min(horizon).max(k0);
+        let n_model = k_model - k0;
+        let (mut model_fx, mut model_fu) = (vec![0.0; n_model * n * n], vec![0.0; n_model * n * m]);
+        if !self.model.jacobians_batch(
+            &x[k0 * n..k_model * n],
+            &u[k0 * m..k_model * m],
+            &mut model_fx,
+            &mut model_fu,
+        )? {
+            for k in 0..n_model {
                 central_differences(
                     &self.model,
-                    &x[k * n..(k + 1) * n],
-                    &u[k * m..(k + 1) * m],
+                    &x[(k0 + k) * n..(k0 + k + 1) * n],
+                    &u[(k0 + k) * m..(k0 + k + 1) * m],
                     &mut model_fx[k * n * n..(k + 1) * n * n],
                     &mut model_fu[k * n * m..(k + 1) * n * m],
                 )?;
@@ -207,16 +231,26 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let mut rows_k = BasisRows::new();
         let mut spread = vec![Vec::new(); nz];
         let mut next = vec![Vec::new(); n];
-        // the initial-state rows r = sqrt(w0) (x_0 - x0) sit after all steps
-        if let Some((_, w0)) = &self.initial_state {
-            let init_row = self.n_residuals() - n;
-            carry_diag.fill(*w0);
-            for (g, ri) in carry_grad.iter_mut().zip(&r[init_row..]) {
-                *g = w0.sqrt() * ri;
+        if k0 == 0 {
+            // the initial-state rows r = sqrt(w0) (x_0 - x0) sit after all steps
+            if let Some((_, w0)) = &self.initial_state {
+                let init_row = self.n_residuals() - n;
+                carry_diag.fill(*w0);
+                for (g, ri) in carry_grad.iter_mut().zip(&r[init_row..]) {
+                    *g = w0.sqrt() * ri;
+                }
+            }
+        } else if k0 < k1 {
+            // what step k0 - 1's consistency rows leave for x_{k0}
+            let w = self.scale * self.lambda[k0 - 1].sqrt();
+            let r_cons = &r[(k0 - 1) * (nc + n) + nc..k0 * (nc + n)];
+            carry_diag.fill(w * w);
+            for (g, ri) in carry_grad.iter_mut().zip(r_cons) {
+                *g = w * ri;
             }
         }
-        let mut row = 0;
-        for k in 0..=self.horizon {
+        let mut row = k0 * (nc + n);
+        for k in k0..k1 {
             let terminal = k == self.horizon;
             let dim = if terminal { n } else { nz };
             // the stage cost's derivatives; the model's come from one batch
@@ -224,8 +258,9 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             let uk = (!terminal).then(|| &u[k * m..(k + 1) * m]);
             self.cost.jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
             if !terminal {
-                d.fx.copy_from_slice(&model_fx[k * n * n..(k + 1) * n * n]);
-                d.fu.copy_from_slice(&model_fu[k * n * m..(k + 1) * n * m]);
+                let km = k - k0;
+                d.fx.copy_from_slice(&model_fx[km * n * n..(km + 1) * n * n]);
+                d.fu.copy_from_slice(&model_fu[km * n * m..(km + 1) * n * m]);
             }
             mask(&mut d.jx, &st.jx);
             mask(&mut d.ju, &st.ju);
@@ -300,7 +335,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 }
                 if !with_s {
                     // not available here: J^T J alone, from the start
-                    return self.band_normal_equations_impl(theta, r, layout, h, grad, None);
+                    return self.band_normal_equations_impl(theta, r, layout, h, grad, None, k0..k1);
                 }
                 if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
                     return Err(TrajoptError::NotFinite {
@@ -365,7 +400,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             }
         }
         window.flush(h)?;
-        debug_assert_eq!(row + self.initial_state.as_ref().map_or(0, |_| n), self.n_residuals());
+        debug_assert!(k1 <= self.horizon || row + self.initial_state.as_ref().map_or(0, |_| n) == self.n_residuals());
         grad.copy_from_slice(&grad_acc);
         if let Some(diag) = second_order {
             diag.copy_from_slice(&diag_s);
@@ -844,6 +879,7 @@ mod tests {
                 );
             }
         }
+        check_parts_add_up(problem, theta, &r, &layout, (&jtj, &full), &grad, &diag_s);
         // bad sizes are errors
         let mut small = BandedSym::zeros(n_p - 1, layout.half_bandwidth);
         assert!(
@@ -854,6 +890,62 @@ mod tests {
         assert!(
             problem
                 .band_normal_equations(&theta[1..], &r, &layout, &mut jtj, &mut grad, None)
+                .is_err()
+        );
+    }
+
+    /// The parts of the normal equations (with and without $S$) add up to
+    /// the whole, for several part counts (more parts than time steps
+    /// included: some parts are then empty).
+    fn check_parts_add_up<P: LeastSquaresProblem>(
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        (jtj, full): (&BandedSym, &BandedSym),
+        grad: &[f64],
+        diag_s: &[f64],
+    ) {
+        let n_p = problem.n_params();
+        let scale = full.band().iter().fold(0.0f64, |a, v| a.max(v.abs()));
+        for parts in [1, 2, 3, 7, 300] {
+            for with_s in [false, true] {
+                let mut sum = BandedSym::zeros(n_p, layout.half_bandwidth);
+                let (mut grad_sum, mut diag_sum) = (vec![0.0; n_p], vec![0.0; n_p]);
+                let (mut part_h, mut part_grad, mut part_diag) = (sum.clone(), vec![0.0; n_p], vec![0.0; n_p]);
+                for part in 0..parts {
+                    let diag = with_s.then_some(&mut part_diag[..]);
+                    let got = problem
+                        .band_normal_equations_part(part, parts, theta, r, layout, &mut part_h, &mut part_grad, diag)
+                        .expect("part");
+                    assert_eq!(got, with_s, "part {part} of {parts}");
+                    sum.add_scaled(1.0, &part_h);
+                    for (a, b) in grad_sum.iter_mut().zip(&part_grad) {
+                        *a += b;
+                    }
+                    for (a, b) in diag_sum.iter_mut().zip(&part_diag) {
+                        *a += b;
+                    }
+                }
+                let whole = if with_s { full } else { jtj };
+                for (a, b) in sum.band().iter().zip(whole.band()) {
+                    assert!((a - b).abs() <= 1e-13 * scale, "{a} vs {b} ({parts} parts)");
+                }
+                for (a, b) in grad_sum.iter().zip(grad) {
+                    assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "grad {a} vs {b}");
+                }
+                if with_s {
+                    for (a, b) in diag_sum.iter().zip(diag_s) {
+                        assert!((a - b).abs() <= 1e-12 * (1.0 + b.abs()), "diag S {a} vs {b}");
+                    }
+                }
+            }
+        }
+        let mut h = BandedSym::zeros(n_p, layout.half_bandwidth);
+        let mut g = vec![0.0; n_p];
+        assert!(
+            problem
+                .band_normal_equations_part(2, 2, theta, r, layout, &mut h, &mut g, None)
                 .is_err()
         );
     }

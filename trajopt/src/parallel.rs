@@ -1,0 +1,220 @@
+//! Helper threads that form parts of the band normal equations while the
+//! solver's own thread forms the first part
+//! ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
+//!
+//! An iteration at 1000 time steps takes well under a millisecond, and
+//! waking a parked thread costs 25-90 us on a virtual machine (measured
+//! here for rayon and for `std::thread`), which ate most of the gain of
+//! the split. So the helpers live for the whole solve and, after each
+//! part, spin for up to [`SPIN`] waiting for the next one before they
+//! park: between two assemblies the solver only factorises and evaluates
+//! residuals. The jobs own their buffers (copies of $\theta$ and $r$, the
+//! helper's band matrix and vectors), which travel to the helper and back
+//! through channels, so no memory is shared and nothing is allocated per
+//! iteration.
+
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::thread::Scope;
+use std::time::{Duration, Instant};
+
+use crate::banded::{BandLayout, BandedSym};
+use crate::error::{Result, TrajoptError};
+use crate::least_squares::LeastSquaresProblem;
+
+/// How long a helper (or the solver waiting for one) spins before it
+/// parks: longer than the gap between two assemblies at the horizons
+/// where the split pays, short enough not to hold a core for long after a
+/// solve.
+const SPIN: Duration = Duration::from_millis(2);
+
+/// One part to form, with the buffers it is formed into.
+struct PartJob {
+    part: usize,
+    parts: usize,
+    theta: Vec<f64>,
+    r: Vec<f64>,
+    layout: Arc<BandLayout>,
+    h: BandedSym,
+    grad: Vec<f64>,
+    /// The diagonal of $S$ when $S$ is asked for.
+    diag: Option<Vec<f64>>,
+}
+
+/// A formed part: the job (its buffers) and the problem's answer.
+struct PartDone {
+    job: PartJob,
+    result: Result<bool>,
+}
+
+/// A helper thread's end of the channels, and its buffers while idle.
+struct Helper {
+    jobs: Sender<PartJob>,
+    done: Receiver<PartDone>,
+    spare: Option<PartJob>,
+}
+
+/// The helper threads of one solve; dropping it ends them.
+pub(crate) struct Helpers {
+    helpers: Vec<Helper>,
+}
+
+impl Helpers {
+    /// Starts `count` helper threads in `scope`, each forming the parts of
+    /// `problem` it is sent.
+    pub(crate) fn spawn<'scope, 'env, P>(scope: &'scope Scope<'scope, 'env>, problem: &'env P, count: usize) -> Self
+    where
+        P: LeastSquaresProblem + Sync + ?Sized,
+    {
+        let helpers = (0..count)
+            .map(|_| {
+                let (jobs, job_rx) = channel::<PartJob>();
+                let (done_tx, done) = channel::<PartDone>();
+                scope.spawn(move || {
+                    while let Some(mut job) = receive(&job_rx) {
+                        let result = problem.band_normal_equations_part(
+                            job.part,
+                            job.parts,
+                            &job.theta,
+                            &job.r,
+                            &job.layout,
+                            &mut job.h,
+                            &mut job.grad,
+                            job.diag.as_deref_mut(),
+                        );
+                        if done_tx.send(PartDone { job, result }).is_err() {
+                            break;
+                        }
+                    }
+                });
+                Helper {
+                    jobs,
+                    done,
+                    spare: None,
+                }
+            })
+            .collect();
+        Self { helpers }
+    }
+
+    /// [`LeastSquaresProblem::band_normal_equations`] formed in parts, part
+    /// 0 on this thread and one part on each helper, and summed in the part
+    /// order (so the result depends on the number of parts, not on timing).
+    #[allow(clippy::too_many_arguments)]
+    pub(crate) fn band_normal_equations<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        layout: &Arc<BandLayout>,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        mut second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        let parts = self.helpers.len() + 1;
+        let want_s = second_order.is_some();
+        let mut sent = 0;
+        for (i, helper) in self.helpers.iter_mut().enumerate() {
+            let mut job = helper.spare.take().unwrap_or_else(|| PartJob {
+                part: 0,
+                parts: 0,
+                theta: Vec::new(),
+                r: Vec::new(),
+                layout: Arc::clone(layout),
+                h: BandedSym::zeros(h.size(), h.half_bandwidth()),
+                grad: Vec::new(),
+                diag: None,
+            });
+            job.part = i + 1;
+            job.parts = parts;
+            copy_into(&mut job.theta, theta);
+            copy_into(&mut job.r, r);
+            job.layout = Arc::clone(layout);
+            if (job.h.size(), job.h.half_bandwidth()) != (h.size(), h.half_bandwidth()) {
+                job.h = BandedSym::zeros(h.size(), h.half_bandwidth());
+            }
+            job.grad.resize(grad.len(), 0.0);
+            job.diag = match (want_s, job.diag.take()) {
+                (true, Some(mut d)) => {
+                    d.resize(grad.len(), 0.0);
+                    Some(d)
+                }
+                (true, None) => Some(vec![0.0; grad.len()]),
+                (false, _) => None,
+            };
+            if helper.jobs.send(job).is_err() {
+                break;
+            }
+            sent += 1;
+        }
+        let mine = problem.band_normal_equations_part(0, parts, theta, r, layout, h, grad, second_order.as_deref_mut());
+        // collect every part sent, even after an error, so that no answer
+        // is left in a channel for the next call
+        let mut outcome = mine;
+        let (mut any_s, mut all_s) = (matches!(outcome, Ok(true)), matches!(outcome, Ok(true)));
+        for helper in &mut self.helpers[..sent] {
+            let Some(done) = receive(&helper.done) else {
+                outcome = Err(helper_lost());
+                continue;
+            };
+            match (&outcome, done.result) {
+                (Ok(_), Ok(with_s)) => {
+                    any_s |= with_s;
+                    all_s &= with_s;
+                    h.add_scaled(1.0, &done.job.h);
+                    for (g, p) in grad.iter_mut().zip(&done.job.grad) {
+                        *g += p;
+                    }
+                    if let (Some(diag), Some(part)) = (second_order.as_deref_mut(), &done.job.diag) {
+                        for (d, p) in diag.iter_mut().zip(part) {
+                            *d += p;
+                        }
+                    }
+                }
+                (Ok(_), Err(e)) => outcome = Err(e),
+                (Err(_), _) => {}
+            }
+            helper.spare = Some(done.job);
+        }
+        if sent < self.helpers.len() {
+            outcome = Err(helper_lost());
+        }
+        outcome?;
+        if any_s && !all_s {
+            // S is missing in some part: J^T J alone, everywhere
+            return self.band_normal_equations(problem, theta, r, layout, h, grad, None);
+        }
+        Ok(all_s)
+    }
+}
+
+fn copy_into(dst: &mut Vec<f64>, src: &[f64]) {
+    dst.clear();
+    dst.extend_from_slice(src);
+}
+
+fn helper_lost() -> TrajoptError {
+    TrajoptError::InvalidParameter {
+        name: "helper thread",
+        reason: "it stopped (the problem panicked on it)".into(),
+    }
+}
+
+/// The next message, spinning for up to [`SPIN`] before blocking; `None`
+/// once the other end is gone.
+fn receive<T>(rx: &Receiver<T>) -> Option<T> {
+    let start = Instant::now();
+    let mut spins = 0u32;
+    loop {
+        match rx.try_recv() {
+            Ok(v) => return Some(v),
+            Err(TryRecvError::Disconnected) => return None,
+            Err(TryRecvError::Empty) => {}
+        }
+        std::hint::spin_loop();
+        spins += 1;
+        if spins.is_multiple_of(64) && start.elapsed() > SPIN {
+            return rx.recv().ok();
+        }
+    }
+}

@@ -1,0 +1,203 @@
+//! `GaussNewton::solve_parallel`: the band normal equations formed in parts
+//! on helper threads.
+
+use splines::BSplineBasis;
+use trajopt::banded::{BandLayout, BandedSym};
+use trajopt::problems::{PENDULUM_DT, Pendulum, pendulum_swingup, swingup_reference};
+use trajopt::{
+    Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda, LeastSquaresProblem, Model, Result,
+    TrackingCost, TrajoptError,
+};
+
+fn solver(second_order: bool, adaptive: bool) -> GaussNewton {
+    GaussNewton::new(GaussNewtonSettings {
+        second_order,
+        adaptive,
+        ..GaussNewtonSettings::default()
+    })
+    .expect("settings")
+}
+
+fn assert_close(a: &GaussNewtonResult, b: &GaussNewtonResult, what: &str) {
+    assert!(
+        a.status.converged() && b.status.converged(),
+        "{what}: {:?} {:?}",
+        a.status,
+        b.status
+    );
+    assert!(
+        (a.cost - b.cost).abs() <= 1e-10 * b.cost,
+        "{what}: {} vs {}",
+        a.cost,
+        b.cost
+    );
+    // Gauss-Newton's slow tail meets the cost test at a rounding-dependent iteration
+    assert!(
+        a.iterations.abs_diff(b.iterations) <= 3.max(b.iterations / 10),
+        "{what}: {} vs {} iterations",
+        a.iterations,
+        b.iterations
+    );
+    // the first steps are the same up to rounding
+    for (x, y) in a.cost_history.iter().zip(&b.cost_history).take(5) {
+        assert!((x - y).abs() <= 1e-9 * y, "{what}: {x} vs {y}");
+    }
+}
+
+/// Each mode reaches the same minimum with two or three threads as with
+/// one, in the same number of iterations to within rounding's effect on
+/// the stopping tests (Gauss-Newton: 94 with two threads, 98 with one, at
+/// this horizon); one thread is `solve` itself, and a given thread
+/// count gives the same bits every time.
+#[test]
+fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(150, 1e2)?;
+    for (second_order, adaptive) in [(false, false), (true, false), (true, true)] {
+        let s = solver(second_order, adaptive);
+        let one = s.solve(&p, &theta0)?;
+        let one_again = s.solve_parallel(&p, &theta0, 1)?;
+        assert_eq!(one.theta, one_again.theta);
+        for threads in [2, 3] {
+            let par = s.solve_parallel(&p, &theta0, threads)?;
+            assert_close(
+                &par,
+                &one,
+                &format!("{threads} threads, newton {second_order}, adaptive {adaptive}"),
+            );
+            let again = s.solve_parallel(&p, &theta0, threads)?;
+            assert_eq!(par.theta, again.theta, "{threads} threads are not deterministic");
+        }
+    }
+    Ok(())
+}
+
+/// The pendulum, with Jacobians that fail beyond an angle: only at the last
+/// time steps of the swing-up, so in the last part of a split.
+struct FailingLate {
+    inner: Pendulum,
+    max_angle: f64,
+}
+
+impl FailingLate {
+    fn check(&self, xs: &[f64]) -> Result<()> {
+        if xs.chunks(4).any(|x| x[0] > self.max_angle) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "state",
+                reason: "outside the model's range".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+impl Model for FailingLate {
+    fn state_dim(&self) -> usize {
+        4
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.inner.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.check(x)?;
+        self.inner.jacobians(x, u, fx, fu)
+    }
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.check(xs)?;
+        self.inner.jacobians_batch(xs, us, fx, fu)
+    }
+}
+
+/// An error in a helper's part is the solve's error, as without helpers.
+#[test]
+fn an_error_in_a_helper_part_is_returned() -> Result<()> {
+    let horizon = 150;
+    let (p, theta0) = pendulum_swingup(horizon, 1e2)?;
+    // past the angle of 95% of the steps: only the last ones fail
+    let max_angle = swingup_reference(horizon * 95 / 100)[0];
+    let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * PENDULUM_DT).collect();
+    let state_ref = faer::Mat::from_fn(horizon + 1, 4, |k, i| swingup_reference(k)[i]);
+    let cost = TrackingCost::new(
+        state_ref,
+        faer::Mat::zeros(horizon, 1),
+        &[1.0, 0.1, 1.0, 0.1],
+        &[0.01],
+        &[1000.0, 100.0, 1000.0, 100.0],
+    )?;
+    let state_basis = BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
+    let control_basis = BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
+    let failing = Eq3Problem::new(
+        FailingLate {
+            inner: Pendulum::default(),
+            max_angle,
+        },
+        cost,
+        &state_basis,
+        &control_basis,
+        &times,
+        Lambda::Constant(1e2),
+    )?
+    .with_consistency_scale(1.0 / PENDULUM_DT)?;
+    assert_eq!(failing.n_params(), p.n_params());
+    let s = solver(false, false);
+    let sequential = s.solve(&failing, &theta0);
+    let parallel = s.solve_parallel(&failing, &theta0, 2);
+    assert!(matches!(
+        sequential,
+        Err(TrajoptError::InvalidParameter { name: "state", .. })
+    ));
+    assert_eq!(parallel.map(|r| r.cost), sequential.map(|r| r.cost));
+    Ok(())
+}
+
+/// A problem with a band form but no split of its own: the default
+/// `band_normal_equations_part` forms everything in part 0, so the
+/// parallel solve is the sequential one, bit for bit.
+struct Unsplit(Eq3Problem<Pendulum, TrackingCost>);
+
+impl LeastSquaresProblem for Unsplit {
+    fn n_params(&self) -> usize {
+        self.0.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.0.n_residuals()
+    }
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        self.0.residuals(theta, r)
+    }
+    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
+        self.0.jacobian_pattern()
+    }
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
+        self.0.jacobian_values(theta, values)
+    }
+    fn band_layout(&self) -> Option<BandLayout> {
+        self.0.band_layout()
+    }
+    fn band_normal_equations(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        self.0.band_normal_equations(theta, r, layout, h, grad, second_order)
+    }
+}
+
+#[test]
+fn the_default_split_changes_nothing() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(100, 1e2)?;
+    let p = Unsplit(p);
+    let s = solver(false, false);
+    let one = s.solve(&p, &theta0)?;
+    let two = s.solve_parallel(&p, &theta0, 2)?;
+    assert!(one.status.converged());
+    assert_eq!(one.theta, two.theta);
+    assert_eq!(one.iterations, two.iterations);
+    Ok(())
+}
