@@ -171,6 +171,25 @@ impl BandedSym {
         }
     }
 
+    /// Adds `other`'s columns from `first` on (same size and bandwidth):
+    /// [`add_scaled`](Self::add_scaled) with scale 1 for a matrix known
+    /// to be zero in its first `first` columns.
+    pub(crate) fn add_from_column(&mut self, other: &Self, first: usize) {
+        assert_eq!((self.n, self.kd), (other.n, other.kd), "band shapes differ");
+        let start = (first * (self.kd + 1)).min(self.ab.len());
+        for (a, b) in self.ab[start..].iter_mut().zip(&other.ab[start..]) {
+            *a += b;
+        }
+    }
+
+    /// The first column with a nonzero entry ($n$ if there is none).
+    pub(crate) fn first_nonzero_column(&self) -> usize {
+        self.ab
+            .iter()
+            .position(|&v| v != 0.0)
+            .map_or(self.n, |i| i / (self.kd + 1))
+    }
+
     /// $y = A x$.
     ///
     /// # Panics
@@ -369,5 +388,20 @@ mod tests {
             half_bandwidth: 1,
         };
         assert!(twice.validate(3).is_err());
+    }
+
+    #[test]
+    fn adding_from_the_first_nonzero_column_adds_everything() {
+        let a = spd(12, 3, 7, 1.0);
+        let mut late = BandedSym::zeros(12, 3);
+        assert_eq!(late.first_nonzero_column(), 12);
+        late.add(9, 7, 2.5).expect("in the band");
+        late.add(11, 11, -1.0).expect("in the band");
+        assert_eq!(late.first_nonzero_column(), 7);
+        let (mut whole, mut from) = (a.clone(), a.clone());
+        whole.add_scaled(1.0, &late);
+        from.add_from_column(&late, late.first_nonzero_column());
+        assert_eq!(whole, from);
+        assert_eq!(from.get(7, 9), a.get(7, 9) + 2.5);
     }
 }

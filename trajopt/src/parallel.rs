@@ -41,10 +41,14 @@ struct PartJob {
     diag: Option<Vec<f64>>,
 }
 
-/// A formed part: the job (its buffers) and the problem's answer.
+/// A formed part: the job (its buffers), the problem's answer, and the
+/// first column of the part's band matrix that is not zero (the later
+/// parts of a time-ordered problem leave the first columns zero: only the
+/// rest needs to travel between the cores).
 struct PartDone {
     job: PartJob,
     result: Result<bool>,
+    first_column: usize,
 }
 
 /// A helper thread's end of the channels, and its buffers while idle.
@@ -82,7 +86,15 @@ impl Helpers {
                             &mut job.grad,
                             job.diag.as_deref_mut(),
                         );
-                        if done_tx.send(PartDone { job, result }).is_err() {
+                        let first_column = job.h.first_nonzero_column();
+                        if done_tx
+                            .send(PartDone {
+                                job,
+                                result,
+                                first_column,
+                            })
+                            .is_err()
+                        {
                             break;
                         }
                     }
@@ -161,7 +173,7 @@ impl Helpers {
                 (Ok(_), Ok(with_s)) => {
                     any_s |= with_s;
                     all_s &= with_s;
-                    h.add_scaled(1.0, &done.job.h);
+                    h.add_from_column(&done.job.h, done.first_column);
                     for (g, p) in grad.iter_mut().zip(&done.job.grad) {
                         *g += p;
                     }
