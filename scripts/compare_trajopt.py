@@ -20,8 +20,11 @@ solves the same problem (same bases, weights, lambda and starting point) with
     not as Ceres' own speed.
 Prints wall times of the solves (model building excluded; trajopt best of 5,
 IPOPT best of 3, scipy and Ceres one run), their ratios to
-trajopt's Newton mode (the ratio column: how many times slower than it), the
-time per iteration, and the final costs with their relative difference. Different
+trajopt's Newton mode on one thread (the ratio column: how many times slower
+than it), the time per iteration, and the final costs with their relative
+difference; trajopt's modes also with the normal equations formed on two
+threads (`GaussNewton::solve_parallel`, rows "2 thr"); and, per horizon, how
+many times faster than IPOPT each trajopt row is. Different
 solvers can stop at different local minima; the cost column shows it.
 """
 import json
@@ -286,7 +289,7 @@ def main():
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     ours = {(d["horizon"], d["mode"]): d for d in map(json.loads, (l for l in out.splitlines() if l.startswith("{")))}
     print(f"lambda = {lam:g}; times are wall seconds of one solve (trajopt: best of 5)")
-    print(f"{'N':>6} {'solver':<22}{'seconds':>10}{'ratio':>9}{'iters/evals':>12}{'ms/iter':>9}{'final cost':>18}{'rel. diff':>11}")
+    print(f"{'N':>6} {'solver':<26}{'seconds':>10}{'ratio':>9}{'iters/evals':>12}{'ms/iter':>9}{'final cost':>18}{'rel. diff':>11}")
     for n in horizons:
         p = problem(n, lam)
         r0 = residuals_np(p["theta0"], p)
@@ -295,6 +298,11 @@ def main():
         rows = [("trajopt Newton", o["seconds"], o["iterations"], o["cost"]),
                 ("trajopt Gauss-Newton", gn["seconds"], gn["iterations"], gn["cost"]),
                 ("trajopt adaptive", ad["seconds"], ad["iterations"], ad["cost"])]
+        # the same modes with the normal equations formed on two threads (solve_parallel)
+        for mode, name in (("newton_2t", "Newton"), ("gauss_newton_2t", "Gauss-Newton"), ("adaptive_2t", "adaptive")):
+            if (n, mode) in ours:
+                d = ours[(n, mode)]
+                rows.append((f"trajopt {name} 2 thr", d["seconds"], d["iterations"], d["cost"]))
         if n <= SCIPY_MAX_HORIZON:
             t, c, ev = solve_scipy(p)
             rows.append(("scipy least_squares", t, ev, c))
@@ -307,8 +315,13 @@ def main():
                 rows.append(("Ceres (pyceres)", ceres[0], ceres[2], ceres[1]))
         for name, secs, its, cost in rows:
             per_iter = f"{1e3 * secs / its:>9.3f}" if its else f"{'':>9}"
-            print(f"{n:>6} {name:<22}{secs:>10.4f}{secs / o['seconds']:>8.1f}x{its:>12}{per_iter}{cost:>18.10g}"
+            print(f"{n:>6} {name:<26}{secs:>10.4f}{secs / o['seconds']:>8.1f}x{its:>12}{per_iter}{cost:>18.10g}"
                   f"{(cost - o['cost']) / o['cost']:>11.1e}")
+        if cas is not None:
+            # how many times faster than IPOPT each trajopt mode is
+            speedups = ", ".join(f"{name[len('trajopt '):]} {cas[0] / secs:.1f}x"
+                                 for name, secs, _, _ in rows if name.startswith("trajopt"))
+            print(f"{n:>6} vs IPOPT: {speedups}")
 
 
 if __name__ == "__main__":

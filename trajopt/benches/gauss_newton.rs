@@ -2,7 +2,8 @@
 //! pendulum swing-up (`trajopt::problems`) over horizons: one iteration (to
 //! show linear growth with the horizon; it includes the symbolic setup) and
 //! a full solve, Gauss-Newton, Newton (`second_order`) and the adaptive
-//! choice between the two (`adaptive`).
+//! choice between the two (`adaptive`); and the Newton mode with the normal
+//! equations formed on two threads (`solve_parallel`).
 //!
 //! `cargo bench -p trajopt --bench gauss_newton`
 
@@ -48,6 +49,9 @@ fn gauss_newton(c: &mut Criterion) {
             });
             group.bench_with_input(BenchmarkId::new("solve_adaptive", horizon), &theta0, |b, t| {
                 b.iter(|| adaptive.solve(&problem, black_box(t)).expect("solve"))
+            });
+            group.bench_with_input(BenchmarkId::new("solve_newton_2_threads", horizon), &theta0, |b, t| {
+                b.iter(|| newton.solve_parallel(&problem, black_box(t), 2).expect("solve"))
             });
         }
     }

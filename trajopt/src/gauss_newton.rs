@@ -70,6 +70,12 @@
 //! model predicts a decrease below `tol_cost` $F$: further steps would only
 //! compare rounding errors.
 //!
+//! [`GaussNewton::solve_parallel`] forms the band normal equations in parts
+//! ([`LeastSquaresProblem::band_normal_equations_part`]), one on this thread
+//! and one on each helper thread, and adds them up in a fixed order: the
+//! iterates are [`GaussNewton::solve`]'s up to rounding, and the same for
+//! every run with the same number of threads.
+//!
 //! References: K. Madsen, H. B. Nielsen, O. Tingleff, *Methods for Non-Linear
 //! Least Squares Problems* (2004), §3.2; J. Nocedal, S. Wright, *Numerical
 //! Optimization* (2006), ch. 10.
