@@ -279,26 +279,28 @@ impl GaussNewton {
         self.solve_with(problem, theta0, None)
     }
 
-    /// [`solve`](Self::solve) with the band normal equations formed on
-    /// `threads` threads (this one and `threads - 1` helpers living for the
-    /// solve), each forming one part
-    /// ([`LeastSquaresProblem::band_normal_equations_part`]); the rest of
-    /// an iteration (factorisation, residuals) stays on this thread. With
-    /// `threads <= 1`, or without a band form, it is [`solve`](Self::solve).
+    /// [`solve`](Self::solve) with the band normal equations formed, and
+    /// the residuals evaluated, on `threads` threads: this one and
+    /// `threads - 1` helpers living for the solve, each doing one part
+    /// ([`LeastSquaresProblem::band_normal_equations_part`],
+    /// [`LeastSquaresProblem::residuals_part`]); the factorisations stay on
+    /// this thread. With `threads <= 1`, or without a band form, it is
+    /// [`solve`](Self::solve).
     ///
     /// The parts' sums differ from one thread's by rounding only, so the
     /// iterates agree with [`solve`](Self::solve)'s to rounding (and the
     /// result does not depend on timing: the same `threads` gives the same
     /// bits). Forming the normal equations is most of an iteration for
     /// [`Eq3Problem`](crate::Eq3Problem): on the benchmark pendulum at
-    /// 1000 steps two threads took the Newton mode's solve from 24.6 to
-    /// 16.7 ms (`eq3_timing`, one run). The helpers spin for up to 2 ms waiting for
-    /// the next part before they park, as waking a parked thread costs
-    /// tens of microseconds: a helper keeps its core busy while the solver
-    /// factorises.
+    /// 1000 steps two threads took the Newton mode's solve from 23.9 to
+    /// 15.8 ms (`eq3_timing`, one run). The helpers spin for up to 2 ms
+    /// waiting for the next part before they park, as waking a parked
+    /// thread costs tens of microseconds: a helper keeps its core busy
+    /// while the solver factorises.
     ///
     /// # Errors
-    /// As [`solve`](Self::solve).
+    /// As [`solve`](Self::solve); and [`TrajoptError::InvalidParameter`]
+    /// if the problem's residual parts do not cover every row once.
     pub fn solve_parallel<P: LeastSquaresProblem + Sync + ?Sized>(
         &self,
         problem: &P,
@@ -498,7 +500,7 @@ impl GaussNewton {
                 for j in 0..n_p {
                     trial[j] = theta[j] + step[j];
                 }
-                problem.residuals(&trial, &mut r_trial)?;
+                system.residuals(problem, &trial, &mut r_trial)?;
                 residual_evals += 1;
                 let trial_cost = sum_sq(&r_trial);
                 let rho = if predicted > 0.0 && trial_cost.is_finite() {
@@ -610,6 +612,16 @@ impl System {
         match self {
             Self::Sparse(s) => s.assemble(problem, theta, r, grad, want_s),
             Self::Band(b) => b.assemble(problem, theta, r, grad, want_s),
+        }
+    }
+
+    /// $r(\theta)$, split over the helper threads if there are any.
+    fn residuals<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        match self {
+            Self::Band(b) if b.helpers.is_some() => {
+                b.helpers.as_mut().map_or(Ok(()), |h| h.residuals(problem, theta, r))
+            }
+            _ => problem.residuals(theta, r),
         }
     }
 

@@ -1,5 +1,7 @@
 //! Nonlinear least-squares problems with a sparse Jacobian of fixed pattern.
 
+use std::ops::Range;
+
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
 
 use crate::banded::{BandLayout, BandedSym};
@@ -20,6 +22,29 @@ pub trait LeastSquaresProblem {
 
     /// Writes $r(\theta)$ into `r` (length [`n_residuals`](Self::n_residuals)).
     fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()>;
+
+    /// Part `part` of [`residuals`](Self::residuals) when the residuals are
+    /// split into `parts` groups of consecutive rows: writes that group's
+    /// rows of $r(\theta)$ into `r` (full length; the other rows are left
+    /// as they are) and returns their range. The parts' ranges cover all
+    /// rows once, and the parts can be evaluated at the same time on
+    /// different threads
+    /// ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
+    ///
+    /// The default evaluates every row in part 0 and none in the others.
+    /// [`Eq3Problem`](crate::Eq3Problem) splits its time steps as in
+    /// [`band_normal_equations_part`](Self::band_normal_equations_part).
+    ///
+    /// # Errors
+    /// `part >= parts`, and the errors of [`residuals`](Self::residuals).
+    fn residuals_part(&self, part: usize, parts: usize, theta: &[f64], r: &mut [f64]) -> Result<Range<usize>> {
+        check_part(part, parts)?;
+        if part > 0 {
+            return Ok(0..0);
+        }
+        self.residuals(theta, r)?;
+        Ok(0..self.n_residuals())
+    }
 
     /// The sparsity pattern of $J$: compressed rows, sorted unique columns.
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize>;

@@ -666,10 +666,71 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
 
     /// States (row-major, $(N+1) n$) and controls (row-major, $N m$).
     fn sample(&self, theta: &[f64]) -> (Vec<f64>, Vec<f64>) {
+        self.sample_range(theta, 0..self.horizon + 1)
+    }
+
+    /// The residuals of the stages `steps` (and, with the last stage, the
+    /// initial-state rows) into their rows of `r`; returns those rows.
+    fn residuals_range(
+        &self,
+        theta: &[f64],
+        r: &mut [f64],
+        steps: std::ops::Range<usize>,
+    ) -> Result<std::ops::Range<usize>> {
+        expect_len("parameters", self.n_params(), theta.len())?;
+        expect_len("residuals", self.n_residuals(), r.len())?;
+        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let horizon = self.horizon;
+        let (k0, k1) = (steps.start.min(horizon + 1), steps.end.min(horizon + 1));
+        if k0 >= k1 {
+            return Ok(0..0);
+        }
+        let (mut x, u) = self.sample_range(theta, k0..k1);
+        let last = k1 == horizon + 1;
+        if last && k0 > 0 && self.initial_state.is_some() {
+            // the initial-state rows need x_0
+            let (x0, _) = self.sample_range(theta, 0..0);
+            x[..n].copy_from_slice(&x0[..n]);
+        }
+        // f(x_k, u_k) for every step at once (a model may evaluate them in parallel)
+        let k_model = k1.min(horizon);
+        let mut next = vec![0.0; (k_model - k0) * n];
+        self.model
+            .step_batch(&x[k0 * n..k_model * n], &u[k0 * m..k_model * m], &mut next)?;
+        let first_row = k0 * (nc + n);
+        let mut row = first_row;
+        for k in k0..k1 {
+            let xk = &x[k * n..(k + 1) * n];
+            let uk = (k < horizon).then(|| &u[k * m..(k + 1) * m]);
+            self.cost.residuals(k, xk, uk, &mut r[row..row + nc])?;
+            row += nc;
+            if k < horizon {
+                let w = self.scale * self.lambda[k].sqrt();
+                for i in 0..n {
+                    r[row + i] = w * (x[(k + 1) * n + i] - next[(k - k0) * n + i]);
+                }
+                row += n;
+            }
+        }
+        if let (true, Some((x0, w0))) = (last, &self.initial_state) {
+            let w = w0.sqrt();
+            for i in 0..n {
+                r[row + i] = w * (x[i] - x0[i]);
+            }
+            row += n;
+        }
+        Ok(first_row..row)
+    }
+
+    /// [`sample`](Self::sample) at the stages `steps` only: the states
+    /// $x_k$ for $k$ from `steps.start` through `steps.end` (the next
+    /// state of the last step) and the controls $u_k$ for $k$ in `steps`;
+    /// the other entries stay zero.
+    fn sample_range(&self, theta: &[f64], steps: std::ops::Range<usize>) -> (Vec<f64>, Vec<f64>) {
         let (ncx, ncu) = (self.n_state_coeffs(), self.n_control_coeffs());
         let off = ncx * self.n;
         let mut x = vec![0.0; (self.horizon + 1) * self.n];
-        for k in 0..=self.horizon {
+        for k in steps.start.min(self.horizon + 1)..=steps.end.min(self.horizon) {
             let cols = self.phi_x.symbolic().col_idx_of_row_raw(k);
             let vals = self.phi_x.val_of_row(k);
             for i in 0..self.n {
@@ -677,7 +738,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             }
         }
         let mut u = vec![0.0; self.horizon * self.m];
-        for k in 0..self.horizon {
+        for k in steps.start.min(self.horizon)..steps.end.min(self.horizon) {
             let cols = self.phi_u.symbolic().col_idx_of_row_raw(k);
             let vals = self.phi_u.val_of_row(k);
             for i in 0..self.m {
@@ -1203,35 +1264,19 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
     }
 
     fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        expect_len("parameters", self.n_params(), theta.len())?;
-        expect_len("residuals", self.n_residuals(), r.len())?;
-        let (x, u) = self.sample(theta);
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
-        let horizon = self.horizon;
-        // f(x_k, u_k) for every step at once (a model may evaluate them in parallel)
-        let mut next = vec![0.0; horizon * n];
-        self.model.step_batch(&x[..horizon * n], &u, &mut next)?;
-        let mut row = 0;
-        for k in 0..=horizon {
-            let xk = &x[k * n..(k + 1) * n];
-            let uk = (k < horizon).then(|| &u[k * m..(k + 1) * m]);
-            self.cost.residuals(k, xk, uk, &mut r[row..row + nc])?;
-            row += nc;
-            if k < horizon {
-                let w = self.scale * self.lambda[k].sqrt();
-                for i in 0..n {
-                    r[row + i] = w * (x[(k + 1) * n + i] - next[k * n + i]);
-                }
-                row += n;
-            }
-        }
-        if let Some((x0, w0)) = &self.initial_state {
-            let w = w0.sqrt();
-            for i in 0..n {
-                r[row + i] = w * (x[i] - x0[i]);
-            }
-        }
-        Ok(())
+        self.residuals_range(theta, r, 0..self.horizon + 1).map(|_| ())
+    }
+
+    fn residuals_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &mut [f64],
+    ) -> Result<std::ops::Range<usize>> {
+        crate::least_squares::check_part(part, parts)?;
+        let stages = self.horizon + 1;
+        self.residuals_range(theta, r, stages * part / parts..stages * (part + 1) / parts)
     }
 
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {

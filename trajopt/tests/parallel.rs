@@ -201,3 +201,105 @@ fn the_default_split_changes_nothing() -> Result<()> {
     assert_eq!(one.iterations, two.iterations);
     Ok(())
 }
+
+/// The residuals' parts cover every row once and equal the whole, bit for
+/// bit, with the initial-state rows and with more parts than time steps.
+#[test]
+fn residual_parts_make_up_the_residuals() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(40, 1e2)?;
+    let p = p.with_initial_state(&[0.1, 0.0, 0.0, 0.0], 7.0)?;
+    let theta: Vec<f64> = theta0
+        .iter()
+        .enumerate()
+        .map(|(i, t)| t + 0.1 * (i as f64).sin())
+        .collect();
+    let mut whole = vec![0.0; p.n_residuals()];
+    p.residuals(&theta, &mut whole)?;
+    for parts in [1, 2, 3, 7, 100] {
+        let mut r = vec![f64::NAN; p.n_residuals()];
+        let mut covered = vec![0; p.n_residuals()];
+        for part in 0..parts {
+            let mut scratch = vec![f64::NAN; p.n_residuals()];
+            let rows = p.residuals_part(part, parts, &theta, &mut scratch)?;
+            for i in rows {
+                covered[i] += 1;
+                r[i] = scratch[i];
+            }
+        }
+        assert!(covered.iter().all(|&c| c == 1), "{parts} parts: {covered:?}");
+        assert_eq!(r, whole, "{parts} parts");
+    }
+    assert!(p.residuals_part(3, 3, &theta, &mut whole).is_err());
+    Ok(())
+}
+
+/// A problem whose residual parts miss rows is an error of the parallel
+/// solve, not a solve on stale residuals.
+struct MissingRows(Eq3Problem<Pendulum, TrackingCost>);
+
+impl LeastSquaresProblem for MissingRows {
+    fn n_params(&self) -> usize {
+        self.0.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.0.n_residuals()
+    }
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        self.0.residuals(theta, r)
+    }
+    fn residuals_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &mut [f64],
+    ) -> Result<std::ops::Range<usize>> {
+        let rows = self.0.residuals_part(part, parts, theta, r)?;
+        // the last row of the last part is left out
+        Ok(if rows.end == self.n_residuals() {
+            rows.start..rows.end - 1
+        } else {
+            rows
+        })
+    }
+    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
+        self.0.jacobian_pattern()
+    }
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
+        self.0.jacobian_values(theta, values)
+    }
+    fn band_layout(&self) -> Option<BandLayout> {
+        self.0.band_layout()
+    }
+    fn band_normal_equations(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        self.0.band_normal_equations(theta, r, layout, h, grad, second_order)
+    }
+}
+
+#[test]
+fn residual_parts_that_miss_rows_are_an_error() -> Result<()> {
+    let (p, theta0) = pendulum_swingup(60, 1e2)?;
+    let p = MissingRows(p);
+    let s = solver(false, false);
+    assert!(s.solve(&p, &theta0)?.status.converged());
+    let err = s.solve_parallel(&p, &theta0, 2).expect_err("rows are missing");
+    assert!(
+        matches!(
+            err,
+            TrajoptError::InvalidParameter {
+                name: "residual parts",
+                ..
+            }
+        ),
+        "{err}"
+    );
+    Ok(())
+}

@@ -161,7 +161,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
         let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
         let nz = n + m;
-        let (x, u) = self.sample(theta);
+        let (x, u) = self.sample_range(theta, steps.clone());
         let st = self.local_structure();
         // which second derivatives the Jacobian structures allow
         let (stage_s, terminal_s, model_s) = if second_order.is_some() {
