@@ -144,6 +144,29 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         second_order: Option<&mut [f64]>,
         steps: std::ops::Range<usize>,
     ) -> Result<bool> {
+        // the common sizes compiled with their dimensions known, which
+        // unrolls the small per-step loops (the arithmetic is the same)
+        match (self.n, self.m, self.cost.n_residuals()) {
+            (4, 1, 5) => self.band_body::<4, 1, 5>(theta, r, layout, h, grad, second_order, steps),
+            (2, 1, 3) => self.band_body::<2, 1, 3>(theta, r, layout, h, grad, second_order, steps),
+            _ => self.band_body::<0, 0, 0>(theta, r, layout, h, grad, second_order, steps),
+        }
+    }
+
+    /// [`band_normal_equations_impl`](Self::band_normal_equations_impl)
+    /// for `NX` states, `NU` controls and `NC` stage-cost residuals (all 0:
+    /// the problem's own sizes, at run time).
+    #[allow(clippy::too_many_arguments)]
+    fn band_body<const NX: usize, const NU: usize, const NC: usize>(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        h: &mut BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+        steps: std::ops::Range<usize>,
+    ) -> Result<bool> {
         let n_p = self.n_params();
         expect_len("parameters", n_p, theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
@@ -159,7 +182,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         if let Some(diag) = &second_order {
             expect_len("second-order diagonal", n_p, diag.len())?;
         }
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = if NX > 0 {
+            (NX, NU, NC)
+        } else {
+            (self.n, self.m, self.cost.n_residuals())
+        };
         let nz = n + m;
         let (x, u) = self.sample_range(theta, steps.clone());
         let st = self.local_structure();
@@ -335,7 +362,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 }
                 if !with_s {
                     // not available here: J^T J alone, from the start
-                    return self.band_normal_equations_impl(theta, r, layout, h, grad, None, k0..k1);
+                    return self.band_body::<NX, NU, NC>(theta, r, layout, h, grad, None, k0..k1);
                 }
                 if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
                     return Err(TrajoptError::NotFinite {
@@ -539,7 +566,17 @@ impl KronWindow {
             ($($nr:literal, $nc:literal);*) => {
                 match (rows.phi.len(), cols.phi.len(), nr, ncl) {
                     $((4, 4, $nr, $nc) => {
-                        return kron_fixed::<$nr, $nc>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale);
+                        return pulp::Arch::new().dispatch(KronFixed::<$nr, $nc> {
+                            acc: &mut self.acc,
+                            size: self.size,
+                            at: (r0, c0),
+                            phi: rows.phi,
+                            psi: cols.phi,
+                            q,
+                            stride,
+                            q_at: (q_row, q_col),
+                            scale,
+                        });
                     })*
                     _ => {}
                 }
@@ -586,6 +623,39 @@ impl KronWindow {
         }
         self.size = 0;
         Ok(())
+    }
+}
+
+/// [`kron_fixed`] compiled for the widest vector instructions the processor
+/// has (chosen at run time by `pulp`; the same arithmetic on every path).
+struct KronFixed<'a, const NR: usize, const NC: usize> {
+    acc: &'a mut [f64],
+    size: usize,
+    at: (usize, usize),
+    phi: &'a [f64],
+    psi: &'a [f64],
+    q: &'a [f64],
+    stride: usize,
+    q_at: (usize, usize),
+    scale: f64,
+}
+
+impl<const NR: usize, const NC: usize> pulp::WithSimd for KronFixed<'_, NR, NC> {
+    type Output = ();
+
+    #[inline(always)]
+    fn with_simd<S: pulp::Simd>(self, _simd: S) {
+        kron_fixed::<NR, NC>(
+            self.acc,
+            self.size,
+            self.at,
+            self.phi,
+            self.psi,
+            self.q,
+            self.stride,
+            self.q_at,
+            self.scale,
+        );
     }
 }
 
@@ -711,6 +781,7 @@ fn contiguous_row(phi: &faer::sparse::SparseRowMat<usize, f64>, k: usize, out: &
 
 /// `q += weight g g^T` (upper triangle, stride `nz`) and `gl += r_weight g`
 /// for one local Jacobian row `g`.
+#[inline(always)]
 fn add_outer(q: &mut [f64], gl: &mut [f64], g: &[f64], nz: usize, weight: f64, r_weight: f64) {
     for (c, &gc) in g.iter().enumerate() {
         if gc == 0.0 {
@@ -725,6 +796,7 @@ fn add_outer(q: &mut [f64], gl: &mut [f64], g: &[f64], nz: usize, weight: f64, r
 }
 
 /// Zeroes the entries outside the declared structure.
+#[inline(always)]
 fn mask(values: &mut [f64], structure: &[bool]) {
     for (v, &s) in values.iter_mut().zip(structure) {
         if !s {
@@ -974,6 +1046,41 @@ mod tests {
             layout.half_bandwidth
         );
         check_band_equals_sparse(&problem, &perturbed(&theta0));
+    }
+
+    /// Sizes without a fast path compiled for them (3 states, 2 controls):
+    /// the loops with the problem's sizes at run time.
+    #[test]
+    fn band_normal_equations_hold_for_other_sizes() {
+        let (horizon, dt) = (30, 0.05);
+        let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * dt).collect();
+        let a = faer::Mat::from_fn(3, 3, |i, j| if i == j { 1.0 } else { 0.1 * (i + 2 * j) as f64 * dt });
+        let b = faer::Mat::from_fn(3, 2, |i, j| (1 + i + j) as f64 * dt);
+        let model = crate::LinearModel::new(a, b).expect("model");
+        let state_ref = faer::Mat::from_fn(horizon + 1, 3, |k, i| ((k + i) as f64 * 0.2).sin());
+        let cost = crate::TrackingCost::new(
+            state_ref,
+            faer::Mat::zeros(horizon, 2),
+            &[1.0, 0.5, 2.0],
+            &[0.1, 0.2],
+            &[5.0; 3],
+        )
+        .expect("cost");
+        let state_basis = splines::BSplineBasis::clamped_uniform(10, 3, 0.0, times[horizon]).expect("basis");
+        let control_basis = splines::BSplineBasis::clamped_uniform(8, 3, 0.0, times[horizon]).expect("basis");
+        let problem = Eq3Problem::new(
+            model,
+            cost,
+            &state_basis,
+            &control_basis,
+            &times,
+            Lambda::Constant(30.0),
+        )
+        .expect("problem")
+        .with_initial_state(&[0.1, 0.0, -0.2], 3.0)
+        .expect("x0");
+        let theta: Vec<f64> = (0..problem.n_params()).map(|i| 0.3 * (i as f64 * 0.61).sin()).collect();
+        check_band_equals_sparse(&problem, &theta);
     }
 
     /// Bases whose rows are not 4 contiguous coefficients: a wavelet basis
