@@ -827,6 +827,8 @@ struct BandSystem {
     layout: Arc<BandLayout>,
     /// Threads forming parts of the normal equations, if any.
     helpers: Option<Helpers>,
+    /// $S$ alone, for $J^\top J = H - S$ (formed on demand).
+    s_band: Option<BandedSym>,
     second_order: bool,
     /// The model matrix: $J^\top J + S$ when `has_s`, else $J^\top J$.
     h: BandedSym,
@@ -859,6 +861,7 @@ impl BandSystem {
             jtj_current: false,
             layout: Arc::new(layout),
             helpers,
+            s_band: None,
             rhs: vec![0.0; n],
             product: vec![0.0; n],
             scratch: vec![0.0; n],
@@ -929,7 +932,39 @@ impl BandSystem {
         if !self.has_s || self.jtj_current {
             return Ok(true);
         }
+        if self.jtj_from_second_order(problem, theta, r)? {
+            return Ok(true);
+        }
         self.form_jtj(problem, theta, r)
+    }
+
+    /// $J^\top J = H - S$ from the problem's $S$ alone
+    /// ([`LeastSquaresProblem::band_second_order_part`]), cheaper than
+    /// forming $J^\top J$; false if the problem does not give $S$ alone or
+    /// the difference is not finite.
+    fn jtj_from_second_order<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+    ) -> Result<bool> {
+        let (n, kd) = (self.h.size(), self.h.half_bandwidth());
+        let s = self.s_band.get_or_insert_with(|| BandedSym::zeros(n, kd));
+        let found = match &mut self.helpers {
+            Some(helpers) => helpers.band_second_order(problem, theta, r, &self.layout, s)?,
+            None => problem.band_second_order_part(0, 1, theta, r, &self.layout, s)?,
+        };
+        if !found {
+            return Ok(false);
+        }
+        let jtj = self.jtj.get_or_insert_with(|| BandedSym::zeros(n, kd));
+        jtj.copy_from(&self.h);
+        jtj.add_scaled(-1.0, s);
+        if !jtj.band().iter().all(|v| v.is_finite()) {
+            return Ok(false);
+        }
+        self.jtj_current = true;
+        Ok(true)
     }
 
     /// The diagonal of $J^\top J$ in the parameter order.

@@ -129,6 +129,34 @@ pub trait LeastSquaresProblem {
         })
     }
 
+    /// The second-order term $S$ alone, in the band form of `layout`, from
+    /// part `part` of `parts` of the residuals (as in
+    /// [`band_normal_equations_part`](Self::band_normal_equations_part)):
+    /// the $S$ that [`band_normal_equations`](Self::band_normal_equations)
+    /// adds to $J^\top J$, written into `s`; false when $S$ is not available
+    /// (`s` then holds nothing useful). When a Newton iteration of
+    /// [`GaussNewton`](crate::GaussNewton) falls back to a Gauss-Newton
+    /// step, it recovers $J^\top J = (J^\top J + S) - S$ from it, which
+    /// costs less than forming $J^\top J$ again (about half, for
+    /// [`Eq3Problem`](crate::Eq3Problem)). Not available by default.
+    ///
+    /// # Errors
+    /// `part >= parts`, wrong sizes, or an error from evaluating the problem.
+    #[allow(clippy::too_many_arguments)]
+    fn band_second_order_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        s: &mut BandedSym,
+    ) -> Result<bool> {
+        check_part(part, parts)?;
+        let _ = (theta, r, layout, s);
+        Ok(false)
+    }
+
     /// Part `part` of [`band_normal_equations`](Self::band_normal_equations)
     /// when the residuals are split into `parts` groups: the same outputs,
     /// from one group's residuals only. The parts add up (`h`, `grad` and

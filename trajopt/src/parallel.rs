@@ -40,6 +40,9 @@ struct PartJob {
     grad: Vec<f64>,
     /// The diagonal of $S$ when $S$ is asked for.
     diag: Option<Vec<f64>>,
+    /// $S$ alone ([`LeastSquaresProblem::band_second_order_part`]) instead
+    /// of the normal equations.
+    s_only: bool,
 }
 
 /// A formed part: the job (its buffers), the problem's answer, and the
@@ -99,16 +102,27 @@ impl Helpers {
                     while let Some(job) = receive(&job_rx) {
                         let done = match job {
                             Job::Band(mut job) => {
-                                let result = problem.band_normal_equations_part(
-                                    job.part,
-                                    job.parts,
-                                    &job.theta,
-                                    &job.r,
-                                    &job.layout,
-                                    &mut job.h,
-                                    &mut job.grad,
-                                    job.diag.as_deref_mut(),
-                                );
+                                let result = if job.s_only {
+                                    problem.band_second_order_part(
+                                        job.part,
+                                        job.parts,
+                                        &job.theta,
+                                        &job.r,
+                                        &job.layout,
+                                        &mut job.h,
+                                    )
+                                } else {
+                                    problem.band_normal_equations_part(
+                                        job.part,
+                                        job.parts,
+                                        &job.theta,
+                                        &job.r,
+                                        &job.layout,
+                                        &mut job.h,
+                                        &mut job.grad,
+                                        job.diag.as_deref_mut(),
+                                    )
+                                };
                                 let first_column = job.h.first_nonzero_column();
                                 Done::Band(PartDone {
                                     job,
@@ -149,8 +163,39 @@ impl Helpers {
         layout: &Arc<BandLayout>,
         h: &mut BandedSym,
         grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        self.band_parts(problem, theta, r, layout, h, Some(grad), second_order)
+    }
+
+    /// [`LeastSquaresProblem::band_second_order_part`] over the parts, as
+    /// [`band_normal_equations`](Self::band_normal_equations): $S$ alone
+    /// into `s`; false unless every part has it.
+    pub(crate) fn band_second_order<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        layout: &Arc<BandLayout>,
+        s: &mut BandedSym,
+    ) -> Result<bool> {
+        self.band_parts(problem, theta, r, layout, s, None, None)
+    }
+
+    /// The normal equations (with `grad`) or $S$ alone (without), in parts.
+    #[allow(clippy::too_many_arguments)]
+    fn band_parts<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        layout: &Arc<BandLayout>,
+        h: &mut BandedSym,
+        mut grad: Option<&mut [f64]>,
         mut second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
+        let s_only = grad.is_none();
+        let n_grad = grad.as_deref().map_or(0, <[f64]>::len);
         let parts = self.helpers.len() + 1;
         let want_s = second_order.is_some();
         let mut sent = 0;
@@ -164,7 +209,9 @@ impl Helpers {
                 h: BandedSym::zeros(h.size(), h.half_bandwidth()),
                 grad: Vec::new(),
                 diag: None,
+                s_only,
             });
+            job.s_only = s_only;
             job.part = i + 1;
             job.parts = parts;
             copy_into(&mut job.theta, theta);
@@ -173,13 +220,13 @@ impl Helpers {
             if (job.h.size(), job.h.half_bandwidth()) != (h.size(), h.half_bandwidth()) {
                 job.h = BandedSym::zeros(h.size(), h.half_bandwidth());
             }
-            job.grad.resize(grad.len(), 0.0);
+            job.grad.resize(n_grad, 0.0);
             job.diag = match (want_s, job.diag.take()) {
                 (true, Some(mut d)) => {
-                    d.resize(grad.len(), 0.0);
+                    d.resize(n_grad, 0.0);
                     Some(d)
                 }
-                (true, None) => Some(vec![0.0; grad.len()]),
+                (true, None) => Some(vec![0.0; n_grad]),
                 (false, _) => None,
             };
             if helper.jobs.send(Job::Band(job)).is_err() {
@@ -187,7 +234,12 @@ impl Helpers {
             }
             sent += 1;
         }
-        let mine = problem.band_normal_equations_part(0, parts, theta, r, layout, h, grad, second_order.as_deref_mut());
+        let mine = match grad.as_deref_mut() {
+            Some(g) => {
+                problem.band_normal_equations_part(0, parts, theta, r, layout, h, g, second_order.as_deref_mut())
+            }
+            None => problem.band_second_order_part(0, parts, theta, r, layout, h),
+        };
         // collect every part sent, even after an error, so that no answer
         // is left in a channel for the next call
         let mut outcome = mine;
@@ -202,7 +254,7 @@ impl Helpers {
                     any_s |= with_s;
                     all_s &= with_s;
                     h.add_from_column(&done.job.h, done.first_column);
-                    for (g, p) in grad.iter_mut().zip(&done.job.grad) {
+                    for (g, p) in grad.iter_mut().flat_map(|g| g.iter_mut()).zip(&done.job.grad) {
                         *g += p;
                     }
                     if let (Some(diag), Some(part)) = (second_order.as_deref_mut(), &done.job.diag) {
@@ -220,9 +272,9 @@ impl Helpers {
             outcome = Err(helper_lost());
         }
         outcome?;
-        if any_s && !all_s {
+        if let (Some(grad), true) = (grad, any_s && !all_s) {
             // S is missing in some part: J^T J alone, everywhere
-            return self.band_normal_equations(problem, theta, r, layout, h, grad, None);
+            return self.band_parts(problem, theta, r, layout, h, Some(grad), None);
         }
         Ok(all_s)
     }

@@ -1333,6 +1333,21 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         self.band_normal_equations_impl(theta, r, layout, h, grad, second_order, steps)
     }
 
+    fn band_second_order_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        s: &mut BandedSym,
+    ) -> Result<bool> {
+        crate::least_squares::check_part(part, parts)?;
+        let stages = self.horizon + 1;
+        let steps = stages * part / parts..stages * (part + 1) / parts;
+        self.band_second_order_impl(theta, r, layout, s, steps)
+    }
+
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("jacobian values", self.pattern.col_idx().len(), values.len())?;

@@ -482,3 +482,110 @@ fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
     assert!(probed.residual_evals >= exact.residual_evals + 2 * (probed.iterations - 1));
     Ok(())
 }
+
+/// The benchmark pendulum with call counters, and with or without its
+/// second-order term alone in band form (`band_second_order_part`).
+struct Counting {
+    inner: Eq3Problem<Pendulum, TrackingCost>,
+    forward_s: bool,
+    normal_equations: std::sync::atomic::AtomicUsize,
+    second_order_alone: std::sync::atomic::AtomicUsize,
+}
+
+impl LeastSquaresProblem for Counting {
+    fn n_params(&self) -> usize {
+        self.inner.n_params()
+    }
+    fn n_residuals(&self) -> usize {
+        self.inner.n_residuals()
+    }
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        self.inner.residuals(theta, r)
+    }
+    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
+        self.inner.jacobian_pattern()
+    }
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
+        self.inner.jacobian_values(theta, values)
+    }
+    fn second_order_pattern(&self) -> Option<faer::sparse::SymbolicSparseColMat<usize>> {
+        self.inner.second_order_pattern()
+    }
+    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        self.inner.second_order_values(theta, r, values)
+    }
+    fn band_layout(&self) -> Option<trajopt::banded::BandLayout> {
+        self.inner.band_layout()
+    }
+    fn band_normal_equations(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &trajopt::banded::BandLayout,
+        h: &mut trajopt::banded::BandedSym,
+        grad: &mut [f64],
+        second_order: Option<&mut [f64]>,
+    ) -> Result<bool> {
+        self.normal_equations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner
+            .band_normal_equations(theta, r, layout, h, grad, second_order)
+    }
+    fn band_second_order_part(
+        &self,
+        part: usize,
+        parts: usize,
+        theta: &[f64],
+        r: &[f64],
+        layout: &trajopt::banded::BandLayout,
+        s: &mut trajopt::banded::BandedSym,
+    ) -> Result<bool> {
+        if !self.forward_s {
+            return Ok(false);
+        }
+        self.second_order_alone
+            .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+        self.inner.band_second_order_part(part, parts, theta, r, layout, s)
+    }
+}
+
+/// When a Newton iteration falls back to a Gauss-Newton step, the solver
+/// takes $J^\top J = (J^\top J + S) - S$ from the problem's $S$ alone
+/// instead of forming $J^\top J$ again, and reaches the same minimum in the
+/// same number of iterations (to rounding) as when it forms it again.
+#[test]
+fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
+    use std::sync::atomic::Ordering::Relaxed;
+    let solver = GaussNewton::new(GaussNewtonSettings {
+        second_order: true,
+        ..GaussNewtonSettings::default()
+    })?;
+    let run = |forward_s: bool| -> Result<(trajopt::GaussNewtonResult, usize, usize)> {
+        let (inner, theta0) = pendulum_swingup(150, 1e2)?;
+        let counting = Counting {
+            inner,
+            forward_s,
+            normal_equations: 0.into(),
+            second_order_alone: 0.into(),
+        };
+        let result = solver.solve(&counting, &theta0)?;
+        Ok((
+            result,
+            counting.normal_equations.load(Relaxed),
+            counting.second_order_alone.load(Relaxed),
+        ))
+    };
+    let (formed_again, calls_again, _) = run(false)?;
+    let (subtracted, calls, s_calls) = run(true)?;
+    // the benchmark falls back a few times at the start
+    assert!(
+        calls_again > formed_again.iterations,
+        "{calls_again} calls, {} iterations",
+        formed_again.iterations
+    );
+    assert_eq!(calls, subtracted.iterations);
+    assert_eq!(s_calls, calls_again - formed_again.iterations);
+    assert!(subtracted.status.converged() && formed_again.status.converged());
+    assert!((subtracted.cost - formed_again.cost).abs() <= 1e-10 * formed_again.cost);
+    assert!(subtracted.iterations.abs_diff(formed_again.iterations) <= 2);
+    Ok(())
+}

@@ -147,17 +147,43 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         // the common sizes compiled with their dimensions known, which
         // unrolls the small per-step loops (the arithmetic is the same)
         match (self.n, self.m, self.cost.n_residuals()) {
-            (4, 1, 5) => self.band_body::<4, 1, 5>(theta, r, layout, h, grad, second_order, steps),
-            (2, 1, 3) => self.band_body::<2, 1, 3>(theta, r, layout, h, grad, second_order, steps),
-            _ => self.band_body::<0, 0, 0>(theta, r, layout, h, grad, second_order, steps),
+            (4, 1, 5) => self.band_body::<4, 1, 5, false>(theta, r, layout, h, grad, second_order, steps),
+            (2, 1, 3) => self.band_body::<2, 1, 3, false>(theta, r, layout, h, grad, second_order, steps),
+            _ => self.band_body::<0, 0, 0, false>(theta, r, layout, h, grad, second_order, steps),
         }
+    }
+
+    /// The second-order term $S$ alone, in band form, from the stages
+    /// `steps`: what [`band_normal_equations_impl`](Self::band_normal_equations_impl)
+    /// adds to $J^\top J$. False (with `s` cleared) when $S$ is not
+    /// available.
+    pub(super) fn band_second_order_impl(
+        &self,
+        theta: &[f64],
+        r: &[f64],
+        layout: &BandLayout,
+        s: &mut BandedSym,
+        steps: std::ops::Range<usize>,
+    ) -> Result<bool> {
+        let mut grad = vec![0.0; self.n_params()];
+        let found = match (self.n, self.m, self.cost.n_residuals()) {
+            (4, 1, 5) => self.band_body::<4, 1, 5, true>(theta, r, layout, s, &mut grad, None, steps),
+            (2, 1, 3) => self.band_body::<2, 1, 3, true>(theta, r, layout, s, &mut grad, None, steps),
+            _ => self.band_body::<0, 0, 0, true>(theta, r, layout, s, &mut grad, None, steps),
+        }?;
+        if !found {
+            s.clear();
+        }
+        Ok(found)
     }
 
     /// [`band_normal_equations_impl`](Self::band_normal_equations_impl)
     /// for `NX` states, `NU` controls and `NC` stage-cost residuals (all 0:
-    /// the problem's own sizes, at run time).
+    /// the problem's own sizes, at run time); with `S_ONLY`, $S$ alone
+    /// into `h` (the Jacobian terms, the gradient and `second_order`
+    /// skipped), returning whether $S$ is available.
     #[allow(clippy::too_many_arguments)]
-    fn band_body<const NX: usize, const NU: usize, const NC: usize>(
+    fn band_body<const NX: usize, const NU: usize, const NC: usize, const S_ONLY: bool>(
         &self,
         theta: &[f64],
         r: &[f64],
@@ -191,7 +217,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let (x, u) = self.sample_range(theta, steps.clone());
         let st = self.local_structure();
         // which second derivatives the Jacobian structures allow
-        let (stage_s, terminal_s, model_s) = if second_order.is_some() {
+        let (stage_s, terminal_s, model_s) = if S_ONLY || second_order.is_some() {
             self.local_hessian_structure()
         } else {
             Default::default()
@@ -216,12 +242,14 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let k_model = k1.min(horizon).max(k0);
         let n_model = k_model - k0;
         let (mut model_fx, mut model_fu) = (vec![0.0; n_model * n * n], vec![0.0; n_model * n * m]);
-        if !self.model.jacobians_batch(
-            &x[k0 * n..k_model * n],
-            &u[k0 * m..k_model * m],
-            &mut model_fx,
-            &mut model_fu,
-        )? {
+        if !S_ONLY
+            && !self.model.jacobians_batch(
+                &x[k0 * n..k_model * n],
+                &u[k0 * m..k_model * m],
+                &mut model_fx,
+                &mut model_fu,
+            )?
+        {
             for k in 0..n_model {
                 central_differences(
                     &self.model,
@@ -240,7 +268,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         };
         h.clear();
         let mut grad_acc = vec![0.0; n_p];
-        let mut with_s = second_order.is_some();
+        let mut with_s = S_ONLY || second_order.is_some();
         let mut diag_s = vec![0.0; if with_s { n_p } else { 0 }];
         // local Gauss-Newton block on (x_k, u_k), its gradient, the cross
         // block with x_{k+1}, and what step k leaves for x_{k+1}
@@ -283,51 +311,53 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             // the stage cost's derivatives; the model's come from one batch
             let xk = &x[k * n..(k + 1) * n];
             let uk = (!terminal).then(|| &u[k * m..(k + 1) * m]);
-            self.cost.jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
-            if !terminal {
-                let km = k - k0;
-                d.fx.copy_from_slice(&model_fx[km * n * n..(km + 1) * n * n]);
-                d.fu.copy_from_slice(&model_fu[km * n * m..(km + 1) * n * m]);
-            }
-            mask(&mut d.jx, &st.jx);
-            mask(&mut d.ju, &st.ju);
-            mask(&mut d.fx, &st.fx);
-            mask(&mut d.fu, &st.fu);
             let r_cost = &r[row..row + nc];
             row += nc;
+            let r_cons = if terminal { &r[row..row] } else { &r[row..row + n] };
+            row += r_cons.len();
             q.fill(0.0);
-            gl.fill(0.0);
-            // the stage cost: [jx ju]^T [jx ju] and [jx ju]^T r, rows of G as [jx ju]
-            for (a, &ra) in r_cost.iter().enumerate() {
-                for (c, g) in g_row.iter_mut().enumerate().take(dim) {
-                    *g = if c < n { d.jx[a * n + c] } else { d.ju[a * m + c - n] };
+            if !S_ONLY {
+                self.cost.jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
+                if !terminal {
+                    let km = k - k0;
+                    d.fx.copy_from_slice(&model_fx[km * n * n..(km + 1) * n * n]);
+                    d.fu.copy_from_slice(&model_fu[km * n * m..(km + 1) * n * m]);
                 }
-                add_outer(&mut q, &mut gl, &g_row[..dim], nz, 1.0, ra);
-            }
-            // what step k - 1 (or the initial state) left for x_k
-            for i in 0..n {
-                q[i * nz + i] += carry_diag[i];
-                gl[i] += carry_grad[i];
-            }
-            if !terminal {
-                // consistency rows w (x_{k+1} - f): G = w [-fx -fu I]
-                let w = self.scale * self.lambda[k].sqrt();
-                let r_cons = &r[row..row + n];
-                row += n;
-                for (i, &ri) in r_cons.iter().enumerate() {
-                    for c in 0..nz {
-                        f_rows[i * nz + c] = if c < n { d.fx[i * n + c] } else { d.fu[i * m + c - n] };
+                mask(&mut d.jx, &st.jx);
+                mask(&mut d.ju, &st.ju);
+                mask(&mut d.fx, &st.fx);
+                mask(&mut d.fu, &st.fu);
+                gl.fill(0.0);
+                // the stage cost: [jx ju]^T [jx ju] and [jx ju]^T r, rows of G as [jx ju]
+                for (a, &ra) in r_cost.iter().enumerate() {
+                    for (c, g) in g_row.iter_mut().enumerate().take(dim) {
+                        *g = if c < n { d.jx[a * n + c] } else { d.ju[a * m + c - n] };
                     }
-                    add_outer(&mut q, &mut gl, &f_rows[i * nz..(i + 1) * nz], nz, w * w, -w * ri);
+                    add_outer(&mut q, &mut gl, &g_row[..dim], nz, 1.0, ra);
                 }
-                for c in 0..nz {
-                    for i in 0..n {
-                        cross[c * n + i] = -w * w * f_rows[i * nz + c];
-                    }
-                }
+                // what step k - 1 (or the initial state) left for x_k
                 for i in 0..n {
-                    carry_diag[i] = w * w;
-                    carry_grad[i] = w * r_cons[i];
+                    q[i * nz + i] += carry_diag[i];
+                    gl[i] += carry_grad[i];
+                }
+                if !terminal {
+                    // consistency rows w (x_{k+1} - f): G = w [-fx -fu I]
+                    let w = self.scale * self.lambda[k].sqrt();
+                    for (i, &ri) in r_cons.iter().enumerate() {
+                        for c in 0..nz {
+                            f_rows[i * nz + c] = if c < n { d.fx[i * n + c] } else { d.fu[i * m + c - n] };
+                        }
+                        add_outer(&mut q, &mut gl, &f_rows[i * nz..(i + 1) * nz], nz, w * w, -w * ri);
+                    }
+                    for c in 0..nz {
+                        for i in 0..n {
+                            cross[c * n + i] = -w * w * f_rows[i * nz + c];
+                        }
+                    }
+                    for i in 0..n {
+                        carry_diag[i] = w * w;
+                        carry_grad[i] = w * r_cons[i];
+                    }
                 }
             }
             // the basis rows as coefficient ranges, when they are contiguous
@@ -336,11 +366,13 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 self.spread_at(k, &layout.position, &mut spread, &mut next);
             }
             // gradient
-            for (a, &ga) in gl.iter().enumerate().take(dim) {
-                if ga != 0.0 {
-                    self.for_each_basis_entry(k, a, &base, |c, v| {
-                        grad_acc[c] += ga * v;
-                    });
+            if !S_ONLY {
+                for (a, &ga) in gl.iter().enumerate().take(dim) {
+                    if ga != 0.0 {
+                        self.for_each_basis_entry(k, a, &base, |c, v| {
+                            grad_acc[c] += ga * v;
+                        });
+                    }
                 }
             }
             // the second-order term on (x_k, u_k), added to the local block
@@ -351,7 +383,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 with_s = self.cost.weighted_hessian(k, xk, u_k, r_cost, &mut hz[..dim * dim])?;
                 if with_s && !terminal && self.lambda[k] > 0.0 {
                     let w = self.scale * self.lambda[k].sqrt();
-                    for (wi, ri) in wm.iter_mut().zip(&r[row - n..row]) {
+                    for (wi, ri) in wm.iter_mut().zip(r_cons) {
                         *wi = -w * ri;
                     }
                     hm.fill(0.0);
@@ -361,8 +393,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     }
                 }
                 if !with_s {
+                    if S_ONLY {
+                        return Ok(false);
+                    }
                     // not available here: J^T J alone, from the start
-                    return self.band_body::<NX, NU, NC>(theta, r, layout, h, grad, None, k0..k1);
+                    return self.band_body::<NX, NU, NC, false>(theta, r, layout, h, grad, None, k0..k1);
                 }
                 if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
                     return Err(TrajoptError::NotFinite {
@@ -395,7 +430,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                         q[a * nz + b] += hz[a * dim + b];
                     }
                     let saa = hz[a * dim + a];
-                    if saa != 0.0 {
+                    if saa != 0.0 && !S_ONLY {
                         self.for_each_basis_entry(k, a, &base, |c, v| {
                             diag_s[c] += saa * v * v;
                         });
@@ -415,13 +450,13 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
                 }
                 rows_k.accumulate(&mut window, &q, n, nz, terminal);
-                if !terminal {
+                if !terminal && !S_ONLY {
                     rows_k.accumulate_cross(&mut window, &cross, n);
                 }
             } else {
                 window.flush(h)?;
                 spread_block(h, &q, nz, dim, &spread);
-                if !terminal {
+                if !terminal && !S_ONLY {
                     spread_cross(h, &cross, n, nz, &spread, &next);
                 }
             }
@@ -952,6 +987,35 @@ mod tests {
             }
         }
         check_parts_add_up(problem, theta, &r, &layout, (&jtj, &full), &grad, &diag_s);
+        // S alone, whole and in parts, against the reference S
+        for parts in [1, 2, 5] {
+            let mut s_band = BandedSym::zeros(n_p, layout.half_bandwidth);
+            let mut part_s = s_band.clone();
+            for part in 0..parts {
+                assert!(
+                    problem
+                        .band_second_order_part(part, parts, theta, &r, &layout, &mut part_s)
+                        .expect("S part")
+                );
+                s_band.add_scaled(1.0, &part_s);
+            }
+            let s_scale = s_ref.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
+            for i in 0..n_p {
+                for j in 0..n_p {
+                    let (a, b) = (pos[i].max(pos[j]), pos[i].min(pos[j]));
+                    let got = if a - b <= layout.half_bandwidth {
+                        s_band.get(pos[i], pos[j])
+                    } else {
+                        0.0
+                    };
+                    assert!(
+                        (got - s_ref[i][j]).abs() <= 1e-12 * s_scale,
+                        "S ({i}, {j}) in {parts} parts: {got} vs {}",
+                        s_ref[i][j]
+                    );
+                }
+            }
+        }
         // bad sizes are errors
         let mut small = BandedSym::zeros(n_p - 1, layout.half_bandwidth);
         assert!(
