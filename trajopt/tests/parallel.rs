@@ -57,6 +57,7 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
         let one = s.solve(&p, &theta0)?;
         let one_again = s.solve_parallel(&p, &theta0, 1)?;
         assert_eq!(one.theta, one_again.theta);
+        // (capped at the machine's cores; the unit tests run three parts)
         for threads in [2, 3] {
             let par = s.solve_parallel(&p, &theta0, threads)?;
             assert_close(
