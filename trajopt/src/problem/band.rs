@@ -121,11 +121,22 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
 
     /// The basis rows of step `k` into `rows`; false if one of them is not
     /// a contiguous range of coefficients (then the window cannot be used).
-    fn contiguous_rows(&self, k: usize, rows: &mut BasisRows) -> bool {
+    fn contiguous_rows(&self, k: usize) -> Option<BasisRows<'_>> {
         let terminal = k == self.horizon;
-        contiguous_row(&self.phi_x, k, &mut rows.x)
-            && (terminal || contiguous_row(&self.phi_x, k + 1, &mut rows.x_next))
-            && (terminal || contiguous_row(&self.phi_u, k, &mut rows.u))
+        let empty = (0, &[][..]);
+        Some(BasisRows {
+            x: contiguous_row(&self.phi_x, k)?,
+            x_next: if terminal {
+                empty
+            } else {
+                contiguous_row(&self.phi_x, k + 1)?
+            },
+            u: if terminal {
+                empty
+            } else {
+                contiguous_row(&self.phi_u, k)?
+            },
+        })
     }
 
     /// $J^\top J$ (and $S$) in band form and $J^\top r$ from the residuals
@@ -283,7 +294,6 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             .chain((0..m).map(|j| n * ncx + j * ncu))
             .collect();
         let mut window = KronWindow::new(n, m);
-        let mut rows_k = BasisRows::new();
         let mut spread = vec![Vec::new(); nz];
         let mut next = vec![Vec::new(); n];
         if k0 == 0 {
@@ -361,8 +371,8 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 }
             }
             // the basis rows as coefficient ranges, when they are contiguous
-            let rows = self.contiguous_rows(k, &mut rows_k);
-            if !rows {
+            let rows_k = self.contiguous_rows(k);
+            if rows_k.is_none() {
                 self.spread_at(k, &layout.position, &mut spread, &mut next);
             }
             // gradient
@@ -443,8 +453,8 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     q[a * nz + b] = q[b * nz + a];
                 }
             }
-            let ranges = rows_k.ranges(terminal);
-            if rows {
+            if let Some(rows_k) = &rows_k {
+                let ranges = rows_k.ranges(terminal);
                 if !window.holds(ranges.0, ranges.1) {
                     window.flush(h)?;
                     window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
@@ -739,25 +749,17 @@ fn kron_fixed<const NR: usize, const NC: usize>(
 /// The basis rows of one step as (first coefficient, values) over
 /// contiguous coefficients: $x_k$'s (shared by the state channels),
 /// $x_{k+1}$'s and $u_k$'s.
-struct BasisRows {
-    x: (usize, Vec<f64>),
-    x_next: (usize, Vec<f64>),
-    u: (usize, Vec<f64>),
+struct BasisRows<'a> {
+    x: (usize, &'a [f64]),
+    x_next: (usize, &'a [f64]),
+    u: (usize, &'a [f64]),
 }
 
-impl BasisRows {
-    fn new() -> Self {
-        Self {
-            x: (0, Vec::new()),
-            x_next: (0, Vec::new()),
-            u: (0, Vec::new()),
-        }
-    }
-
-    fn side(row: &(usize, Vec<f64>), state: bool) -> Side<'_> {
+impl BasisRows<'_> {
+    fn side<'b>(row: &(usize, &'b [f64]), state: bool) -> Side<'b> {
         Side {
             first: row.0,
-            phi: &row.1,
+            phi: row.1,
             state,
         }
     }
@@ -798,20 +800,12 @@ impl BasisRows {
 }
 
 /// Row `k` of `phi` as (first column, values) if its columns are contiguous.
-fn contiguous_row(phi: &faer::sparse::SparseRowMat<usize, f64>, k: usize, out: &mut (usize, Vec<f64>)) -> bool {
+fn contiguous_row(phi: &faer::sparse::SparseRowMat<usize, f64>, k: usize) -> Option<(usize, &[f64])> {
     let cols = phi.symbolic().col_idx_of_row_raw(k);
     let Some(&first) = cols.first() else {
-        out.0 = 0;
-        out.1.clear();
-        return true;
+        return Some((0, &[]));
     };
-    if cols[cols.len() - 1] - first + 1 != cols.len() {
-        return false;
-    }
-    out.0 = first;
-    out.1.clear();
-    out.1.extend_from_slice(phi.val_of_row(k));
-    true
+    (cols[cols.len() - 1] - first + 1 == cols.len()).then(|| (first, phi.val_of_row(k)))
 }
 
 /// `q += weight g g^T` (upper triangle, stride `nz`) and `gl += r_weight g`
