@@ -32,8 +32,10 @@
 //! $O(N k^2)$ for half-bandwidth $k$, 30 for the benchmark pendulum at every
 //! horizon). Without bounds this is the default (`band`); the iterates are
 //! those of the sparse form up to rounding. In Newton mode the band form
-//! holds $J^\top J + S$, and $J^\top J$ alone is formed a second time only
-//! when an iteration falls back to a Gauss-Newton step.
+//! holds $J^\top J + S$; when an iteration falls back to a Gauss-Newton
+//! step, $J^\top J$ is recovered as $(J^\top J + S) - S$ from the problem's
+//! $S$ alone ([`LeastSquaresProblem::band_second_order_part`]), or formed a
+//! second time if the problem does not give it.
 //!
 //! | setting | default | meaning |
 //! |---|---|---|
@@ -637,10 +639,11 @@ impl System {
     /// $r(\theta)$, split over the helper threads if there are any.
     fn residuals<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
         match self {
-            Self::Band(b) if b.helpers.is_some() => {
-                b.helpers.as_mut().map_or(Ok(()), |h| h.residuals(problem, theta, r))
-            }
-            _ => problem.residuals(theta, r),
+            Self::Band(b) => match b.helpers.as_mut() {
+                Some(helpers) => helpers.residuals(problem, theta, r),
+                None => problem.residuals(theta, r),
+            },
+            Self::Sparse(_) => problem.residuals(theta, r),
         }
     }
 
