@@ -119,8 +119,9 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         }
     }
 
-    /// The basis rows of step `k` into `rows`; false if one of them is not
-    /// a contiguous range of coefficients (then the window cannot be used).
+    /// The basis rows of step `k` (first coefficient and values); `None` if
+    /// one of them is not a contiguous range of coefficients (then the
+    /// window cannot be used).
     fn contiguous_rows(&self, k: usize) -> Option<BasisRows<'_>> {
         let terminal = k == self.horizon;
         let empty = (0, &[][..]);
