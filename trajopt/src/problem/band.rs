@@ -460,10 +460,15 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     window.flush(h)?;
                     window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
                 }
-                rows_k.accumulate(&mut window, &q, n, nz, terminal);
-                if !terminal && !S_ONLY {
-                    rows_k.accumulate_cross(&mut window, &cross, n);
-                }
+                pulp::Arch::new().dispatch(StepSpread {
+                    rows: rows_k,
+                    window: &mut window,
+                    q: &q,
+                    cross: (!terminal && !S_ONLY).then_some(&cross[..]),
+                    n,
+                    nz,
+                    terminal,
+                });
             } else {
                 window.flush(h)?;
                 spread_block(h, &q, nz, dim, &spread);
@@ -592,6 +597,7 @@ impl KronWindow {
     /// the `rows.channels x cols.channels` block of `q` (row stride
     /// `stride`) at (`q_row`, `q_col`).
     #[allow(clippy::too_many_arguments)]
+    #[inline(always)]
     fn kron(
         &mut self,
         rows: Side<'_>,
@@ -612,17 +618,7 @@ impl KronWindow {
             ($($nr:literal, $nc:literal);*) => {
                 match (rows.phi.len(), cols.phi.len(), nr, ncl) {
                     $((4, 4, $nr, $nc) => {
-                        return pulp::Arch::new().dispatch(KronFixed::<$nr, $nc> {
-                            acc: &mut self.acc,
-                            size: self.size,
-                            at: (r0, c0),
-                            phi: rows.phi,
-                            psi: cols.phi,
-                            q,
-                            stride,
-                            q_at: (q_row, q_col),
-                            scale,
-                        });
+                        return kron_fixed::<$nr, $nc>(&mut self.acc, self.size, (r0, c0), rows.phi, cols.phi, q, stride, (q_row, q_col), scale);
                     })*
                     _ => {}
                 }
@@ -672,36 +668,30 @@ impl KronWindow {
     }
 }
 
-/// [`kron_fixed`] compiled for the widest vector instructions the processor
-/// has (chosen at run time by `pulp`; the same arithmetic on every path).
-struct KronFixed<'a, const NR: usize, const NC: usize> {
-    acc: &'a mut [f64],
-    size: usize,
-    at: (usize, usize),
-    phi: &'a [f64],
-    psi: &'a [f64],
+/// One step's Kronecker spreads ([`BasisRows::accumulate`], and
+/// [`BasisRows::accumulate_cross`] with a cross block) compiled for the
+/// widest vector instructions the processor has (chosen at run time by
+/// `pulp`; the same arithmetic on every path).
+struct StepSpread<'a, 'b> {
+    rows: &'a BasisRows<'b>,
+    window: &'a mut KronWindow,
     q: &'a [f64],
-    stride: usize,
-    q_at: (usize, usize),
-    scale: f64,
+    cross: Option<&'a [f64]>,
+    n: usize,
+    nz: usize,
+    terminal: bool,
 }
 
-impl<const NR: usize, const NC: usize> pulp::WithSimd for KronFixed<'_, NR, NC> {
+impl pulp::WithSimd for StepSpread<'_, '_> {
     type Output = ();
 
     #[inline(always)]
     fn with_simd<S: pulp::Simd>(self, _simd: S) {
-        kron_fixed::<NR, NC>(
-            self.acc,
-            self.size,
-            self.at,
-            self.phi,
-            self.psi,
-            self.q,
-            self.stride,
-            self.q_at,
-            self.scale,
-        );
+        self.rows
+            .accumulate(self.window, self.q, self.n, self.nz, self.terminal);
+        if let Some(cross) = self.cross {
+            self.rows.accumulate_cross(self.window, cross, self.n);
+        }
     }
 }
 
@@ -778,6 +768,7 @@ impl BasisRows<'_> {
 
     /// Adds $P^\top Q P$ for the symmetric local block `q` (full, stride
     /// `nz`, on $(x_k, u_k)$, or $x_N$ alone when `terminal`).
+    #[inline(always)]
     fn accumulate(&self, window: &mut KronWindow, q: &[f64], n: usize, nz: usize, terminal: bool) {
         let (x, u) = (Self::side(&self.x, true), Self::side(&self.u, false));
         window.kron(x, x, q, nz, 0, 0, 0.5);
@@ -789,6 +780,7 @@ impl BasisRows<'_> {
 
     /// Adds $P_k^\top E P_{k+1} + P_{k+1}^\top E^\top P_k$ for the cross
     /// block `cross` ($(x_k, u_k) \times x_{k+1}$, stride `n`).
+    #[inline(always)]
     fn accumulate_cross(&self, window: &mut KronWindow, cross: &[f64], n: usize) {
         let (x, u, x1) = (
             Self::side(&self.x, true),
