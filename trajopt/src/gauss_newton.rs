@@ -296,8 +296,8 @@ impl GaussNewton {
     /// result does not depend on timing: the same `threads` gives the same
     /// bits). Forming the normal equations is most of an iteration for
     /// [`Eq3Problem`](crate::Eq3Problem): on the benchmark pendulum at
-    /// 1000 steps two threads take the Newton mode's solve from 23.8 to
-    /// 15.5 ms, at 20000 steps from 497 to 345 ms
+    /// 1000 steps two threads take the Newton mode's solve from 22.0 to
+    /// 14.7 ms, at 20000 steps from 516 to 342 ms
     /// (`scripts/compare_trajopt.py`, one run). The helpers spin for up to 2 ms
     /// waiting for the next part before they park, as waking a parked
     /// thread costs tens of microseconds: a helper keeps its core busy
