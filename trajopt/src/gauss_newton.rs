@@ -142,9 +142,9 @@ pub struct GaussNewtonSettings {
     /// leaves the choice as it was). Nothing is spent on the choice until
     /// the problem has given $S$ once.
     ///
-    /// On the benchmark pendulum at $N = 1000$ it takes 48, 180 and 454
+    /// On the benchmark pendulum at $N = 1000$ it takes 48, 183 and 454
     /// iterations at $\lambda = 10^2, 10^3, 10^4$, where Gauss-Newton takes
-    /// 115, 358 and 447 and the Newton mode 28, 324 and no convergence in
+    /// 115, 358 and 447 and the Newton mode 28, 321 and no convergence in
     /// 1000. Off by default.
     pub adaptive: bool,
     /// Work on the band form of the normal equations when the problem has

@@ -26,7 +26,7 @@
 //!   $\lambda$: 28 iterations against Gauss-Newton's 115 at $\lambda = 10^2$),
 //!   Gauss-Newton where the dynamics are nearly enforced (it converges at
 //!   $\lambda = 10^4$, the Newton mode does not), and the adaptive mode when
-//!   unsure (48 / 180 / 454 iterations at $\lambda = 10^2 / 10^3 / 10^4$
+//!   unsure (48 / 183 / 454 iterations at $\lambda = 10^2 / 10^3 / 10^4$
 //!   against Gauss-Newton's 115 / 358 / 447). Any mode runs on more cores
 //!   with [`GaussNewton::solve_parallel`], which forms the normal
 //!   equations (most of an iteration) in parts on helper threads.
