@@ -722,6 +722,14 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         Ok(first_row..row)
     }
 
+    /// The stages of part `part` when stages $0..=N$ are split into `parts`
+    /// consecutive runs (the split of the `*_part` methods).
+    fn part_steps(&self, part: usize, parts: usize) -> Result<std::ops::Range<usize>> {
+        crate::least_squares::check_part(part, parts)?;
+        let stages = self.horizon + 1;
+        Ok(stages * part / parts..stages * (part + 1) / parts)
+    }
+
     /// [`sample`](Self::sample) at the stages `steps` only: the states
     /// $x_k$ for $k$ from `steps.start` through `steps.end` (the next
     /// state of the last step) and the controls $u_k$ for $k$ in `steps`;
@@ -1274,9 +1282,7 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         theta: &[f64],
         r: &mut [f64],
     ) -> Result<std::ops::Range<usize>> {
-        crate::least_squares::check_part(part, parts)?;
-        let stages = self.horizon + 1;
-        self.residuals_range(theta, r, stages * part / parts..stages * (part + 1) / parts)
+        self.residuals_range(theta, r, self.part_steps(part, parts)?)
     }
 
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
@@ -1326,10 +1332,7 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         grad: &mut [f64],
         second_order: Option<&mut [f64]>,
     ) -> Result<bool> {
-        crate::least_squares::check_part(part, parts)?;
-        // stages 0..=horizon in `parts` consecutive runs
-        let stages = self.horizon + 1;
-        let steps = stages * part / parts..stages * (part + 1) / parts;
+        let steps = self.part_steps(part, parts)?;
         self.band_normal_equations_impl(theta, r, layout, h, grad, second_order, steps)
     }
 
@@ -1342,9 +1345,7 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
         layout: &BandLayout,
         s: &mut BandedSym,
     ) -> Result<bool> {
-        crate::least_squares::check_part(part, parts)?;
-        let stages = self.horizon + 1;
-        let steps = stages * part / parts..stages * (part + 1) / parts;
+        let steps = self.part_steps(part, parts)?;
         self.band_second_order_impl(theta, r, layout, s, steps)
     }
 
