@@ -221,6 +221,7 @@ impl BandedSym {
     pub fn cholesky_in_place(mut self) -> std::result::Result<BandCholesky, Self> {
         let ok = pulp::Arch::new().dispatch(CholeskyKernel {
             n: self.n,
+            columns: self.n,
             kd: self.kd,
             ab: &mut self.ab,
         });
@@ -230,6 +231,75 @@ impl BandedSym {
             Err(self)
         }
     }
+
+    /// Eliminates the first `columns` rows and columns in place: afterwards
+    /// columns `0..columns` hold those columns of the Cholesky factor $L$
+    /// and the trailing block (rows and columns `columns..`) holds the Schur
+    /// complement $A_{22} - A_{21} A_{11}^{-1} A_{12}$. False (the matrix
+    /// partly overwritten) if a pivot is not positive and finite: $A_{11}$
+    /// is not numerically positive definite. With `columns = n` it is
+    /// [`cholesky_in_place`](Self::cholesky_in_place), with the same
+    /// arithmetic.
+    pub(crate) fn eliminate_leading(&mut self, columns: usize) -> bool {
+        pulp::Arch::new().dispatch(CholeskyKernel {
+            n: self.n,
+            columns,
+            kd: self.kd,
+            ab: &mut self.ab,
+        })
+    }
+
+    /// Forward substitution with the first `columns` columns of a factor
+    /// from [`eliminate_leading`](Self::eliminate_leading): `x[..columns]`
+    /// becomes $y = L_{11}^{-1} b_1$ and `x[columns..]` becomes
+    /// $b_2 - L_{21} y$.
+    pub(crate) fn forward_leading(&self, columns: usize, x: &mut [f64]) {
+        let w = self.kd + 1;
+        for j in 0..columns.min(self.n) {
+            let kn = self.kd.min(self.n - 1 - j);
+            let col = &self.ab[j * w..j * w + kn + 1];
+            let yj = x[j] / col[0];
+            x[j] = yj;
+            for (xi, &l) in x[j + 1..=j + kn].iter_mut().zip(&col[1..]) {
+                *xi -= l * yj;
+            }
+        }
+    }
+
+    /// Back substitution with the first `columns` columns of a factor
+    /// from [`eliminate_leading`](Self::eliminate_leading), given the
+    /// trailing unknowns `x[columns..]`: `x[..columns]` (holding $y$ from
+    /// [`forward_leading`](Self::forward_leading)) becomes
+    /// $L_{11}^{-\top} (y - L_{21}^\top x_2)$.
+    pub(crate) fn backward_leading(&self, columns: usize, x: &mut [f64]) {
+        let w = self.kd + 1;
+        for j in (0..columns.min(self.n)).rev() {
+            let kn = self.kd.min(self.n - 1 - j);
+            let col = &self.ab[j * w..j * w + kn + 1];
+            let s: f64 = x[j + 1..=j + kn].iter().zip(&col[1..]).map(|(a, b)| a * b).sum();
+            x[j] = (x[j] - s) / col[0];
+        }
+    }
+
+    /// Copies the columns `0..end` of `other` (same size and bandwidth),
+    /// all their band entries.
+    pub(crate) fn copy_leading_columns(&mut self, other: &Self, end: usize) {
+        assert_eq!((self.n, self.kd), (other.n, other.kd), "band shapes differ");
+        let stop = (end.min(self.n)) * (self.kd + 1);
+        self.ab[..stop].copy_from_slice(&other.ab[..stop]);
+    }
+
+    /// The last row with a nonzero entry, if any.
+    pub(crate) fn last_nonzero_row(&self) -> Option<usize> {
+        let w = self.kd + 1;
+        let mut last = None;
+        for (j, col) in self.ab.chunks_exact(w).enumerate() {
+            if let Some(d) = col.iter().rposition(|&v| v != 0.0) {
+                last = Some(last.map_or(j + d, |l: usize| l.max(j + d)));
+            }
+        }
+        last
+    }
 }
 
 /// The band Cholesky factorisation's loops, compiled for the widest vector
@@ -238,6 +308,8 @@ impl BandedSym {
 /// and differences, no fused multiply-adds).
 struct CholeskyKernel<'a> {
     n: usize,
+    /// The columns to eliminate (`n` for the whole factorisation).
+    columns: usize,
     kd: usize,
     ab: &'a mut [f64],
 }
@@ -249,7 +321,7 @@ impl pulp::WithSimd for CholeskyKernel<'_> {
     fn with_simd<S: pulp::Simd>(self, _simd: S) -> bool {
         let (n, kd) = (self.n, self.kd);
         let w = kd + 1;
-        for j in 0..n {
+        for j in 0..self.columns.min(n) {
             let (head, tail) = self.ab.split_at_mut((j + 1) * w);
             let col = &mut head[j * w..];
             let d = col[0];
@@ -372,6 +444,60 @@ mod tests {
             }
         }
 
+        /// Eliminating the leading `m` columns leaves the dense Schur
+        /// complement in the trailing block; forward substitution, a dense
+        /// solve of the Schur system and back substitution give the
+        /// solution of the whole system.
+        #[test]
+        fn leading_elimination_leaves_the_schur_complement(
+            n in 1usize..40, kd in 0usize..8, m_frac in 0.0f64..=1.0, seed in any::<u64>()
+        ) {
+            let m = ((n as f64) * m_frac) as usize;
+            let a = spd(n, kd, seed, (2 * kd + 2) as f64);
+            let full = dense(&a);
+            let mut e = a.clone();
+            prop_assert!(e.eliminate_leading(m));
+            let t = n - m;
+            let (a11, a21, a22) = (
+                full.submatrix(0, 0, m, m).to_owned(),
+                full.submatrix(m, 0, t, m).to_owned(),
+                full.submatrix(m, m, t, t).to_owned(),
+            );
+            let schur = if m > 0 {
+                let x = a11.llt(faer::Side::Lower).expect("dense llt").solve(a21.transpose());
+                &a22 - &a21 * &x
+            } else {
+                a22
+            };
+            for i in 0..t {
+                for j in 0..=i {
+                    prop_assert!((e.get(m + i, m + j) - schur[(i, j)]).abs() <= 1e-10, "({i}, {j})");
+                }
+            }
+            // the split solve
+            let b: Vec<f64> = (0..n).map(|i| (i as f64 * 0.7).sin()).collect();
+            let mut x = b.clone();
+            e.forward_leading(m, &mut x);
+            if t > 0 {
+                let rhs = Mat::from_fn(t, 1, |i, _| x[m + i]);
+                let x2 = schur.llt(faer::Side::Lower).expect("schur llt").solve(&rhs);
+                for i in 0..t {
+                    x[m + i] = x2[(i, 0)];
+                }
+            }
+            e.backward_leading(m, &mut x);
+            let reference = full.llt(faer::Side::Lower).expect("dense llt").solve(&Mat::from_fn(n, 1, |i, _| b[i]));
+            for i in 0..n {
+                prop_assert!((x[i] - reference[(i, 0)]).abs() <= 1e-10 * (1.0 + reference[(i, 0)].abs()));
+            }
+            // all columns: the factorisation itself, bit for bit
+            let mut whole = a.clone();
+            prop_assert!(whole.eliminate_leading(n));
+            let chol = a.cholesky_in_place().expect("positive definite");
+            let factor = chol.into_inner();
+            prop_assert_eq!(whole.band(), factor.band());
+        }
+
         /// The band product equals the dense product.
         #[test]
         fn band_product_matches_dense(n in 1usize..30, kd in 0usize..6, seed in any::<u64>()) {
@@ -384,6 +510,29 @@ mod tests {
                 prop_assert!((y[i] - reference[(i, 0)]).abs() <= 1e-12);
             }
         }
+    }
+
+    #[test]
+    fn leading_columns_copy_and_the_last_nonzero_row() {
+        let a = spd(10, 2, 3, 1.0);
+        let mut b = BandedSym::zeros(10, 2);
+        assert_eq!(b.last_nonzero_row(), None);
+        b.copy_leading_columns(&a, 4);
+        for j in 0..10 {
+            for i in j..10 {
+                let expected = if j < 4 { a.get(i, j) } else { 0.0 };
+                assert_eq!(b.get(i, j), expected);
+            }
+        }
+        // column 3 reaches row 5
+        assert_eq!(b.last_nonzero_row(), Some(5));
+        let mut c = BandedSym::zeros(6, 3);
+        c.add(4, 1, 1.0).expect("in band");
+        assert_eq!(c.last_nonzero_row(), Some(4));
+        // an indefinite leading block is refused
+        let mut d = BandedSym::zeros(3, 1);
+        d.add_to_diagonal(&[-1.0, 1.0, 1.0]);
+        assert!(!d.eliminate_leading(1));
     }
 
     #[test]

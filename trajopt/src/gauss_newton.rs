@@ -74,9 +74,14 @@
 //!
 //! [`GaussNewton::solve_parallel`] forms the band normal equations in parts
 //! ([`LeastSquaresProblem::band_normal_equations_part`]), one on this thread
-//! and one on each helper thread, and adds them up in a fixed order: the
-//! iterates are [`GaussNewton::solve`]'s up to rounding, and the same for
-//! every run with the same number of threads.
+//! and one on each helper thread. On two threads each thread keeps its
+//! part and eliminates the coefficients only its part touches, and only
+//! the Schur complement on the few coefficients both parts touch is
+//! factorised on this thread (a two-domain decomposition of the band
+//! matrix; see `trajopt/src/split.rs`); on more threads the parts are
+//! added up in a fixed order and factorised here. Either way the iterates
+//! are [`GaussNewton::solve`]'s up to rounding, and the same for every run
+//! with the same number of threads.
 //!
 //! References: K. Madsen, H. B. Nielsen, O. Tingleff, *Methods for Non-Linear
 //! Least Squares Problems* (2004), §3.2; J. Nocedal, S. Wright, *Numerical
@@ -100,6 +105,7 @@ use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError, check_finite};
 use crate::least_squares::{LeastSquaresProblem, LinearBounds};
 use crate::parallel::Helpers;
+use crate::split::{SplitDone, SplitJob, SplitPart, split_points};
 
 /// Settings of [`GaussNewton`]; see the [module docs](self) for the defaults.
 #[derive(Debug, Clone, PartialEq)]
@@ -285,8 +291,12 @@ impl GaussNewton {
     /// the residuals evaluated, on `threads` threads: this one and
     /// `threads - 1` helpers living for the solve, each doing one part
     /// ([`LeastSquaresProblem::band_normal_equations_part`],
-    /// [`LeastSquaresProblem::residuals_part`]); the factorisations stay on
-    /// this thread. `threads` is capped at the cores the system reports
+    /// [`LeastSquaresProblem::residuals_part`]). With two threads the
+    /// factorisations are split too: each thread eliminates the
+    /// coefficients only its part touches (part 1 in reversed order) and
+    /// this thread factorises the Schur complement on the overlap, a few
+    /// dozen coefficients for Eq. 3 (the [module docs](self)); with more,
+    /// the parts are added up and factorised on this thread. `threads` is capped at the cores the system reports
     /// ([`std::thread::available_parallelism`]); with one thread, or
     /// without a band form (bounds, `band` off, or a problem without
     /// [`LeastSquaresProblem::band_layout`]), it is [`solve`](Self::solve).
@@ -400,7 +410,12 @@ impl GaussNewton {
         let mut system = match band {
             Some(layout) => {
                 layout.validate(n_p)?;
-                System::Band(Box::new(BandSystem::new(layout, s.second_order, helpers)))
+                match helpers {
+                    Some(helpers) if helpers.count() == 1 => {
+                        System::Split(Box::new(SplitSystem::new(layout, s.second_order, helpers)))
+                    }
+                    helpers => System::Band(Box::new(BandSystem::new(layout, s.second_order, helpers))),
+                }
             }
             None => System::Sparse(Box::new(SparseSystem::new(
                 problem,
@@ -616,6 +631,9 @@ impl GaussNewton {
 enum System {
     Sparse(Box<SparseSystem>),
     Band(Box<BandSystem>),
+    /// The band form on two threads, kept and factorised in two parts
+    /// ([`crate::split`]).
+    Split(Box<SplitSystem>),
 }
 
 impl System {
@@ -633,6 +651,7 @@ impl System {
         match self {
             Self::Sparse(s) => s.assemble(problem, theta, r, grad, want_s),
             Self::Band(b) => b.assemble(problem, theta, r, grad, want_s),
+            Self::Split(b) => b.assemble(problem, theta, r, grad, want_s),
         }
     }
 
@@ -643,6 +662,7 @@ impl System {
                 Some(helpers) => helpers.residuals(problem, theta, r),
                 None => problem.residuals(theta, r),
             },
+            Self::Split(b) => b.helpers.residuals(problem, theta, r),
             Self::Sparse(_) => problem.residuals(theta, r),
         }
     }
@@ -656,6 +676,7 @@ impl System {
                 }
             }
             Self::Band(b) => b.jtj_diagonal(out),
+            Self::Split(b) => b.jtj_diagonal(out),
         }
     }
 
@@ -674,6 +695,7 @@ impl System {
                 s.factor.solve(s.h_damped.as_ref(), rhs)
             }
             Self::Band(b) => b.damped_step(newton, total, scale, step),
+            Self::Split(b) => b.damped_step(newton, total, scale, step),
         }
     }
 
@@ -689,6 +711,7 @@ impl System {
         match self {
             Self::Sparse(_) => Ok(true),
             Self::Band(b) => b.ensure_gauss_newton(problem, theta, r),
+            Self::Split(b) => b.ensure_gauss_newton(problem, theta, r),
         }
     }
 
@@ -722,6 +745,7 @@ impl System {
         match self {
             Self::Sparse(s) => sym_mat_vec(if newton { &s.h_full } else { &s.h }, step, out),
             Self::Band(b) => b.model_mul(newton, step, out),
+            Self::Split(b) => b.model_mul(newton, step, out),
         }
     }
 }
@@ -1040,6 +1064,260 @@ impl BandSystem {
             _ => &self.h,
         };
         model.mul_vec(&self.rhs, &mut self.product);
+        for (o, &p) in out.iter_mut().zip(pos) {
+            *o = self.product[p];
+        }
+    }
+}
+
+/// The band form on two threads ([`crate::split`]): part 0 here, part 1
+/// on the helper; only the gradient, the diagonals, the Schur blocks on
+/// the overlap $S$ and the step's pieces cross threads.
+struct SplitSystem {
+    layout: Arc<BandLayout>,
+    second_order: bool,
+    mine: SplitPart,
+    helpers: Helpers,
+    /// The diagonal of $H$ (global positions) and of $S$ (parameter order).
+    diagonal: Vec<f64>,
+    diag_s: Vec<f64>,
+    has_s: bool,
+    jtj_current: bool,
+    /// The overlap $S = [s_0, s_1)$ of the last assembly.
+    split: (usize, usize),
+    /// The damping and the right-hand side per global position.
+    damp: Vec<f64>,
+    rhs: Vec<f64>,
+    /// The last step (global positions) and the model matrix times it,
+    /// from the back substitution, with the model it used.
+    step: Vec<f64>,
+    product: Vec<f64>,
+    product_of: Option<(bool, Vec<f64>)>,
+}
+
+impl SplitSystem {
+    fn new(layout: BandLayout, second_order: bool, helpers: Helpers) -> Self {
+        let n = layout.position.len();
+        Self {
+            mine: SplitPart::new(0, &layout),
+            layout: Arc::new(layout),
+            second_order,
+            helpers,
+            diagonal: vec![0.0; n],
+            diag_s: vec![0.0; n],
+            has_s: false,
+            jtj_current: false,
+            split: (0, 0),
+            damp: vec![0.0; n],
+            rhs: vec![0.0; n],
+            step: vec![0.0; n],
+            product: vec![0.0; n],
+            product_of: None,
+        }
+    }
+
+    fn helper_lost() -> TrajoptError {
+        TrajoptError::InvalidParameter {
+            name: "helper thread",
+            reason: "it stopped (the problem panicked on it)".into(),
+        }
+    }
+
+    /// Both parts at `theta`; see [`System::assemble`].
+    fn assemble<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+        grad: &mut [f64],
+        want_s: bool,
+    ) -> Result<Option<bool>> {
+        self.product_of = None;
+        self.jtj_current = false;
+        let mut want = self.second_order && want_s;
+        let (finite, theirs) = loop {
+            let job = SplitJob::Assemble {
+                layout: Arc::clone(&self.layout),
+                theta: theta.to_vec(),
+                r: r.to_vec(),
+                want_s: want,
+            };
+            let sent = self.helpers.split_send(job);
+            let mine = self.mine.assemble(problem, theta, r, want);
+            let Some(SplitDone::Assembled {
+                result,
+                finite,
+                grad,
+                diag_s,
+                diagonal,
+                extent,
+            }) = sent.then(|| self.helpers.split_receive()).flatten()
+            else {
+                return Err(Self::helper_lost());
+            };
+            let (mine, theirs) = (mine?, result?);
+            // S from one part only: both without it
+            if want && mine != theirs {
+                want = false;
+                continue;
+            }
+            self.has_s = mine && theirs;
+            break (self.mine.finite() && finite, (grad, diag_s, diagonal, extent));
+        };
+        let (mut their_grad, their_diag_s, mut their_diagonal, mut their_extent) = theirs;
+        if !finite {
+            // a non-finite S only rules out Newton steps
+            if !self.has_s {
+                return Ok(None);
+            }
+            let sent = self.helpers.split_send(SplitJob::ReplaceByJtj {
+                theta: theta.to_vec(),
+                r: r.to_vec(),
+            });
+            let mine = self.mine.replace_by_jtj(problem, theta, r);
+            let Some(SplitDone::Replaced {
+                result,
+                grad,
+                diagonal,
+                extent,
+            }) = sent.then(|| self.helpers.split_receive()).flatten()
+            else {
+                return Err(Self::helper_lost());
+            };
+            if !(mine? && result?) {
+                return Ok(None);
+            }
+            (their_grad, their_diagonal, their_extent) = (grad, diagonal, extent);
+            self.has_s = false;
+        }
+        for ((g, a), b) in grad.iter_mut().zip(&self.mine.grad).zip(&their_grad) {
+            *g = a + b;
+        }
+        if self.has_s {
+            for ((d, a), b) in self.diag_s.iter_mut().zip(&self.mine.diag_s).zip(&their_diag_s) {
+                *d = a + b;
+            }
+        }
+        self.diagonal.copy_from_slice(&their_diagonal);
+        self.mine.add_diagonal(&mut self.diagonal);
+        self.split = split_points(self.diagonal.len(), self.mine.extent(), their_extent);
+        Ok(Some(self.has_s))
+    }
+
+    fn jtj_diagonal(&self, out: &mut [f64]) {
+        for (i, (o, &p)) in out.iter_mut().zip(&self.layout.position).enumerate() {
+            *o = self.diagonal[p] - if self.has_s { self.diag_s[i] } else { 0.0 };
+        }
+    }
+
+    fn ensure_gauss_newton<P: LeastSquaresProblem + ?Sized>(
+        &mut self,
+        problem: &P,
+        theta: &[f64],
+        r: &[f64],
+    ) -> Result<bool> {
+        if !self.has_s || self.jtj_current {
+            return Ok(true);
+        }
+        let sent = self.helpers.split_send(SplitJob::GaussNewton {
+            theta: theta.to_vec(),
+            r: r.to_vec(),
+        });
+        let mine = self.mine.ensure_gauss_newton(problem, theta, r);
+        let Some(SplitDone::GaussNewton(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
+            return Err(Self::helper_lost());
+        };
+        let ok = mine? && theirs?;
+        self.jtj_current = ok;
+        Ok(ok)
+    }
+
+    /// `step` holds $-g$ on entry and $\delta$ on success; false if the
+    /// damped matrix is not positive definite (or the helper is gone).
+    fn damped_step(&mut self, newton: bool, total: f64, scale: &[f64], step: &mut [f64]) -> bool {
+        self.product_of = None;
+        let pos = &self.layout.position;
+        for ((&p, &d), &g) in pos.iter().zip(scale).zip(step.iter()) {
+            self.rhs[p] = g;
+            self.damp[p] = total * d;
+        }
+        let (s0, s1) = self.split;
+        let s_len = s1 - s0;
+        let kd_s = self.layout.half_bandwidth.min(s_len.saturating_sub(1));
+        let sent = self.helpers.split_send(SplitJob::Eliminate {
+            newton,
+            damp: self.damp.clone(),
+            rhs: self.rhs.clone(),
+            split: self.split,
+            kd_s,
+        });
+        let mine = self.mine.eliminate(newton, &self.damp, &self.rhs, self.split, kd_s);
+        let Some(SplitDone::Eliminated(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
+            return false;
+        };
+        let (Some((mut schur, mut b_s)), Some((their_schur, their_b))) = (mine, theirs) else {
+            return false;
+        };
+        // the step on S: (C_0 + C_1 + damping) x_S = b_S
+        schur.add_scaled(1.0, &their_schur);
+        schur.add_to_diagonal(&self.damp[s0..s1]);
+        for (b, t) in b_s.iter_mut().zip(&their_b) {
+            *b += t;
+        }
+        match schur.cholesky_in_place() {
+            Ok(chol) => chol.solve_in_place(&mut b_s),
+            Err(_) => return false,
+        }
+        let sent = self
+            .helpers
+            .split_send(SplitJob::BackSubstitute { x_s: b_s.clone(), s0 });
+        self.product.fill(0.0);
+        self.step[s0..s1].copy_from_slice(&b_s);
+        self.mine.back_substitute(&b_s, s0, &mut self.step, &mut self.product);
+        let Some(SplitDone::BackSubstituted {
+            step: their_step,
+            product: their_product,
+        }) = sent.then(|| self.helpers.split_receive()).flatten()
+        else {
+            return false;
+        };
+        // part 1's interior, and the sum of the products
+        for (s, t) in self.step[s1..].iter_mut().zip(&their_step[s1..]) {
+            *s = *t;
+        }
+        for (p, t) in self.product.iter_mut().zip(&their_product) {
+            *p += t;
+        }
+        for (d, &p) in step.iter_mut().zip(pos) {
+            *d = self.step[p];
+        }
+        self.product_of = Some((newton, step.to_vec()));
+        true
+    }
+
+    fn model_mul(&mut self, newton: bool, step: &[f64], out: &mut [f64]) {
+        let pos = &self.layout.position;
+        let cached = matches!(&self.product_of, Some((nw, st)) if *nw == newton && st[..] == step[..]);
+        if !cached {
+            for (&d, &p) in step.iter().zip(pos) {
+                self.rhs[p] = d;
+            }
+            let sent = self.helpers.split_send(SplitJob::Product {
+                newton,
+                x: self.rhs.clone(),
+            });
+            self.product.fill(0.0);
+            self.mine.add_product(newton, &self.rhs, &mut self.product);
+            match sent.then(|| self.helpers.split_receive()).flatten() {
+                Some(SplitDone::Product(theirs)) => {
+                    for (p, t) in self.product.iter_mut().zip(&theirs) {
+                        *p += t;
+                    }
+                }
+                // the helper is gone: no prediction (the step is then refused)
+                _ => self.product.fill(f64::NAN),
+            }
+        }
         for (o, &p) in out.iter_mut().zip(pos) {
             *o = self.product[p];
         }
@@ -1369,6 +1647,34 @@ mod tests {
         );
         assert!(three.iterations.abs_diff(one.iterations) <= 3);
         assert_eq!(three.theta, again.theta);
+    }
+
+    /// Two threads without the cap (the split system, whatever the
+    /// machine's cores): every mode reaches one thread's minimum, and runs
+    /// repeat bit for bit.
+    #[test]
+    fn two_threads_agree_with_one() {
+        let (p, theta0) = pendulum_swingup(120, 1e2).expect("problem");
+        for (second_order, adaptive) in [(false, false), (true, false), (true, true)] {
+            let solver = GaussNewton::new(GaussNewtonSettings {
+                second_order,
+                adaptive,
+                ..GaussNewtonSettings::default()
+            })
+            .expect("settings");
+            let one = solver.solve(&p, &theta0).expect("solve");
+            let two = solver.solve_threads(&p, &theta0, 2).expect("solve");
+            let again = solver.solve_threads(&p, &theta0, 2).expect("solve");
+            assert!(one.status.converged() && two.status.converged());
+            assert!(
+                (two.cost - one.cost).abs() <= 1e-10 * one.cost,
+                "{} vs {}",
+                two.cost,
+                one.cost
+            );
+            assert!(two.iterations.abs_diff(one.iterations) <= 3.max(one.iterations / 10));
+            assert_eq!(two.theta, again.theta);
+        }
     }
 
     /// A random-looking sparse symmetric pattern with its diagonal, both triangles.

@@ -97,6 +97,7 @@ pub mod powell;
 pub mod problem;
 pub mod problems;
 mod qp;
+mod split;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 

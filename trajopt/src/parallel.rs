@@ -22,6 +22,7 @@ use std::time::{Duration, Instant};
 use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError};
 use crate::least_squares::LeastSquaresProblem;
+use crate::split::{self, SplitDone, SplitJob};
 
 /// How long a helper (or the solver waiting for one) spins before it
 /// parks: longer than the gap between two assemblies at the horizons
@@ -67,11 +68,13 @@ struct ResidualJob {
 enum Job {
     Band(PartJob),
     Residuals(ResidualJob),
+    Split(SplitJob),
 }
 
 enum Done {
     Band(PartDone),
     Residuals(ResidualJob, Result<Range<usize>>),
+    Split(SplitDone),
 }
 
 /// A helper thread's end of the channels, and its buffers while idle.
@@ -99,6 +102,8 @@ impl Helpers {
                 let (jobs, job_rx) = channel::<Job>();
                 let (done_tx, done) = channel::<Done>();
                 scope.spawn(move || {
+                    // the helper's part of a split system, kept between jobs
+                    let mut split_part = None;
                     while let Some(job) = receive(&job_rx) {
                         let done = match job {
                             Job::Band(mut job) => {
@@ -130,6 +135,11 @@ impl Helpers {
                                     first_column,
                                 })
                             }
+                            Job::Split(job) => match split::run_job(&mut split_part, problem, job) {
+                                Some(done) => Done::Split(done),
+                                // a job out of order: the solver sees the helper gone
+                                None => break,
+                            },
                             Job::Residuals(mut job) => {
                                 let result = problem.residuals_part(job.part, job.parts, &job.theta, &mut job.r);
                                 Done::Residuals(job, result)
@@ -277,6 +287,28 @@ impl Helpers {
             return self.band_parts(problem, theta, r, layout, h, Some(grad), None);
         }
         Ok(all_s)
+    }
+}
+
+impl Helpers {
+    /// How many helper threads there are.
+    pub(crate) fn count(&self) -> usize {
+        self.helpers.len()
+    }
+
+    /// Sends a job to the first helper's split part; false if it is gone.
+    pub(crate) fn split_send(&mut self, job: SplitJob) -> bool {
+        self.helpers
+            .first()
+            .is_some_and(|h| h.jobs.send(Job::Split(job)).is_ok())
+    }
+
+    /// The first helper's answer to its split job; `None` if it is gone.
+    pub(crate) fn split_receive(&mut self) -> Option<SplitDone> {
+        match receive(&self.helpers.first()?.done)? {
+            Done::Split(done) => Some(done),
+            _ => None,
+        }
     }
 }
 

@@ -111,12 +111,11 @@ impl Model for FailingLate {
     }
 }
 
-/// An error in a helper's part is the solve's error, as without helpers.
-#[test]
-fn an_error_in_a_helper_part_is_returned() -> Result<()> {
-    let horizon = 150;
-    let (p, theta0) = pendulum_swingup(horizon, 1e2)?;
-    // past the angle of 95% of the steps: only the last ones fail
+/// The benchmark swing-up of `horizon` steps with another pendulum model
+/// (the same bases, cost and lambda), and the angle past which 95% of the
+/// reference's steps lie: a model that misbehaves beyond it does so only
+/// at the last steps, in the last part of a split.
+fn swingup_with<M: Model>(horizon: usize, model: impl FnOnce(f64) -> M) -> Result<Eq3Problem<M, TrackingCost>> {
     let max_angle = swingup_reference(horizon * 95 / 100)[0];
     let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * PENDULUM_DT).collect();
     let state_ref = faer::Mat::from_fn(horizon + 1, 4, |k, i| swingup_reference(k)[i]);
@@ -129,18 +128,26 @@ fn an_error_in_a_helper_part_is_returned() -> Result<()> {
     )?;
     let state_basis = BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
     let control_basis = BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
-    let failing = Eq3Problem::new(
-        FailingLate {
-            inner: Pendulum::default(),
-            max_angle,
-        },
+    Eq3Problem::new(
+        model(max_angle),
         cost,
         &state_basis,
         &control_basis,
         &times,
         Lambda::Constant(1e2),
     )?
-    .with_consistency_scale(1.0 / PENDULUM_DT)?;
+    .with_consistency_scale(1.0 / PENDULUM_DT)
+}
+
+/// An error in a helper's part is the solve's error, as without helpers.
+#[test]
+fn an_error_in_a_helper_part_is_returned() -> Result<()> {
+    let horizon = 150;
+    let (p, theta0) = pendulum_swingup(horizon, 1e2)?;
+    let failing = swingup_with(horizon, |max_angle| FailingLate {
+        inner: Pendulum::default(),
+        max_angle,
+    })?;
     assert_eq!(failing.n_params(), p.n_params());
     let s = solver(false, false);
     let sequential = s.solve(&failing, &theta0);
@@ -150,6 +157,59 @@ fn an_error_in_a_helper_part_is_returned() -> Result<()> {
         Err(TrajoptError::InvalidParameter { name: "state", .. })
     ));
     assert_eq!(parallel.map(|r| r.cost), sequential.map(|r| r.cost));
+    Ok(())
+}
+
+/// The pendulum with second derivatives that overflow beyond an angle.
+struct OverflowLate {
+    inner: Pendulum,
+    max_angle: f64,
+}
+
+impl Model for OverflowLate {
+    fn state_dim(&self) -> usize {
+        4
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.inner.step(x, u, next)
+    }
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        self.inner.jacobians(x, u, fx, fu)
+    }
+    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+        self.inner.jacobian_structure(fx, fu)
+    }
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        self.inner.weighted_hessian(x, u, w, hess)?;
+        if x[0] > self.max_angle {
+            for h in hess.iter_mut().filter(|h| **h != 0.0) {
+                *h = f64::MAX;
+            }
+        }
+        Ok(true)
+    }
+}
+
+/// $J^\top J + S$ overflows in the last steps only, so in the helper's
+/// part only: the Newton mode takes Gauss-Newton steps there, with two
+/// threads as with one.
+#[test]
+fn an_overflow_in_a_helper_part_gives_gauss_newton_steps() -> Result<()> {
+    let horizon = 150;
+    let (_, theta0) = pendulum_swingup(horizon, 1e2)?;
+    let p = swingup_with(horizon, |max_angle| OverflowLate {
+        inner: Pendulum::default(),
+        max_angle,
+    })?;
+    for adaptive in [false, true] {
+        let s = solver(true, adaptive);
+        let one = s.solve(&p, &theta0)?;
+        let two = s.solve_parallel(&p, &theta0, 2)?;
+        assert_close(&two, &one, &format!("adaptive {adaptive}"));
+    }
     Ok(())
 }
 
