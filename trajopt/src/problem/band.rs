@@ -234,6 +234,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         } else {
             Default::default()
         };
+        let stage_or_model_s: Vec<bool> = stage_s.iter().zip(&model_s).map(|(&a, &b)| a || b).collect();
         // the model's Jacobians at every step at once (a model may evaluate
         // them in parallel), central differences if it has none
         let horizon = self.horizon;
@@ -410,7 +411,20 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     // not available here: J^T J alone, from the start
                     return self.band_body::<NX, NU, NC, false>(theta, r, layout, h, grad, None, k0..k1);
                 }
-                if let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
+                // one pass for the common case: every entry finite, and zero
+                // outside the structure (the errors below name the first offender)
+                let mask = if terminal {
+                    &terminal_s
+                } else if self.lambda[k] > 0.0 {
+                    &stage_or_model_s
+                } else {
+                    &stage_s
+                };
+                let clean = hz[..dim * dim]
+                    .iter()
+                    .zip(mask)
+                    .all(|(&v, &ok)| v == 0.0 || (ok && v.is_finite()));
+                if !clean && let Some(i) = hz[..dim * dim].iter().position(|v| !v.is_finite()) {
                     return Err(TrajoptError::NotFinite {
                         what: "second derivatives",
                         index: i,
@@ -424,7 +438,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                         stage_s[i] || (self.lambda[k] > 0.0 && model_s[i])
                     }
                 };
-                if let Some(i) = (0..dim * dim).find(|&i| hz[i] != 0.0 && !allowed(i)) {
+                if !clean && let Some(i) = (0..dim * dim).find(|&i| hz[i] != 0.0 && !allowed(i)) {
                     return Err(TrajoptError::InvalidParameter {
                         name: "model",
                         reason: format!(
@@ -723,15 +737,15 @@ fn kron_fixed<const NR: usize, const NC: usize>(
                 *w = scale * pj * qb;
             }
         }
+        let row = row.as_flattened();
         for (i, &pi) in phi.iter().enumerate() {
             let start = (r0 + i * NR + a) * size + c0;
-            for (j, chunk) in row.iter().enumerate() {
-                let Ok(h) = <&mut [f64; NC]>::try_from(&mut acc[start + j * NC..start + (j + 1) * NC]) else {
-                    return;
-                };
-                for (hv, &w) in h.iter_mut().zip(chunk) {
-                    *hv += pi * w;
-                }
+            // one bounds check per row of the window
+            let Some(h) = acc.get_mut(start..start + 4 * NC) else {
+                return;
+            };
+            for (hv, &w) in h.iter_mut().zip(row) {
+                *hv += pi * w;
             }
         }
     }
