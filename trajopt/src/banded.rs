@@ -289,16 +289,26 @@ impl BandedSym {
         self.ab[..stop].copy_from_slice(&other.ab[..stop]);
     }
 
-    /// The last row with a nonzero entry, if any.
+    /// The last row with a nonzero (or NaN) entry, if any.
     pub(crate) fn last_nonzero_row(&self) -> Option<usize> {
         let w = self.kd + 1;
-        let mut last = None;
-        for (j, col) in self.ab.chunks_exact(w).enumerate() {
-            if let Some(d) = col.iter().rposition(|&v| v != 0.0) {
-                last = Some(last.map_or(j + d, |l: usize| l.max(j + d)));
-            }
-        }
-        last
+        // the last column with a nonzero entry; only the kd columns before
+        // it can reach further down
+        let last_col = self.ab.iter().rposition(|&v| v != 0.0)? / w;
+        (last_col.saturating_sub(self.kd)..=last_col)
+            .filter_map(|j| {
+                self.ab[j * w..(j + 1) * w]
+                    .iter()
+                    .rposition(|&v| v != 0.0)
+                    .map(|d| j + d)
+            })
+            .max()
+    }
+
+    /// Whether the columns `0..end` are finite.
+    pub(crate) fn leading_columns_finite(&self, end: usize) -> bool {
+        let stop = end.min(self.n) * (self.kd + 1);
+        self.ab[..stop].iter().all(|v| v.is_finite())
     }
 }
 
@@ -529,6 +539,10 @@ mod tests {
         let mut c = BandedSym::zeros(6, 3);
         c.add(4, 1, 1.0).expect("in band");
         assert_eq!(c.last_nonzero_row(), Some(4));
+        assert!(b.leading_columns_finite(10));
+        b.add(9, 8, f64::NAN).expect("in band");
+        assert!(b.leading_columns_finite(8) && !b.leading_columns_finite(9));
+        assert_eq!(b.last_nonzero_row(), Some(9));
         // an indefinite leading block is refused
         let mut d = BandedSym::zeros(3, 1);
         d.add_to_diagonal(&[-1.0, 1.0, 1.0]);

@@ -1244,14 +1244,16 @@ impl SplitSystem {
         let (s0, s1) = self.split;
         let s_len = s1 - s0;
         let kd_s = self.layout.half_bandwidth.min(s_len.saturating_sub(1));
+        // the helper's interior needs only its own numbers
         let sent = self.helpers.split_send(SplitJob::Eliminate {
             newton,
-            damp: self.damp.clone(),
-            rhs: self.rhs.clone(),
+            total,
             split: self.split,
             kd_s,
         });
-        let mine = self.mine.eliminate(newton, &self.damp, &self.rhs, self.split, kd_s);
+        let mine = self
+            .mine
+            .eliminate(newton, total, Some((&self.damp, &self.rhs)), self.split, kd_s);
         let Some(SplitDone::Eliminated(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
             return false;
         };

@@ -59,6 +59,11 @@ pub(crate) struct SplitPart {
     /// The last elimination: interior columns and the model it used.
     interior: usize,
     newton: bool,
+    /// The parameter at each local position.
+    parameter: Vec<usize>,
+    /// The interior's damping and right-hand side (local positions).
+    damp: Vec<f64>,
+    rhs: Vec<f64>,
 }
 
 /// The local ranges of a part for the global split `s0..s1`: interior
@@ -85,7 +90,14 @@ impl SplitPart {
                 half_bandwidth: kd,
             }
         };
+        let mut parameter = vec![0; n];
+        for (i, &p) in layout.position.iter().enumerate() {
+            parameter[p] = i;
+        }
         Self {
+            parameter,
+            damp: vec![0.0; n],
+            rhs: vec![0.0; n],
             part,
             layout: Arc::new(layout),
             n,
@@ -139,9 +151,12 @@ impl SplitPart {
         Ok(self.has_s)
     }
 
-    /// Whether the matrix and gradient are finite.
+    /// Whether the matrix and gradient are finite (a non-finite entry
+    /// counts as nonzero, so the columns beyond the last nonzero row are
+    /// zero).
     pub(crate) fn finite(&self) -> bool {
-        self.h.band().iter().chain(&self.grad).all(|v| v.is_finite())
+        let end = self.h.last_nonzero_row().map_or(0, |r| r + 1);
+        self.h.leading_columns_finite(end) && self.grad.iter().all(|v| v.is_finite())
     }
 
     /// The first and last global positions with a nonzero entry.
@@ -223,31 +238,50 @@ impl SplitPart {
         }
     }
 
-    /// Eliminates the interior of the damped model matrix (`damp`: the
-    /// damping per global position, added on the interior only) for the
-    /// global split `s0..s1`, and runs the forward substitution of `rhs`
-    /// (global positions; part 1 leaves the $S$ entries to part 0). Returns
-    /// this part's Schur block on $S$ (half-bandwidth `kd_s`) and its $S$
-    /// entries of the right-hand side, or `None` if the interior block is
-    /// not positive definite.
+    /// Eliminates the interior of the damped model matrix for the global
+    /// split `s0..s1`, and runs the forward substitution of the right-hand
+    /// side: the damping and the right-hand side per global position from
+    /// `global` (`(damp, rhs)`; part 1 leaves the $S$ entries of the
+    /// right-hand side to part 0), or, without it, this part's own
+    /// $\text{total} \cdot \max(\operatorname{diag} J^\top J, 10^{-12})$ and
+    /// $-J^\top r$ on its interior: the solver's own numbers there, as no
+    /// other part touches those coefficients. Returns this part's Schur
+    /// block on $S$ (half-bandwidth `kd_s`) and its $S$ entries of the
+    /// right-hand side, or `None` if the interior block is not positive
+    /// definite.
     pub(crate) fn eliminate(
         &mut self,
         newton: bool,
-        damp: &[f64],
-        rhs: &[f64],
+        total: f64,
+        global: Option<(&[f64], &[f64])>,
         (s0, s1): (usize, usize),
         kd_s: usize,
     ) -> Option<(BandedSym, Vec<f64>)> {
         let (interior, s_start, end) = local_ranges(self.part, self.n, s0, s1);
         let s_len = s1 - s0;
+        let rhs_end = if self.part == 0 { end } else { interior };
+        match global {
+            Some((damp, rhs)) => {
+                for l in 0..interior {
+                    self.damp[l] = damp[self.global(l)];
+                }
+                for l in 0..rhs_end {
+                    self.rhs[l] = rhs[self.global(l)];
+                }
+            }
+            None => {
+                for l in 0..rhs_end.max(interior) {
+                    let i = self.parameter[l];
+                    let jtj = self.h.diagonal(l) - if self.has_s { self.diag_s[i] } else { 0.0 };
+                    self.damp[l] = total * jtj.max(1e-12);
+                    self.rhs[l] = -self.grad[i];
+                }
+            }
+        }
         // the model matrix (taken out of self so that work can borrow it)
         let mut work = std::mem::replace(&mut self.work, BandedSym::zeros(0, 0));
         work.copy_leading_columns(self.model(newton), end);
-        let mut shift = vec![0.0; interior];
-        for (l, d) in shift.iter_mut().enumerate() {
-            *d = damp[self.global(l)];
-        }
-        work.add_to_diagonal(&shift);
+        work.add_to_diagonal(&self.damp[..interior]);
         let ok = work.eliminate_leading(interior);
         self.work = work;
         self.interior = interior;
@@ -268,10 +302,7 @@ impl SplitPart {
             }
         }
         self.x.fill(0.0);
-        let rhs_end = if self.part == 0 { end } else { interior };
-        for l in 0..rhs_end {
-            self.x[l] = rhs[self.global(l)];
-        }
+        self.x[..rhs_end].copy_from_slice(&self.rhs[..rhs_end]);
         self.work.forward_leading(interior, &mut self.x);
         let mut b_s = vec![0.0; s_len];
         for a in 0..s_len {
@@ -361,11 +392,10 @@ pub(crate) enum SplitJob {
     ReplaceByJtj { theta: Vec<f64>, r: Vec<f64> },
     /// [`SplitPart::ensure_gauss_newton`].
     GaussNewton { theta: Vec<f64>, r: Vec<f64> },
-    /// [`SplitPart::eliminate`].
+    /// [`SplitPart::eliminate`] with the part's own damping and gradient.
     Eliminate {
         newton: bool,
-        damp: Vec<f64>,
-        rhs: Vec<f64>,
+        total: f64,
         split: (usize, usize),
         kd_s: usize,
     },
@@ -445,11 +475,10 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
         SplitJob::GaussNewton { theta, r } => SplitDone::GaussNewton(p.ensure_gauss_newton(problem, &theta, &r)),
         SplitJob::Eliminate {
             newton,
-            damp,
-            rhs,
+            total,
             split,
             kd_s,
-        } => SplitDone::Eliminated(p.eliminate(newton, &damp, &rhs, split, kd_s)),
+        } => SplitDone::Eliminated(p.eliminate(newton, total, None, split, kd_s)),
         SplitJob::BackSubstitute { x_s, s0 } => {
             let (mut step, mut product) = (vec![0.0; p.n], vec![0.0; p.n]);
             p.back_substitute(&x_s, s0, &mut step, &mut product);
@@ -514,10 +543,10 @@ mod tests {
             let rhs: Vec<f64> = (0..n).map(|q| (q as f64 * 0.37).sin()).collect();
             let kd_s = layout.half_bandwidth.min(s1 - s0 - 1);
             let (mut schur, mut b_s) = a
-                .eliminate(with_s, &damp, &rhs, (s0, s1), kd_s)
+                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s)
                 .expect("part 0 interior");
             let (their_schur, their_b) = b
-                .eliminate(with_s, &damp, &rhs, (s0, s1), kd_s)
+                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s)
                 .expect("part 1 interior");
             schur.add_scaled(1.0, &their_schur);
             schur.add_to_diagonal(&damp[s0..s1]);
@@ -562,6 +591,41 @@ mod tests {
         }
     }
 
+    /// The helper's part damps its interior and takes its right-hand side
+    /// from its own diagonal and gradient: the same bits as from the
+    /// solver's global damping $\text{total} \cdot \max(\operatorname{diag}
+    /// J^\top J, 10^{-12})$ and $-J^\top r$ of both parts' sums.
+    #[test]
+    fn the_helper_part_damps_with_its_own_numbers() {
+        let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
+        let layout = p.band_layout().expect("band form");
+        let n = layout.position.len();
+        let mut r = vec![0.0; p.n_residuals()];
+        p.residuals(&theta, &mut r).expect("residuals");
+        for with_s in [false, true] {
+            let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
+            a.assemble(&p, &theta, &r, with_s).expect("part 0");
+            b.assemble(&p, &theta, &r, with_s).expect("part 1");
+            let split = split_points(n, a.extent(), b.extent());
+            let kd_s = layout.half_bandwidth.min(split.1 - split.0 - 1);
+            // the solver's numbers, from the sums of both parts
+            let mut diagonal = vec![0.0; n];
+            b.add_diagonal(&mut diagonal);
+            a.add_diagonal(&mut diagonal);
+            let total = 10.0;
+            let (mut damp, mut rhs) = (vec![0.0; n], vec![0.0; n]);
+            for (i, &q) in layout.position.iter().enumerate() {
+                let ds = if with_s { a.diag_s[i] + b.diag_s[i] } else { 0.0 };
+                damp[q] = total * (diagonal[q] - ds).max(1e-12);
+                rhs[q] = -(a.grad[i] + b.grad[i]);
+            }
+            let global = b.eliminate(with_s, total, Some((&damp, &rhs)), split, kd_s);
+            let local = b.eliminate(with_s, total, None, split, kd_s);
+            assert!(global.is_some());
+            assert_eq!(global, local);
+        }
+    }
+
     /// A damped matrix that is not positive definite is refused by the
     /// split elimination as by the whole factorisation.
     #[test]
@@ -582,8 +646,8 @@ mod tests {
             let mut damp = vec![0.0; n];
             damp[q] = -1e12;
             let parts = (
-                a.eliminate(false, &damp, &rhs, (s0, s1), kd_s),
-                b.eliminate(false, &damp, &rhs, (s0, s1), kd_s),
+                a.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s),
+                b.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s),
             );
             let refused = match parts {
                 (Some((mut c, _)), Some((c1, _))) => {
