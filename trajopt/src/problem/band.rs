@@ -731,6 +731,10 @@ fn kron_fixed<const NR: usize, const NC: usize>(
         let Ok(qa) = <&[f64; NC]>::try_from(&q[start..start + NC]) else {
             return;
         };
+        // a zero row adds only zeros (S alone is mostly zero rows)
+        if qa.iter().all(|&v| v == 0.0) {
+            continue;
+        }
         let mut row = [[0.0; NC]; 4];
         for (chunk, &pj) in row.iter_mut().zip(psi) {
             for (w, &qb) in chunk.iter_mut().zip(qa) {
