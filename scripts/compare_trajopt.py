@@ -22,7 +22,7 @@ Prints wall times of the solves (model building excluded; trajopt best of 5,
 IPOPT best of 3, scipy and Ceres one run), their ratios to
 trajopt's Newton mode on one thread (the ratio column: how many times slower
 than it), the time per iteration, and the final costs with their relative
-difference; trajopt's modes also with the normal equations formed on two
+difference; trajopt's modes also with the normal equations formed (and factorised) on two
 threads (`GaussNewton::solve_parallel`, rows "2 thr"); and, per horizon, how
 many times faster than IPOPT each trajopt row is. Different
 solvers can stop at different local minima; the cost column shows it.

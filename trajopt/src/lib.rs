@@ -29,7 +29,10 @@
 //!   unsure (48 / 183 / 454 iterations at $\lambda = 10^2 / 10^3 / 10^4$
 //!   against Gauss-Newton's 115 / 358 / 447). Any mode runs on more cores
 //!   with [`GaussNewton::solve_parallel`], which forms the normal
-//!   equations (most of an iteration) in parts on helper threads.
+//!   equations (most of an iteration) in parts on helper threads; on two
+//!   threads it also factorises them in two parts (a two-domain
+//!   decomposition of the band matrix: each thread eliminates the
+//!   coefficients only its part touches).
 //! - [`powell`]: Powell's derivative-free method, the paper's solver, also an
 //!   argmin `Solver`.
 //! - [`problems`]: a shared benchmark set (the soft-dynamics pendulum swing-up
