@@ -16,6 +16,8 @@
 //! can form its normal equations in band form
 //! ([`LeastSquaresProblem::band_layout`](crate::LeastSquaresProblem::band_layout)).
 
+use std::sync::atomic::{AtomicBool, Ordering};
+
 use crate::error::{Result, TrajoptError};
 
 /// Where the parameters go in a band matrix: parameter `i` is row and
@@ -224,6 +226,7 @@ impl BandedSym {
             columns: self.n,
             kd: self.kd,
             ab: &mut self.ab,
+            abort: None,
         });
         if ok {
             Ok(BandCholesky { factor: self })
@@ -240,12 +243,19 @@ impl BandedSym {
     /// is not numerically positive definite. With `columns = n` it is
     /// [`cholesky_in_place`](Self::cholesky_in_place), with the same
     /// arithmetic.
-    pub(crate) fn eliminate_leading(&mut self, columns: usize) -> bool {
+    ///
+    /// With `abort`, shared with the eliminations of other parts of one
+    /// matrix: a failure sets it, and once it is set (by any of them) this
+    /// one gives up too, within a few columns, as the whole matrix is then
+    /// not positive definite. The columns it does eliminate are the same
+    /// bits either way.
+    pub(crate) fn eliminate_leading(&mut self, columns: usize, abort: Option<&AtomicBool>) -> bool {
         pulp::Arch::new().dispatch(CholeskyKernel {
             n: self.n,
             columns,
             kd: self.kd,
             ab: &mut self.ab,
+            abort,
         })
     }
 
@@ -322,7 +332,14 @@ struct CholeskyKernel<'a> {
     columns: usize,
     kd: usize,
     ab: &'a mut [f64],
+    /// Shared with other eliminations of one matrix's parts: set on a
+    /// failure, and a failure when found set (checked every
+    /// `ABORT_CHECK` columns).
+    abort: Option<&'a AtomicBool>,
 }
+
+/// How often an elimination with an abort flag looks at it.
+const ABORT_CHECK: usize = 16;
 
 impl pulp::WithSimd for CholeskyKernel<'_> {
     type Output = bool;
@@ -332,10 +349,19 @@ impl pulp::WithSimd for CholeskyKernel<'_> {
         let (n, kd) = (self.n, self.kd);
         let w = kd + 1;
         for j in 0..self.columns.min(n) {
+            if let Some(abort) = self.abort
+                && j % ABORT_CHECK == 0
+                && abort.load(Ordering::Relaxed)
+            {
+                return false;
+            }
             let (head, tail) = self.ab.split_at_mut((j + 1) * w);
             let col = &mut head[j * w..];
             let d = col[0];
             if !(d > 0.0 && d.is_finite()) {
+                if let Some(abort) = self.abort {
+                    abort.store(true, Ordering::Relaxed);
+                }
                 return false;
             }
             let l = d.sqrt();
@@ -466,7 +492,7 @@ mod tests {
             let a = spd(n, kd, seed, (2 * kd + 2) as f64);
             let full = dense(&a);
             let mut e = a.clone();
-            prop_assert!(e.eliminate_leading(m));
+            prop_assert!(e.eliminate_leading(m, None));
             let t = n - m;
             let (a11, a21, a22) = (
                 full.submatrix(0, 0, m, m).to_owned(),
@@ -502,7 +528,7 @@ mod tests {
             }
             // all columns: the factorisation itself, bit for bit
             let mut whole = a.clone();
-            prop_assert!(whole.eliminate_leading(n));
+            prop_assert!(whole.eliminate_leading(n, None));
             let chol = a.cholesky_in_place().expect("positive definite");
             let factor = chol.into_inner();
             prop_assert_eq!(whole.band(), factor.band());
@@ -543,10 +569,23 @@ mod tests {
         b.add(9, 8, f64::NAN).expect("in band");
         assert!(b.leading_columns_finite(8) && !b.leading_columns_finite(9));
         assert_eq!(b.last_nonzero_row(), Some(9));
-        // an indefinite leading block is refused
+        // an indefinite leading block is refused, and says so to the others
         let mut d = BandedSym::zeros(3, 1);
         d.add_to_diagonal(&[-1.0, 1.0, 1.0]);
-        assert!(!d.eliminate_leading(1));
+        assert!(!d.eliminate_leading(1, None));
+        let abort = AtomicBool::new(false);
+        assert!(!d.eliminate_leading(1, Some(&abort)));
+        assert!(abort.load(Ordering::Relaxed));
+        // a set flag stops a positive definite elimination too; a clear
+        // one changes nothing
+        let spd_matrix = spd(40, 3, 11, 8.0);
+        assert!(!spd_matrix.clone().eliminate_leading(40, Some(&abort)));
+        let (mut with_flag, mut without) = (spd_matrix.clone(), spd_matrix);
+        let clear = AtomicBool::new(false);
+        assert!(with_flag.eliminate_leading(40, Some(&clear)));
+        assert!(without.eliminate_leading(40, None));
+        assert_eq!(with_flag, without);
+        assert!(!clear.load(Ordering::Relaxed));
     }
 
     #[test]

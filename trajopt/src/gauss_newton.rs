@@ -88,6 +88,7 @@
 //! Optimization* (2006), ch. 10.
 
 use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, Ordering};
 use std::time::{Duration, Instant};
 
 use faer::Side;
@@ -1093,6 +1094,8 @@ struct SplitSystem {
     step: Vec<f64>,
     product: Vec<f64>,
     product_of: Option<(bool, Vec<f64>)>,
+    /// Set by the first part whose elimination fails, to stop the other.
+    abort: Arc<AtomicBool>,
 }
 
 impl SplitSystem {
@@ -1113,6 +1116,7 @@ impl SplitSystem {
             step: vec![0.0; n],
             product: vec![0.0; n],
             product_of: None,
+            abort: Arc::new(AtomicBool::new(false)),
         }
     }
 
@@ -1244,16 +1248,24 @@ impl SplitSystem {
         let (s0, s1) = self.split;
         let s_len = s1 - s0;
         let kd_s = self.layout.half_bandwidth.min(s_len.saturating_sub(1));
-        // the helper's interior needs only its own numbers
+        // the helper's interior needs only its own numbers; it is idle now,
+        // so the flag can be cleared for this elimination
+        self.abort.store(false, Ordering::Relaxed);
         let sent = self.helpers.split_send(SplitJob::Eliminate {
             newton,
             total,
             split: self.split,
             kd_s,
+            abort: Arc::clone(&self.abort),
         });
-        let mine = self
-            .mine
-            .eliminate(newton, total, Some((&self.damp, &self.rhs)), self.split, kd_s);
+        let mine = self.mine.eliminate(
+            newton,
+            total,
+            Some((&self.damp, &self.rhs)),
+            self.split,
+            kd_s,
+            Some(&self.abort),
+        );
         let Some(SplitDone::Eliminated(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
             return false;
         };

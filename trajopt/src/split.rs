@@ -27,6 +27,7 @@
 //! same for every run.
 
 use std::sync::Arc;
+use std::sync::atomic::AtomicBool;
 
 use crate::banded::{BandLayout, BandedSym};
 use crate::error::Result;
@@ -242,13 +243,18 @@ impl SplitPart {
     /// split `s0..s1`, and runs the forward substitution of the right-hand
     /// side: the damping and the right-hand side per global position from
     /// `global` (`(damp, rhs)`; part 1 leaves the $S$ entries of the
-    /// right-hand side to part 0), or, without it, this part's own
-    /// $\text{total} \cdot \max(\operatorname{diag} J^\top J, 10^{-12})$ and
-    /// $-J^\top r$ on its interior: the solver's own numbers there, as no
-    /// other part touches those coefficients. Returns this part's Schur
+    /// right-hand side to part 0), or, without it (part 1 only), this
+    /// part's own $\text{total} \cdot \max(\operatorname{diag} J^\top J, 10^{-12})$
+    /// and $-J^\top r$ on its interior: the solver's own numbers there, as
+    /// no other part touches those coefficients. Returns this part's Schur
     /// block on $S$ (half-bandwidth `kd_s`) and its $S$ entries of the
     /// right-hand side, or `None` if the interior block is not positive
     /// definite.
+    ///
+    /// `abort` is shared with the other part's elimination: the first to
+    /// find a pivot that is not positive stops the other (the whole matrix
+    /// is then not positive definite).
+    #[allow(clippy::too_many_arguments)]
     pub(crate) fn eliminate(
         &mut self,
         newton: bool,
@@ -256,6 +262,7 @@ impl SplitPart {
         global: Option<(&[f64], &[f64])>,
         (s0, s1): (usize, usize),
         kd_s: usize,
+        abort: Option<&AtomicBool>,
     ) -> Option<(BandedSym, Vec<f64>)> {
         let (interior, s_start, end) = local_ranges(self.part, self.n, s0, s1);
         let s_len = s1 - s0;
@@ -270,7 +277,8 @@ impl SplitPart {
                 }
             }
             None => {
-                for l in 0..rhs_end.max(interior) {
+                debug_assert_eq!(self.part, 1, "part 0 needs the solver's S entries");
+                for l in 0..interior {
                     let i = self.parameter[l];
                     let jtj = self.h.diagonal(l) - if self.has_s { self.diag_s[i] } else { 0.0 };
                     self.damp[l] = total * jtj.max(1e-12);
@@ -282,7 +290,7 @@ impl SplitPart {
         let mut work = std::mem::replace(&mut self.work, BandedSym::zeros(0, 0));
         work.copy_leading_columns(self.model(newton), end);
         work.add_to_diagonal(&self.damp[..interior]);
-        let ok = work.eliminate_leading(interior);
+        let ok = work.eliminate_leading(interior, abort);
         self.work = work;
         self.interior = interior;
         self.newton = newton;
@@ -398,6 +406,7 @@ pub(crate) enum SplitJob {
         total: f64,
         split: (usize, usize),
         kd_s: usize,
+        abort: Arc<AtomicBool>,
     },
     /// [`SplitPart::back_substitute`].
     BackSubstitute { x_s: Vec<f64>, s0: usize },
@@ -478,7 +487,8 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
             total,
             split,
             kd_s,
-        } => SplitDone::Eliminated(p.eliminate(newton, total, None, split, kd_s)),
+            abort,
+        } => SplitDone::Eliminated(p.eliminate(newton, total, None, split, kd_s, Some(&abort))),
         SplitJob::BackSubstitute { x_s, s0 } => {
             let (mut step, mut product) = (vec![0.0; p.n], vec![0.0; p.n]);
             p.back_substitute(&x_s, s0, &mut step, &mut product);
@@ -543,10 +553,10 @@ mod tests {
             let rhs: Vec<f64> = (0..n).map(|q| (q as f64 * 0.37).sin()).collect();
             let kd_s = layout.half_bandwidth.min(s1 - s0 - 1);
             let (mut schur, mut b_s) = a
-                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s)
+                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s, None)
                 .expect("part 0 interior");
             let (their_schur, their_b) = b
-                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s)
+                .eliminate(with_s, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s, None)
                 .expect("part 1 interior");
             schur.add_scaled(1.0, &their_schur);
             schur.add_to_diagonal(&damp[s0..s1]);
@@ -619,8 +629,8 @@ mod tests {
                 damp[q] = total * (diagonal[q] - ds).max(1e-12);
                 rhs[q] = -(a.grad[i] + b.grad[i]);
             }
-            let global = b.eliminate(with_s, total, Some((&damp, &rhs)), split, kd_s);
-            let local = b.eliminate(with_s, total, None, split, kd_s);
+            let global = b.eliminate(with_s, total, Some((&damp, &rhs)), split, kd_s, None);
+            let local = b.eliminate(with_s, total, None, split, kd_s, None);
             assert!(global.is_some());
             assert_eq!(global, local);
         }
@@ -646,8 +656,8 @@ mod tests {
             let mut damp = vec![0.0; n];
             damp[q] = -1e12;
             let parts = (
-                a.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s),
-                b.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s),
+                a.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s, None),
+                b.eliminate(false, 0.0, Some((&damp, &rhs)), (s0, s1), kd_s, None),
             );
             let refused = match parts {
                 (Some((mut c, _)), Some((c1, _))) => {
