@@ -1638,36 +1638,11 @@ mod tests {
     use crate::problems::pendulum_swingup;
     use faer::Mat;
 
-    /// More threads than this machine may have cores (the public entry
-    /// point caps them): three parts, summed in order, reach the same
-    /// minimum as one thread, and every run gives the same bits.
+    /// Threads without the cap, whatever the machine's cores: two (the
+    /// split system) and three (three parts summed in order) reach one
+    /// thread's minimum in every mode, and every run gives the same bits.
     #[test]
-    fn three_threads_agree_with_one() {
-        let (p, theta0) = pendulum_swingup(120, 1e2).expect("problem");
-        let solver = GaussNewton::new(GaussNewtonSettings {
-            second_order: true,
-            ..GaussNewtonSettings::default()
-        })
-        .expect("settings");
-        let one = solver.solve(&p, &theta0).expect("solve");
-        let three = solver.solve_threads(&p, &theta0, 3).expect("solve");
-        let again = solver.solve_threads(&p, &theta0, 3).expect("solve");
-        assert!(one.status.converged() && three.status.converged());
-        assert!(
-            (three.cost - one.cost).abs() <= 1e-10 * one.cost,
-            "{} vs {}",
-            three.cost,
-            one.cost
-        );
-        assert!(three.iterations.abs_diff(one.iterations) <= 3);
-        assert_eq!(three.theta, again.theta);
-    }
-
-    /// Two threads without the cap (the split system, whatever the
-    /// machine's cores): every mode reaches one thread's minimum, and runs
-    /// repeat bit for bit.
-    #[test]
-    fn two_threads_agree_with_one() {
+    fn uncapped_threads_agree_with_one() {
         let (p, theta0) = pendulum_swingup(120, 1e2).expect("problem");
         for (second_order, adaptive) in [(false, false), (true, false), (true, true)] {
             let solver = GaussNewton::new(GaussNewtonSettings {
@@ -1677,17 +1652,19 @@ mod tests {
             })
             .expect("settings");
             let one = solver.solve(&p, &theta0).expect("solve");
-            let two = solver.solve_threads(&p, &theta0, 2).expect("solve");
-            let again = solver.solve_threads(&p, &theta0, 2).expect("solve");
-            assert!(one.status.converged() && two.status.converged());
-            assert!(
-                (two.cost - one.cost).abs() <= 1e-10 * one.cost,
-                "{} vs {}",
-                two.cost,
-                one.cost
-            );
-            assert!(two.iterations.abs_diff(one.iterations) <= 3.max(one.iterations / 10));
-            assert_eq!(two.theta, again.theta);
+            for threads in [2, 3] {
+                let par = solver.solve_threads(&p, &theta0, threads).expect("solve");
+                let again = solver.solve_threads(&p, &theta0, threads).expect("solve");
+                assert!(one.status.converged() && par.status.converged());
+                assert!(
+                    (par.cost - one.cost).abs() <= 1e-10 * one.cost,
+                    "{threads} threads: {} vs {}",
+                    par.cost,
+                    one.cost
+                );
+                assert!(par.iterations.abs_diff(one.iterations) <= 3.max(one.iterations / 10));
+                assert_eq!(par.theta, again.theta);
+            }
         }
     }
 

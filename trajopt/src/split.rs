@@ -505,7 +505,17 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problems::pendulum_swingup;
+    use crate::problem::{Eq3Problem, TrackingCost};
+    use crate::problems::{Pendulum, pendulum_swingup};
+
+    /// The benchmark swing-up at 120 steps, its start, layout and residuals.
+    fn benchmark() -> (Eq3Problem<Pendulum, TrackingCost>, Vec<f64>, BandLayout, Vec<f64>) {
+        let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
+        let layout = p.band_layout().expect("band form");
+        let mut r = vec![0.0; p.n_residuals()];
+        p.residuals(&theta, &mut r).expect("residuals");
+        (p, theta, layout, r)
+    }
 
     /// The two-part elimination gives the step of the whole damped system,
     /// and the product of the model matrix with it, to rounding; the
@@ -513,11 +523,8 @@ mod tests {
     #[test]
     #[allow(clippy::needless_range_loop)]
     fn the_split_solve_equals_the_whole_solve() {
-        let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
-        let layout = p.band_layout().expect("band form");
+        let (p, theta, layout, r) = benchmark();
         let n = layout.position.len();
-        let mut r = vec![0.0; p.n_residuals()];
-        p.residuals(&theta, &mut r).expect("residuals");
         for with_s in [false, true] {
             let mut whole = BandedSym::zeros(n, layout.half_bandwidth);
             let (mut grad, mut diag_s) = (vec![0.0; n], vec![0.0; n]);
@@ -607,11 +614,8 @@ mod tests {
     /// J^\top J, 10^{-12})$ and $-J^\top r$ of both parts' sums.
     #[test]
     fn the_helper_part_damps_with_its_own_numbers() {
-        let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
-        let layout = p.band_layout().expect("band form");
+        let (p, theta, layout, r) = benchmark();
         let n = layout.position.len();
-        let mut r = vec![0.0; p.n_residuals()];
-        p.residuals(&theta, &mut r).expect("residuals");
         for with_s in [false, true] {
             let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
             a.assemble(&p, &theta, &r, with_s).expect("part 0");
@@ -640,11 +644,8 @@ mod tests {
     /// split elimination as by the whole factorisation.
     #[test]
     fn an_indefinite_system_is_refused_in_parts() {
-        let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
-        let layout = p.band_layout().expect("band form");
+        let (p, theta, layout, r) = benchmark();
         let n = layout.position.len();
-        let mut r = vec![0.0; p.n_residuals()];
-        p.residuals(&theta, &mut r).expect("residuals");
         let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
         a.assemble(&p, &theta, &r, false).expect("part 0");
         b.assemble(&p, &theta, &r, false).expect("part 1");
