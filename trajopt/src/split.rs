@@ -19,7 +19,9 @@
 //! its interior comes first there too and both threads run the same
 //! leading elimination ([`BandedSym::eliminate_leading`]). The matrix
 //! $H + \mu D$ is positive definite exactly when both interior blocks and
-//! $C_0 + C_1 + \mu D_S$ are, so failures are detected as in one piece.
+//! $C_0 + C_1 + \mu D_S$ are, so failures are detected as in one piece;
+//! the first part to meet a pivot that is not positive stops the other
+//! through a shared flag ([`BandedSym::eliminate_leading`]'s `abort`).
 //!
 //! This replaces adding the helper's half into the solver's matrix and
 //! factorising all of it on one thread; the iterates agree with the
