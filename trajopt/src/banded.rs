@@ -201,9 +201,15 @@ impl BandedSym {
             x.len() == self.n && y.len() == self.n,
             "vector length differs from the matrix size"
         );
+        self.mul_vec_leading(self.n, x, y);
+    }
+
+    /// [`mul_vec`](Self::mul_vec) for a matrix known to be zero beyond its
+    /// first `end` rows and columns: only those columns are visited.
+    pub(crate) fn mul_vec_leading(&self, end: usize, x: &[f64], y: &mut [f64]) {
         y.fill(0.0);
         let w = self.kd + 1;
-        for j in 0..self.n {
+        for j in 0..end.min(self.n) {
             let kn = self.kd.min(self.n - 1 - j);
             let col = &self.ab[j * w..j * w + kn + 1];
             let xj = x[j];
@@ -221,14 +227,7 @@ impl BandedSym {
     /// partly overwritten) if a pivot is not positive and finite: the matrix
     /// is not numerically positive definite.
     pub fn cholesky_in_place(mut self) -> std::result::Result<BandCholesky, Self> {
-        let ok = pulp::Arch::new().dispatch(CholeskyKernel {
-            n: self.n,
-            columns: self.n,
-            kd: self.kd,
-            ab: &mut self.ab,
-            abort: None,
-        });
-        if ok {
+        if self.eliminate_leading(self.n, None) {
             Ok(BandCholesky { factor: self })
         } else {
             Err(self)
@@ -402,24 +401,9 @@ impl BandCholesky {
     pub fn solve_in_place(&self, x: &mut [f64]) {
         let f = &self.factor;
         assert_eq!(x.len(), f.n, "vector length differs from the matrix size");
-        let w = f.kd + 1;
-        // L y = b
-        for j in 0..f.n {
-            let kn = f.kd.min(f.n - 1 - j);
-            let col = &f.ab[j * w..j * w + kn + 1];
-            let yj = x[j] / col[0];
-            x[j] = yj;
-            for (xi, &l) in x[j + 1..=j + kn].iter_mut().zip(&col[1..]) {
-                *xi -= l * yj;
-            }
-        }
-        // L^T x = y
-        for j in (0..f.n).rev() {
-            let kn = f.kd.min(f.n - 1 - j);
-            let col = &f.ab[j * w..j * w + kn + 1];
-            let s: f64 = x[j + 1..=j + kn].iter().zip(&col[1..]).map(|(a, b)| a * b).sum();
-            x[j] = (x[j] - s) / col[0];
-        }
+        // L y = b, then L^T x = y
+        f.forward_leading(f.n, x);
+        f.backward_leading(f.n, x);
     }
 
     /// Gives the storage back (its values are the factor's) for reuse.

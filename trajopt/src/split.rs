@@ -338,7 +338,7 @@ impl SplitPart {
             step[self.global(l)] = self.x[l];
         }
         let mut out = std::mem::take(&mut self.product);
-        mul_leading(self.model(self.newton), end, &self.x, &mut out);
+        self.model(self.newton).mul_vec_leading(end, &self.x, &mut out);
         self.product = out;
         for l in 0..end {
             product[self.global(l)] += self.product[l];
@@ -352,31 +352,11 @@ impl SplitPart {
             self.x[l] = x[self.global(l)];
         }
         let mut out = std::mem::take(&mut self.product);
-        mul_leading(self.model(newton), self.n, &self.x, &mut out);
+        self.model(newton).mul_vec(&self.x, &mut out);
         self.product = out;
         for l in 0..self.n {
             product[self.global(l)] += self.product[l];
         }
-    }
-}
-
-/// $y = A x$ for a band matrix that is zero beyond its first `end` rows
-/// and columns (`y` is written up to `end + kd`, and zero beyond).
-fn mul_leading(a: &BandedSym, end: usize, x: &[f64], y: &mut [f64]) {
-    let (n, kd) = (a.size(), a.half_bandwidth());
-    let w = kd + 1;
-    let band = a.band();
-    y.fill(0.0);
-    for j in 0..end.min(n) {
-        let kn = kd.min(n - 1 - j);
-        let col = &band[j * w..j * w + kn + 1];
-        let xj = x[j];
-        let mut acc = col[0] * xj;
-        for (i, &v) in col.iter().enumerate().skip(1) {
-            y[j + i] += v * xj;
-            acc += v * x[j + i];
-        }
-        y[j] += acc;
     }
 }
 
