@@ -298,13 +298,30 @@ impl BandedSym {
         self.ab[..stop].copy_from_slice(&other.ab[..stop]);
     }
 
-    /// The last row with a nonzero (or NaN) entry, if any.
-    pub(crate) fn last_nonzero_row(&self) -> Option<usize> {
+    /// In one pass over the band: the first column and the last row with
+    /// a nonzero (or NaN) entry, if any, and whether every entry is finite.
+    /// (The split solve scans each part after every assembly: one pass,
+    /// whose tests vectorise, instead of three searches.)
+    pub(crate) fn nonzero_extent_and_finite(&self) -> (Option<(usize, usize)>, bool) {
         let w = self.kd + 1;
-        // the last column with a nonzero entry; only the kd columns before
-        // it can reach further down
-        let last_col = self.ab.iter().rposition(|&v| v != 0.0)? / w;
-        (last_col.saturating_sub(self.kd)..=last_col)
+        let mut finite = true;
+        let (mut first, mut last) = (None, None);
+        for (j, col) in self.ab.chunks_exact(w).enumerate() {
+            // without early exits, so that the tests run on whole vectors
+            let (nonzero, col_finite) = col
+                .iter()
+                .fold((false, true), |(nz, fin), &v| (nz | (v != 0.0), fin & v.is_finite()));
+            finite &= col_finite;
+            if nonzero {
+                first.get_or_insert(j);
+                last = Some(j);
+            }
+        }
+        let (Some(first), Some(last_col)) = (first, last) else {
+            return (None, finite);
+        };
+        // only the kd columns before the last nonzero one can reach further down
+        let last_row = (last_col.saturating_sub(self.kd)..=last_col)
             .filter_map(|j| {
                 self.ab[j * w..(j + 1) * w]
                     .iter()
@@ -312,12 +329,8 @@ impl BandedSym {
                     .map(|d| j + d)
             })
             .max()
-    }
-
-    /// Whether the columns `0..end` are finite.
-    pub(crate) fn leading_columns_finite(&self, end: usize) -> bool {
-        let stop = end.min(self.n) * (self.kd + 1);
-        self.ab[..stop].iter().all(|v| v.is_finite())
+            .unwrap_or(last_col);
+        (Some((first, last_row)), finite)
     }
 }
 
@@ -518,6 +531,30 @@ mod tests {
             prop_assert_eq!(whole.band(), factor.band());
         }
 
+        /// The one-pass scan finds what entry-by-entry searches find.
+        #[test]
+        fn nonzero_extent_and_finiteness_match_a_search(
+            n in 1usize..25,
+            kd in 0usize..5,
+            entries in proptest::collection::vec((0usize..25, 0usize..5, 0u8..4), 0..12),
+        ) {
+            let mut a = BandedSym::zeros(n, kd);
+            for &(j, d, kind) in &entries {
+                let (j, i) = (j % n, j % n + d % (kd + 1));
+                if i < n {
+                    let v = [1.5, -2.0, f64::NAN, f64::INFINITY][kind as usize];
+                    a.add(i, j, v).expect("in band");
+                }
+            }
+            let cells: Vec<(usize, usize, f64)> =
+                (0..n).flat_map(|j| (j..n.min(j + kd + 1)).map(move |i| (i, j))).map(|(i, j)| (i, j, a.get(i, j))).collect();
+            let nonzero = || cells.iter().filter(|c| c.2 != 0.0);
+            let expected = nonzero().map(|c| c.1).min().zip(nonzero().map(|c| c.0).max());
+            let finite = cells.iter().all(|c| c.2.is_finite());
+            prop_assert_eq!(a.nonzero_extent_and_finite(), (expected, finite));
+            prop_assert_eq!(a.first_nonzero_column(), expected.map_or(n, |e| e.0));
+        }
+
         /// The band product equals the dense product.
         #[test]
         fn band_product_matches_dense(n in 1usize..30, kd in 0usize..6, seed in any::<u64>()) {
@@ -533,10 +570,10 @@ mod tests {
     }
 
     #[test]
-    fn leading_columns_copy_and_the_last_nonzero_row() {
+    fn leading_columns_copy_and_the_nonzero_extent() {
         let a = spd(10, 2, 3, 1.0);
         let mut b = BandedSym::zeros(10, 2);
-        assert_eq!(b.last_nonzero_row(), None);
+        assert_eq!(b.nonzero_extent_and_finite(), (None, true));
         b.copy_leading_columns(&a, 4);
         for j in 0..10 {
             for i in j..10 {
@@ -545,14 +582,15 @@ mod tests {
             }
         }
         // column 3 reaches row 5
-        assert_eq!(b.last_nonzero_row(), Some(5));
+        assert_eq!(b.nonzero_extent_and_finite(), (Some((0, 5)), true));
         let mut c = BandedSym::zeros(6, 3);
         c.add(4, 1, 1.0).expect("in band");
-        assert_eq!(c.last_nonzero_row(), Some(4));
-        assert!(b.leading_columns_finite(10));
+        assert_eq!(c.nonzero_extent_and_finite(), (Some((1, 4)), true));
+        // a NaN counts as nonzero, and is not finite
         b.add(9, 8, f64::NAN).expect("in band");
-        assert!(b.leading_columns_finite(8) && !b.leading_columns_finite(9));
-        assert_eq!(b.last_nonzero_row(), Some(9));
+        assert_eq!(b.nonzero_extent_and_finite(), (Some((0, 9)), false));
+        c.add(5, 5, f64::INFINITY).expect("in band");
+        assert_eq!(c.nonzero_extent_and_finite(), (Some((1, 5)), false));
         // an indefinite leading block is refused, and says so to the others
         let mut d = BandedSym::zeros(3, 1);
         d.add_to_diagonal(&[-1.0, 1.0, 1.0]);

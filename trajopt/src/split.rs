@@ -59,6 +59,10 @@ pub(crate) struct SplitPart {
     /// The right-hand side, then the solution, in this part's order.
     x: Vec<f64>,
     product: Vec<f64>,
+    /// The nonzero extent (global positions) and finiteness of `h` and
+    /// `grad`, found when they were formed.
+    extent: Option<(usize, usize)>,
+    finite: bool,
     /// The last elimination: interior columns and the model it used.
     interior: usize,
     newton: bool,
@@ -115,6 +119,8 @@ impl SplitPart {
             scratch: vec![0.0; n],
             x: vec![0.0; n],
             product: vec![0.0; n],
+            extent: None,
+            finite: true,
             interior: 0,
             newton: false,
         }
@@ -151,23 +157,30 @@ impl SplitPart {
             self.diag_s.fill(0.0);
         }
         self.jtj_current = false;
+        self.scan();
         Ok(self.has_s)
     }
 
-    /// Whether the matrix and gradient are finite (a non-finite entry
-    /// counts as nonzero, so the columns beyond the last nonzero row are
-    /// zero).
-    pub(crate) fn finite(&self) -> bool {
-        let end = self.h.last_nonzero_row().map_or(0, |r| r + 1);
-        self.h.leading_columns_finite(end) && self.grad.iter().all(|v| v.is_finite())
+    /// Finds the extent and finiteness of the matrix and gradient just
+    /// formed.
+    fn scan(&mut self) {
+        let (extent, finite) = self.h.nonzero_extent_and_finite();
+        self.finite = finite && self.grad.iter().all(|v| v.is_finite());
+        self.extent = extent.map(|(first, last)| {
+            let (a, b) = (self.global(first), self.global(last));
+            (a.min(b), a.max(b))
+        });
     }
 
-    /// The first and last global positions with a nonzero entry.
+    /// Whether the matrix and gradient are finite.
+    pub(crate) fn finite(&self) -> bool {
+        self.finite
+    }
+
+    /// The first and last global positions with a nonzero entry (a
+    /// non-finite entry counts as nonzero).
     pub(crate) fn extent(&self) -> Option<(usize, usize)> {
-        let last = self.h.last_nonzero_row()?;
-        let first = self.h.first_nonzero_column();
-        let (a, b) = (self.global(first), self.global(last));
-        Some((a.min(b), a.max(b)))
+        self.extent
     }
 
     /// Adds this part's diagonal into `out` (global positions).
@@ -206,6 +219,7 @@ impl SplitPart {
         self.diag_s.fill(0.0);
         self.has_s = false;
         self.jtj_current = false;
+        self.scan();
         Ok(true)
     }
 
