@@ -57,7 +57,8 @@ impl Model for Pendulum {
 
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         let (g, l, b, dt) = (self.gravity, self.length, self.damping, self.dt);
-        let acc = -(g / l) * x[0].sin() - (u[0] / l) * x[0].cos() - b * x[1];
+        let (s, c) = x[0].sin_cos();
+        let acc = -(g / l) * s - (u[0] / l) * c - b * x[1];
         next[1] = x[1] + dt * acc;
         next[0] = x[0] + dt * next[1];
         next[3] = x[3] + dt * u[0];
@@ -76,8 +77,9 @@ impl Model for Pendulum {
 
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
         let (g, l, b, dt) = (self.gravity, self.length, self.damping, self.dt);
-        let da_dth = -(g / l) * x[0].cos() + (u[0] / l) * x[0].sin();
-        let da_du = -x[0].cos() / l;
+        let (s, c) = x[0].sin_cos();
+        let da_dth = -(g / l) * c + (u[0] / l) * s;
+        let da_du = -c / l;
         // rows: theta', omega', x', v'
         let (w_th, w_om, w_u) = (dt * da_dth, 1.0 - dt * b, dt * da_du);
         fx.fill(0.0);
