@@ -1662,7 +1662,10 @@ mod tests {
                     par.cost,
                     one.cost
                 );
-                assert!(par.iterations.abs_diff(one.iterations) <= 3.max(one.iterations / 10));
+                // Gauss-Newton's last iterations gain ~1e-14 of the cost each,
+                // so the summation order decides where it stops (at N = 120:
+                // 112 iterations on one thread, 109 on two, 100 on three)
+                assert!(par.iterations.abs_diff(one.iterations) <= 3.max(one.iterations / 5));
                 assert_eq!(par.theta, again.theta);
             }
         }

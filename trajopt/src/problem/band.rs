@@ -655,7 +655,7 @@ impl KronWindow {
             for (i, &pi) in rows.phi.iter().enumerate() {
                 let start = (r0 + i * nr + a) * self.size + c0;
                 for (h, &w) in self.acc[start..start + width].iter_mut().zip(&self.row) {
-                    *h += pi * w;
+                    *h = pi.mul_add(w, *h);
                 }
             }
         }
@@ -685,7 +685,8 @@ impl KronWindow {
 /// One step's Kronecker spreads ([`BasisRows::accumulate`], and
 /// [`BasisRows::accumulate_cross`] with a cross block) compiled for the
 /// widest vector instructions the processor has (chosen at run time by
-/// `pulp`; the same arithmetic on every path).
+/// `pulp`; the same rounding on every path: the accumulations are fused
+/// multiply-adds, [`f64::mul_add`], as in the band factorisation).
 struct StepSpread<'a, 'b> {
     rows: &'a BasisRows<'b>,
     window: &'a mut KronWindow,
@@ -749,7 +750,7 @@ fn kron_fixed<const NR: usize, const NC: usize>(
                 return;
             };
             for (hv, &w) in h.iter_mut().zip(row) {
-                *hv += pi * w;
+                *hv = pi.mul_add(w, *hv);
             }
         }
     }
