@@ -307,9 +307,9 @@ impl GaussNewton {
     /// result does not depend on timing: the same `threads` gives the same
     /// bits). Forming the normal equations is most of an iteration for
     /// [`Eq3Problem`](crate::Eq3Problem): on the benchmark pendulum at
-    /// 1000 steps two threads take the Newton mode's solve from 16.8 to
-    /// 10.6 ms (best of four runs of `scripts/compare_trajopt.py`), at
-    /// 20000 steps from 424 to 302 ms (one run). The helpers spin for up to 2 ms
+    /// 1000 steps two threads take the Newton mode's solve from 17.3 to
+    /// 10.0 ms (best of six runs of `scripts/compare_trajopt.py`), at
+    /// 20000 steps from 424 to 302 ms (one run, an earlier version). The helpers spin for up to 2 ms
     /// waiting for the next part before they park, as waking a parked
     /// thread costs tens of microseconds: a helper keeps its core busy
     /// while the solver factorises, so `threads` should not exceed the
