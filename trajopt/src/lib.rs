@@ -23,11 +23,11 @@
 //!   well, each iteration takes whichever model predicted the last step
 //!   better. Which to use, from the benchmark pendulum at $N = 1000$: the
 //!   Newton mode where the residuals stay large at the solution (small
-//!   $\lambda$: 28 iterations against Gauss-Newton's 115 at $\lambda = 10^2$),
+//!   $\lambda$: 17 iterations against Gauss-Newton's 113 at $\lambda = 10^2$),
 //!   Gauss-Newton where the dynamics are nearly enforced (it converges at
 //!   $\lambda = 10^4$, the Newton mode does not), and the adaptive mode when
-//!   unsure (48 / 183 / 454 iterations at $\lambda = 10^2 / 10^3 / 10^4$
-//!   against Gauss-Newton's 115 / 358 / 447). Any mode runs on more cores
+//!   unsure (44 / 175 / 446 iterations at $\lambda = 10^2 / 10^3 / 10^4$
+//!   against Gauss-Newton's 113 / 358 / 446). Any mode runs on more cores
 //!   with [`GaussNewton::solve_parallel`], which forms the normal
 //!   equations (most of an iteration) in parts on helper threads; on two
 //!   threads it also factorises them in two parts (a two-domain

@@ -99,8 +99,10 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
         gn.cost,
         newton.cost
     );
+    // (4x: the shift of an indefinite J^T J + S shrinks fast after
+    // well-predicted steps; with the plain IPOPT decrease it was 3.6x)
     assert!(
-        2 * newton.iterations < gn.iterations,
+        4 * newton.iterations < gn.iterations,
         "{} Newton vs {} Gauss-Newton iterations",
         newton.iterations,
         gn.iterations
@@ -110,13 +112,12 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     let d: Vec<f64> = h.windows(2).map(|w| w[0] - w[1]).collect();
     let tail = &d[d.len() - 4..d.len() - 1];
     assert!(tail[2] < 1e-3 * tail[0], "decreases {tail:?}");
-    // the solution solves the exact optimality condition: J^T r = 0
-    let g = gradient(&p, &newton.theta);
-    assert!(
-        g.iter().all(|v| v.abs() < 1e-6),
-        "gradient {:e}",
-        g.iter().fold(0.0f64, |a, v| a.max(v.abs()))
-    );
+    // the solution solves the exact optimality condition J^T r = 0, to
+    // 1e-10 of the start's gradient (about 1e5 here; the solve stops once
+    // the predicted gain is at the rounding of the cost, near 1e-11)
+    let inf = |g: Vec<f64>| g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+    let (g0, g) = (inf(gradient(&p, &theta0)), inf(gradient(&p, &newton.theta)));
+    assert!(g < 1e-10 * g0, "gradient {g:e}, at the start {g0:e}");
     Ok(())
 }
 
