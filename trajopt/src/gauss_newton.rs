@@ -136,7 +136,7 @@ pub struct GaussNewtonSettings {
     ///
     /// Off by default: on the benchmark pendulum
     /// ([`pendulum_swingup`](crate::problems::pendulum_swingup)) with
-    /// $\lambda = 10^2$ it needs 17-21 iterations instead of 99-131 at
+    /// $\lambda = 10^2$ it needs 17-21 iterations instead of 101-113 at
     /// horizons 150 to 20000; but with $\lambda \ge 10^3$ (dynamics nearly enforced) it is
     /// worse: at $N = 1000$ neither mode converges within 200 iterations for
     /// $\lambda = 10^3, 10^4$ and Gauss-Newton does in 102 for $10^5$, and
@@ -314,9 +314,9 @@ impl GaussNewton {
     /// result does not depend on timing: the same `threads` gives the same
     /// bits). Forming the normal equations is most of an iteration for
     /// [`Eq3Problem`](crate::Eq3Problem): on the benchmark pendulum at
-    /// 1000 steps two threads take the Newton mode's solve from 17.3 to
-    /// 10.0 ms (best of six runs of `scripts/compare_trajopt.py`), at
-    /// 20000 steps from 424 to 302 ms (one run, an earlier version). The helpers spin for up to 2 ms
+    /// 1000 steps two threads take the Newton mode's solve from 11.7 to
+    /// 6.8 ms (best of two runs of `scripts/compare_trajopt.py`), at
+    /// 20000 steps from 283 to 172 ms (one run). The helpers spin for up to 2 ms
     /// waiting for the next part before they park, as waking a parked
     /// thread costs tens of microseconds: a helper keeps its core busy
     /// while the solver factorises, so `threads` should not exceed the
