@@ -114,7 +114,8 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     assert!(tail[2] < 1e-3 * tail[0], "decreases {tail:?}");
     // the solution solves the exact optimality condition J^T r = 0, to
     // 1e-10 of the start's gradient (about 1e5 here; the solve stops once
-    // the predicted gain is at the rounding of the cost, near 1e-11)
+    // the predicted gain is below tol_cost F, with the gradient near 1e-11
+    // of the start's)
     let inf = |g: Vec<f64>| g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
     let (g0, g) = (inf(gradient(&p, &theta0)), inf(gradient(&p, &newton.theta)));
     assert!(g < 1e-10 * g0, "gradient {g:e}, at the start {g0:e}");
