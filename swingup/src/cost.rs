@@ -10,7 +10,11 @@
 //! learned model), and Powell and DDP see the same cost. With $w_b$ large
 //! a plan exceeds a bound by little; the robot's actuator clips the rest.
 
+use std::sync::Arc;
+
 use trajopt::{StageCost, TrackingCost};
+
+use crate::support::DataSupport;
 
 /// See the [module docs](self).
 #[derive(Debug, Clone)]
@@ -19,6 +23,7 @@ pub struct SwingupCost {
     x_max: f64,
     u_max: f64,
     sqrt_wb: f64,
+    support: Option<Arc<DataSupport>>,
 }
 
 impl SwingupCost {
@@ -42,7 +47,15 @@ impl SwingupCost {
             x_max,
             u_max,
             sqrt_wb: weight.sqrt(),
+            support: None,
         })
+    }
+
+    /// Adds the penalty on leaving the data ([`DataSupport::residual`]) at
+    /// every stage but the terminal one (an eighth residual, 0 without it).
+    pub fn with_support(mut self, support: Option<Arc<DataSupport>>) -> Self {
+        self.support = support.filter(|s| s.is_active());
+        self
     }
 }
 
@@ -57,13 +70,16 @@ fn hinge(v: f64, m: f64) -> (f64, f64) {
 
 impl StageCost for SwingupCost {
     fn n_residuals(&self) -> usize {
-        7
+        7 + usize::from(self.support.is_some())
     }
 
     fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> trajopt::Result<()> {
         self.tracking.residuals(k, x, u, &mut r[..5])?;
         r[5] = self.sqrt_wb * hinge(x[2], self.x_max).0;
         r[6] = u.map_or(0.0, |u| self.sqrt_wb * hinge(u[0], self.u_max).0);
+        if let Some(s) = &self.support {
+            r[7] = u.map_or(0.0, |u| s.residual(&[x[0], x[1], x[2], x[3], u[0]], None));
+        }
         Ok(())
     }
 
@@ -75,6 +91,12 @@ impl StageCost for SwingupCost {
         jx[5 * 4 + 2] = self.sqrt_wb * hinge(x[2], self.x_max).1;
         if let Some(u) = u {
             ju[6] = self.sqrt_wb * hinge(u[0], self.u_max).1;
+            if let Some(s) = &self.support {
+                let mut g = [0.0; 5];
+                s.residual(&[x[0], x[1], x[2], x[3], u[0]], Some(&mut g));
+                jx[28..32].copy_from_slice(&g[..4]);
+                ju[7] = g[4];
+            }
         }
         Ok(())
     }
@@ -85,6 +107,10 @@ impl StageCost for SwingupCost {
         ju[5..].fill(false);
         jx[5 * 4 + 2] = true;
         ju[6] = true;
+        if self.support.is_some() {
+            jx[28..32].fill(true);
+            ju[7] = true;
+        }
     }
 }
 

@@ -433,7 +433,7 @@ mod tests {
 
         let n = demo.horizon();
         cfg.planner.state_coeffs = n + 1;
-        let (problem, theta0) = build_problem(&cfg, &demo, true_model(&cfg)).expect("problem");
+        let (problem, theta0) = build_problem(&cfg, &demo, true_model(&cfg), None).expect("problem");
         let times = demo.times();
         let basis = BSplineBasis::clamped_uniform(n + 1, 3, 0.0, times[n]).expect("basis");
         let cx = basis

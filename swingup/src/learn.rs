@@ -36,6 +36,9 @@
 //! experiments learning`), while the semiparametric model succeeds within
 //! 3 trials in each of seeds 1 to 10 (at trial 2 in 9). `--model lwr` runs the paper's.
 
+use std::sync::Arc;
+use std::time::Instant;
+
 use faer::Mat;
 use faer::sparse::SparseRowMat;
 use lwr::{Kernel, LwrSettings, TuneSettings};
@@ -53,7 +56,8 @@ use crate::demo::{Demonstration, HumanSwingup, demonstrate, near_upright};
 use crate::lqr::Lqr;
 use crate::model::{INPUTS, KnownHand, LearnedModel, LwrRegression, PendulumRegression};
 use crate::plant::{Plant, PlantParams, PlantState, from_upright};
-use crate::record::{ModelSummary, PlanSummary, RunRecord, TrialKind, TrialRecord};
+use crate::record::{ModelSummary, PlanSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
+use crate::support::DataSupport;
 use crate::truth::TrueRegression;
 
 /// Everything a learning run depends on. `swingup config` prints the
@@ -245,6 +249,18 @@ pub struct PlannerConfig {
     pub max_iters: usize,
     /// Cost-evaluation budget of Powell's method (per continuation stage).
     pub powell_evals: usize,
+    /// Weight $w$ of the penalty on planning where the robot has no data
+    /// ([`crate::support`]): each planned sample pays up to $w$ by how
+    /// little data lie near its $(s_k, u_k)$; 0 turns it off.
+    pub support_weight: f64,
+    /// Bandwidth $h$ of the data support, in units of each input's spread.
+    pub support_bandwidth: f64,
+    /// $n_0$ of the data support: the sum of kernel weights at which the
+    /// penalty has fallen to half its full weight.
+    pub support_full: f64,
+    /// Scales of the data support's metric on
+    /// $(\theta, \dot\theta, x, \dot x, u)$, relative to each input's spread.
+    pub support_scales: [f64; 5],
 }
 
 impl Default for PlannerConfig {
@@ -268,6 +284,10 @@ impl Default for PlannerConfig {
             bound_weight: 1e4,
             max_iters: 200,
             powell_evals: 200_000,
+            support_weight: 0.0,
+            support_bandwidth: 0.3,
+            support_full: 3.0,
+            support_scales: [1.0; 5],
         }
     }
 }
@@ -337,6 +357,27 @@ impl Config {
             "need at least 4 B-spline coefficients per channel"
         );
         anyhow::ensure!(self.model.bandwidth > 0.0, "the bandwidth must be positive");
+        let p = &self.planner;
+        anyhow::ensure!(
+            p.support_weight.is_finite() && p.support_weight >= 0.0,
+            "planner.support_weight must be finite and nonnegative, got {}",
+            p.support_weight
+        );
+        anyhow::ensure!(
+            p.support_bandwidth.is_finite() && p.support_bandwidth > 0.0,
+            "planner.support_bandwidth must be finite and positive, got {}",
+            p.support_bandwidth
+        );
+        anyhow::ensure!(
+            p.support_full.is_finite() && p.support_full > 0.0,
+            "planner.support_full must be finite and positive, got {}",
+            p.support_full
+        );
+        anyhow::ensure!(
+            p.support_scales.iter().all(|m| m.is_finite() && *m >= 0.0) && p.support_scales.iter().any(|m| *m > 0.0),
+            "planner.support_scales must be finite and nonnegative, and not all 0, got {:?}",
+            p.support_scales
+        );
         anyhow::ensure!(
             self.exploration.is_finite() && self.exploration >= 0.0,
             "exploration must be finite and nonnegative"
@@ -375,12 +416,15 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
     );
     while trials.len() < cfg.max_trials && !trials.iter().any(|t| t.success) {
         let index = trials.len() + 1;
+        let started = Instant::now();
         let trial = if index == 1 && cfg.start == Start::Scratch {
             let commands = exploration_commands(cfg, &demo)?;
             let home = vec![[0.0; 4]; commands.len() + 1];
-            execute(cfg, &robot, &lqr, &commands, &home, None, index, TrialKind::Exploration)
+            let mut t = execute(cfg, &robot, &lqr, &commands, &home, None, index, TrialKind::Exploration);
+            t.timing.rollout = started.elapsed().as_secs_f64();
+            t
         } else if index == 1 {
-            execute(
+            let mut t = execute(
                 cfg,
                 &robot,
                 &lqr,
@@ -389,7 +433,9 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 None,
                 index,
                 TrialKind::Imitation,
-            )
+            );
+            t.timing.rollout = started.elapsed().as_secs_f64();
+            t
         } else {
             // without a demonstration the plan starts from the last trial
             let start = match cfg.start {
@@ -401,33 +447,34 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
             let mut scheduled = cfg.clone();
             scheduled.planner.lambda = cfg.planner.lambda * cfg.planner.lambda_growth.powi(index as i32 - 2);
             let cfg = &scheduled;
-            let ((plan, gains), model_summary) = match cfg.model.kind {
+            let started = Instant::now();
+            let support = data_support(cfg, &trials)?;
+            let support_seconds = started.elapsed().as_secs_f64();
+            let at = PlannedTrial {
+                cfg,
+                demo,
+                robot: &robot,
+                lqr: &lqr,
+                support,
+                support_seconds,
+                index,
+            };
+            match cfg.model.kind {
                 ModelKind::Lwr | ModelKind::LwrParametric => {
+                    let started = Instant::now();
                     let (model, summary) = learn_model(cfg, &trials)?;
-                    (plan_and_gains(cfg, demo, &model)?, summary)
+                    at.run(&model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::Parametric => {
+                    let started = Instant::now();
                     let (model, summary) = crate::parametric::learn_parametric(cfg, &trials)?;
-                    (plan_and_gains(cfg, demo, &model)?, summary)
+                    at.run(&model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::True => {
                     let model = KnownHand::new(TrueRegression::new(cfg.robot)?, cfg.robot.dt);
-                    (plan_and_gains(cfg, demo, &model)?, true_model_summary(&trials))
+                    at.run(&model, true_model_summary(&trials), 0.0)?
                 }
-            };
-            let mut t = execute(
-                cfg,
-                &robot,
-                &lqr,
-                &plan.controls,
-                &plan.states,
-                gains.as_deref(),
-                index,
-                TrialKind::Planned,
-            );
-            t.plan = Some(plan);
-            t.model = Some(model_summary);
-            t
+            }
         };
         progress.trial(&trial);
         trials.push(trial);
@@ -573,6 +620,54 @@ pub fn execute(
         failure,
         plan: None,
         model: None,
+        diagnostics: None,
+        timing: TrialTiming::default(),
+    }
+}
+
+/// What a planned trial needs besides its model: plans, runs the plan on
+/// the robot, and records the plan against reality and the time split.
+struct PlannedTrial<'a> {
+    cfg: &'a Config,
+    demo: &'a Demonstration,
+    robot: &'a Plant,
+    lqr: &'a Lqr,
+    support: Option<Arc<DataSupport>>,
+    support_seconds: f64,
+    index: usize,
+}
+
+impl PlannedTrial<'_> {
+    fn run<G: PendulumRegression>(
+        self,
+        model: &KnownHand<G>,
+        summary: ModelSummary,
+        tuning: f64,
+    ) -> anyhow::Result<TrialRecord> {
+        let started = Instant::now();
+        let (plan, gains) = plan_and_gains(self.cfg, self.demo, model, self.support)?;
+        let planning = self.support_seconds + started.elapsed().as_secs_f64();
+        let started = Instant::now();
+        let mut t = execute(
+            self.cfg,
+            self.robot,
+            self.lqr,
+            &plan.controls,
+            &plan.states,
+            gains.as_deref(),
+            self.index,
+            TrialKind::Planned,
+        );
+        let rollout = started.elapsed().as_secs_f64();
+        t.diagnostics = Some(crate::diagnostics::diagnose(model, &plan, &t, self.demo.horizon()));
+        t.plan = Some(plan);
+        t.model = Some(summary);
+        t.timing = TrialTiming {
+            tuning,
+            planning,
+            rollout,
+        };
+        Ok(t)
     }
 }
 
@@ -589,6 +684,23 @@ pub fn training_data(trials: &[TrialRecord]) -> (Vec<[f64; 5]>, Vec<[f64; 1]>) {
         }
     }
     (xs, ys)
+}
+
+/// The support of the data of `trials` for the planner's penalty on
+/// leaving them ([`PlannerConfig::support_weight`]); `None` when it is off.
+pub fn data_support(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<Option<Arc<DataSupport>>> {
+    let p = &cfg.planner;
+    if p.support_weight == 0.0 {
+        return Ok(None);
+    }
+    let (xs, _) = training_data(trials);
+    Ok(Some(Arc::new(DataSupport::new(
+        &xs,
+        &p.support_scales,
+        p.support_bandwidth,
+        p.support_full,
+        p.support_weight,
+    )?)))
 }
 
 /// Fits the LWR model to all trials so far and tunes its metric by
@@ -758,9 +870,10 @@ pub fn build_problem<M: trajopt::Model>(
     cfg: &Config,
     demo: &Demonstration,
     model: M,
+    support: Option<Arc<DataSupport>>,
 ) -> anyhow::Result<(Eq3Problem<M, SwingupCost>, Vec<f64>)> {
     let p = &cfg.planner;
-    let cost = swingup_cost(cfg, demo)?;
+    let cost = swingup_cost(cfg, demo)?.with_support(support);
     let (state_basis, control_basis) = bases(cfg, demo)?;
     let problem = Eq3Problem::new(
         model,
@@ -819,8 +932,9 @@ pub fn plan_and_gains<G: PendulumRegression>(
     cfg: &Config,
     demo: &Demonstration,
     model: &KnownHand<G>,
+    support: Option<Arc<DataSupport>>,
 ) -> anyhow::Result<(PlanSummary, Option<Vec<[f64; 4]>>)> {
-    let plan = plan_with(cfg, demo, model)?;
+    let plan = plan_with(cfg, demo, model, support)?;
     let gains = match cfg.feedback {
         [q0, q1, q2, q3, r]
             if [q0, q1, q2, q3].iter().any(|&q| q > 0.0) && plan.states.len() == plan.controls.len() + 1 =>
@@ -832,14 +946,16 @@ pub fn plan_and_gains<G: PendulumRegression>(
     Ok((plan, gains))
 }
 
-/// Plans with the configured planner ([`PlannerConfig::solver`]).
+/// Plans with the configured planner ([`PlannerConfig::solver`]); the
+/// Eq. 3 planners with the penalty on leaving `support` (DDP without).
 pub fn plan_with<G: PendulumRegression>(
     cfg: &Config,
     demo: &Demonstration,
     model: &KnownHand<G>,
+    support: Option<Arc<DataSupport>>,
 ) -> anyhow::Result<PlanSummary> {
     match cfg.planner.solver {
-        Solver::GaussNewton | Solver::Powell => plan(cfg, demo, model),
+        Solver::GaussNewton | Solver::Powell => plan(cfg, demo, model, support),
         Solver::Ddp => crate::ddp_plan::plan_ddp(cfg, demo, model),
     }
 }
@@ -860,9 +976,14 @@ fn true_model_summary(trials: &[TrialRecord]) -> ModelSummary {
 /// [`PlannerConfig::solver`] says; DDP is [`crate::ddp_plan::plan_ddp`]),
 /// starting from the demonstration fitted by the bases (Eqs. 6-7), with a
 /// continuation in $\lambda$ ([`PlannerConfig::lambda_start`]).
-pub fn plan<M: trajopt::Model>(cfg: &Config, demo: &Demonstration, model: M) -> anyhow::Result<PlanSummary> {
+pub fn plan<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: M,
+    support: Option<Arc<DataSupport>>,
+) -> anyhow::Result<PlanSummary> {
     let p = &cfg.planner;
-    let (mut problem, theta0) = build_problem(cfg, demo, model)?;
+    let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
     let solver = GaussNewton::new(GaussNewtonSettings {
         max_iters: p.max_iters,
         ..GaussNewtonSettings::default()
@@ -1044,5 +1165,11 @@ mod tests {
         let mut cfg = Config::default();
         cfg.planner.lambda = -1.0;
         assert!(cfg.validate().expect_err("negative").to_string().contains("lambda"));
+        let mut cfg = Config::default();
+        cfg.planner.support_weight = f64::NAN;
+        assert!(cfg.validate().expect_err("nan").to_string().contains("support_weight"));
+        let mut cfg = Config::default();
+        cfg.planner.support_scales = [0.0; 5];
+        assert!(cfg.validate().expect_err("zero").to_string().contains("support_scales"));
     }
 }

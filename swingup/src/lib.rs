@@ -40,6 +40,7 @@
 pub mod cost;
 pub mod ddp_plan;
 pub mod demo;
+pub mod diagnostics;
 pub mod experiments;
 pub mod figures;
 pub mod fit_cmd;
@@ -50,5 +51,6 @@ pub mod parametric;
 pub mod plant;
 pub mod record;
 pub mod report;
+pub mod support;
 mod svg;
 pub mod truth;

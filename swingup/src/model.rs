@@ -39,6 +39,12 @@ pub trait PendulumRegression: Sync {
         let _ = z;
         None
     }
+
+    /// The model's support and the standard error of $g(z)$, if it has them.
+    fn uncertainty(&self, z: &[f64; 5]) -> Option<(f64, f64)> {
+        let _ = z;
+        None
+    }
 }
 
 /// A full model $f(s, u)$ of the robot: a [`PendulumRegression`] for the
@@ -321,6 +327,16 @@ impl PendulumRegression for LwrRegression {
 
     fn support(&self, z: &[f64; 5]) -> Option<f64> {
         Some(self.lwr.predict(z).map_or(0.0, |p| p.n_lwr))
+    }
+
+    /// The LWR's support and the standard error of its correction (the
+    /// prior is taken as exact); no weighted data: support 0, error NaN.
+    fn uncertainty(&self, z: &[f64; 5]) -> Option<(f64, f64)> {
+        Some(
+            self.lwr
+                .predict(z)
+                .map_or((0.0, f64::NAN), |p| (p.n_lwr, p.std_error[0])),
+        )
     }
 }
 

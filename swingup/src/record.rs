@@ -107,6 +107,60 @@ pub struct TrialRecord {
     pub plan: Option<PlanSummary>,
     /// The model the plan was made with (planned trials).
     pub model: Option<ModelSummary>,
+    /// The plan against what the robot then did (planned trials with a
+    /// learned or known model; see [`crate::diagnostics`]). Records saved
+    /// before it existed read back without it.
+    #[serde(default)]
+    pub diagnostics: Option<TrialDiagnostics>,
+    /// Where the trial's wall time went. Records saved before it existed
+    /// read back with zeros.
+    #[serde(default)]
+    pub timing: TrialTiming,
+}
+
+/// Where a trial's wall time went (s).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
+pub struct TrialTiming {
+    /// Fitting the model and tuning its metric by cross-validation.
+    pub tuning: f64,
+    /// Planning (with the data support, gains and diagnostics).
+    pub planning: f64,
+    /// Running the trial on the (simulated) robot.
+    pub rollout: f64,
+}
+
+/// The plan against reality, sample by sample over the swing-up window
+/// (see [`crate::diagnostics`] for how each is computed). Values a model
+/// cannot give (the support of a parametric model) are NaN.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TrialDiagnostics {
+    /// Planned minus observed initial state, $(\theta, \dot\theta, x, \dot x)$.
+    #[serde(with = "nullable")]
+    pub start_offset: Vec<f64>,
+    /// The model's support (effective number of data points, $n_{lwr}$) at
+    /// each planned $(s_k, u_k)$.
+    #[serde(with = "nullable")]
+    pub plan_support: Vec<f64>,
+    /// The model's standard error of $\Delta\dot\theta$ at each planned $(s_k, u_k)$.
+    #[serde(with = "nullable")]
+    pub plan_std_error: Vec<f64>,
+    /// The plan's per-step inconsistency with the model, $\lVert s_{k+1} -
+    /// f(s_k, u_k) \rVert / \Delta t$ (rate units, as Eq. 3 weighs it).
+    #[serde(with = "nullable")]
+    pub plan_inconsistency: Vec<f64>,
+    /// The model's support at each observed $(s_k, u_k)$ of the trial.
+    #[serde(with = "nullable")]
+    pub executed_support: Vec<f64>,
+    /// The model's standard error at each observed $(s_k, u_k)$.
+    #[serde(with = "nullable")]
+    pub executed_std_error: Vec<f64>,
+    /// The model's $\Delta\dot\theta$ minus the observed one at each observed
+    /// $(s_k, u_k)$ (rad/s per sample).
+    #[serde(with = "nullable")]
+    pub executed_error: Vec<f64>,
+    /// $|\theta^{obs}_k - \theta^{plan}_k|$ (rad).
+    #[serde(with = "nullable")]
+    pub angle_gap: Vec<f64>,
 }
 
 /// A whole learning run.

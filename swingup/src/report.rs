@@ -10,6 +10,7 @@
 //! | `demonstration.csv` | [`write_run`] | the demonstration's states and commands |
 //! | `figure3.svg` | [`write_run`] | hand position and pendulum angle per trial, the demonstration dotted (the paper's Figure 3) |
 //! | `learning.svg` | [`write_run`] | largest angle per trial, and the plan's inconsistency |
+//! | `diagnostics.svg` | [`write_run`] | the plan against reality per trial ([`crate::diagnostics`]) |
 //!
 //! `NN` is the trial number ([`TrialRecord::index`], from 1), two digits.
 //! Non-finite numbers are written as `null` in JSON and read back as NaN.
@@ -23,7 +24,7 @@ use anyhow::Context as _;
 
 use crate::demo::Demonstration;
 use crate::record::{RunRecord, TrialKind, TrialRecord};
-use crate::svg::{Panel, colour, heading, legend_entry, nice_ticks, range, svg_open, xml};
+use crate::svg::{Panel, colour, heading, legend_entry, nice_ticks, num, range, svg_open, xml};
 
 /// Header of a trial's CSV log.
 pub const TRIAL_CSV_HEADER: &str = "k,t,theta,theta_dot,x,x_dot,obs_theta,obs_theta_dot,obs_x,obs_x_dot,command,phase";
@@ -43,7 +44,8 @@ pub fn trial_csv_name(index: usize) -> String {
 
 /// Writes the whole run into `dir` (created if needed): `report.json`,
 /// `report.md`, `demonstration.csv`, `figure3.svg`, `learning.svg`, and for
-/// each trial `trial_NN.json` and `trial_NN.csv` (as [`write_trial`]).
+/// `diagnostics.svg`, and for each trial `trial_NN.json` and
+/// `trial_NN.csv` (as [`write_trial`]).
 pub fn write_run(dir: &Path, run: &RunRecord) -> io::Result<()> {
     fs::create_dir_all(dir)?;
     for trial in &run.trials {
@@ -53,6 +55,7 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> io::Result<()> {
     write_atomic(&dir.join("demonstration.csv"), &demonstration_csv(&run.demonstration))?;
     write_atomic(&dir.join("figure3.svg"), &figure3_svg(run))?;
     write_atomic(&dir.join("learning.svg"), &learning_svg(run))?;
+    write_atomic(&dir.join("diagnostics.svg"), &crate::diagnostics::diagnostics_svg(run))?;
     write_atomic(&dir.join("report.md"), &markdown(run))?;
     Ok(())
 }
@@ -179,22 +182,6 @@ pub fn demonstration_csv(demo: &Demonstration) -> String {
 }
 
 // ---------------------------------------------------------------- Markdown
-
-/// A number with about four significant digits, `—` if not finite.
-fn num(x: f64) -> String {
-    if !x.is_finite() {
-        return "—".into();
-    }
-    let a = x.abs();
-    if a == 0.0 {
-        "0".into()
-    } else if (1e-3..1e5).contains(&a) {
-        let decimals = (3 - a.log10().floor() as i32).clamp(0, 6) as usize;
-        format!("{x:.decimals$}")
-    } else {
-        format!("{x:.3e}")
-    }
-}
 
 /// Text for a Markdown table cell: no `|` or line breaks.
 fn cell(text: &str) -> String {
@@ -350,6 +337,8 @@ pub fn markdown(run: &RunRecord) -> String {
         md.push('\n');
     }
 
+    md.push_str(&crate::diagnostics::markdown_section(run));
+
     let _ = writeln!(md, "## Plots and files\n");
     let _ = writeln!(
         md,
@@ -358,6 +347,11 @@ pub fn markdown(run: &RunRecord) -> String {
     let _ = writeln!(
         md,
         "- [learning.svg](learning.svg): largest angle per trial and the plan's inconsistency"
+    );
+    let _ = writeln!(
+        md,
+        "- [diagnostics.svg](diagnostics.svg): the model's support along each plan, its error along \
+         what the robot did, and the plan's inconsistency per step"
     );
     let _ = writeln!(md, "- [report.json](report.json): the whole run record");
     let _ = writeln!(md, "- [demonstration.csv](demonstration.csv)");

@@ -4,7 +4,7 @@ use std::fs;
 use std::path::{Path, PathBuf};
 
 use swingup::demo::Demonstration;
-use swingup::record::{ModelSummary, PlanSummary, RunRecord, TrialKind, TrialRecord};
+use swingup::record::{ModelSummary, PlanSummary, RunRecord, TrialDiagnostics, TrialKind, TrialRecord, TrialTiming};
 use swingup::report::{
     DEMONSTRATION_CSV_HEADER, TRIAL_CSV_HEADER, read_trials, trial_csv_name, trial_json_name, write_run, write_trial,
 };
@@ -101,6 +101,37 @@ fn trial(index: usize, kind: TrialKind, n: usize, peak: f64, caught_at: Option<u
         failure: if success { String::new() } else { "fell | over".into() },
         plan: planned.then(|| plan(if index == 2 { 0.0 } else { 3.0e-4 }, f64::NAN)),
         model: planned.then(|| model(20 * index, if index == 2 { f64::NAN } else { 0.05 })),
+        diagnostics: planned.then(|| diagnostics(n, index)),
+        timing: TrialTiming {
+            tuning: 0.5,
+            planning: 1.25 * index as f64,
+            rollout: 0.125,
+        },
+    }
+}
+
+/// Diagnostics with a gap in each series (a model without a value there).
+fn diagnostics(n: usize, index: usize) -> TrialDiagnostics {
+    let series = |scale: f64| -> Vec<f64> {
+        (0..n - 1)
+            .map(|k| {
+                if k == 3 {
+                    f64::NAN
+                } else {
+                    scale * (1.0 + (k as f64 * 0.4 + index as f64).sin())
+                }
+            })
+            .collect()
+    };
+    TrialDiagnostics {
+        start_offset: vec![0.01 * index as f64, 0.0, 0.0, 0.0],
+        plan_support: series(20.0),
+        plan_std_error: series(0.01),
+        plan_inconsistency: series(0.5),
+        executed_support: series(10.0),
+        executed_std_error: series(0.02),
+        executed_error: series(0.03),
+        angle_gap: (0..n).map(|k| 0.02 * k as f64).collect(),
     }
 }
 
@@ -265,9 +296,22 @@ fn markdown_has_the_trial_table_and_the_result() -> Result<(), Box<dyn std::erro
         md.contains("| 2 | 1.000 | 0.5000 | 0 | 2.000 | 1.500 | 0.3000 |"),
         "{md}"
     );
+    // the plan against reality: one row per planned trial, the time split
+    assert!(md.contains("## Plan against reality"), "{md}");
+    assert!(
+        md.contains("1.500 s fitting and tuning models, 7.500 s planning, 0.3750 s running the robot"),
+        "{md}"
+    );
+    assert!(md.lines().any(|l| l.starts_with("| 2 | 0.02000 |")), "{md}");
+    assert!(
+        md.lines()
+            .any(|l| l.starts_with("| 3 | 0.03000 |") && l.contains("| 11 |")),
+        "{md}"
+    );
     for link in [
         "figure3.svg",
         "learning.svg",
+        "diagnostics.svg",
         "demonstration.csv",
         "trial_01.csv",
         "trial_03.json",
@@ -332,7 +376,7 @@ fn plots_are_svg_with_a_line_per_trial() -> Result<(), Box<dyn std::error::Error
     run.trials[0].failure = "x < 0 & \"lost\"".into();
     write_run(dir.path(), &run)?;
     let n = run.trials.len();
-    for name in ["figure3.svg", "learning.svg"] {
+    for name in ["figure3.svg", "learning.svg", "diagnostics.svg"] {
         let svg = read(dir.path(), name)?;
         assert!(svg.starts_with("<svg"), "{name}");
         assert!(svg.trim_end().ends_with("</svg>"), "{name}");
