@@ -39,6 +39,21 @@ enum Command {
     /// metric by leave-one-out cross-validation, report the tuned scale of
     /// each input and, with a test file, the test error and predictions.
     Fit(swingup::fit_cmd::FitArgs),
+    /// How accurate must a model be for an open-loop swing-up? Plans with
+    /// the exact dynamics of the robot with one parameter off by a factor,
+    /// runs each plan on the real robot over seeds; writes
+    /// sensitivity.json and sensitivity.md.
+    Sensitivity(SensitivityArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+struct SensitivityArgs {
+    /// Seeds of sensor noise per plan.
+    #[arg(long, default_value_t = 10)]
+    seeds: u64,
+    /// Output directory.
+    #[arg(long, default_value = "runs/sensitivity")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -123,7 +138,29 @@ fn main() -> anyhow::Result<()> {
         Command::Learn(args) => learn(&args),
         Command::Fit(args) => swingup::fit_cmd::fit_command(&args),
         Command::Experiments(args) => experiments(&args),
+        Command::Sensitivity(args) => sensitivity(&args),
     }
+}
+
+fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
+    use swingup::sensitivity::{code_version, default_perturbations, markdown, open_loop_tolerance};
+    let perturbations = default_perturbations();
+    println!(
+        "planning with {} perturbed exact models, each run on the robot over {} seeds",
+        perturbations.len(),
+        args.seeds
+    );
+    let rows = open_loop_tolerance(&Config::default(), &perturbations, args.seeds)?;
+    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
+    let md = markdown(&rows, &code_version());
+    write_atomic(
+        &args.out.join("sensitivity.json"),
+        &serde_json::to_string_pretty(&rows)?,
+    )?;
+    write_atomic(&args.out.join("sensitivity.md"), &md)?;
+    print!("{md}");
+    println!("written: {}", args.out.join("sensitivity.md").display());
+    Ok(())
 }
 
 fn load_config(args: &LearnArgs) -> anyhow::Result<Config> {
