@@ -343,21 +343,65 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
     out
 }
 
+/// One of `count` parts of a grid (`index` from 1 to `count`): the runs
+/// whose position in the grid's fixed order is `index - 1` modulo `count`,
+/// so that `count` machines (or a batch scheduler's job array) can share a
+/// grid, each part about equally long.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub struct Shard {
+    /// This part, from 1.
+    pub index: usize,
+    /// Number of parts.
+    pub count: usize,
+}
+
+impl Shard {
+    /// Whether the run at `position` of the grid's order belongs to this part.
+    pub fn contains(&self, position: usize) -> bool {
+        position % self.count == self.index - 1
+    }
+}
+
+impl std::str::FromStr for Shard {
+    type Err = String;
+
+    /// `K/N` with $1 \le K \le N$.
+    fn from_str(text: &str) -> Result<Self, Self::Err> {
+        let bad = || format!("a shard is K/N with 1 <= K <= N (e.g. 2/4), got {text:?}");
+        let (k, n) = text.split_once('/').ok_or_else(bad)?;
+        let (index, count): (usize, usize) = (
+            k.trim().parse().map_err(|_| bad())?,
+            n.trim().parse().map_err(|_| bad())?,
+        );
+        if index == 0 || index > count {
+            return Err(bad());
+        }
+        Ok(Self { index, count })
+    }
+}
+
 /// Runs the experiments `which` on the grid `settings`, calling `progress`
 /// after each run with (runs done, runs in all, the run) so that the caller
 /// can save it at once. Runs in `previous` (an interrupted grid's, saved
 /// that way) are kept and not run again; with `run_missing` false nothing
 /// runs and the report covers `previous` alone (each variant says how many
-/// runs it has).
+/// runs it has). With a `shard`, only that part of the grid runs (the
+/// report covers it and `previous`).
 pub fn run_experiments(
     which: &[Experiment],
     settings: &ExperimentSettings,
     previous: Vec<RunSummary>,
     run_missing: bool,
+    shard: Option<Shard>,
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
 ) -> anyhow::Result<ExperimentsReport> {
     let start = Instant::now();
-    let all = jobs(which, settings);
+    let all: Vec<Job> = jobs(which, settings)
+        .into_iter()
+        .enumerate()
+        .filter(|(i, _)| shard.is_none_or(|s| s.contains(*i)))
+        .map(|(_, j)| j)
+        .collect();
     let total = all.len();
     let key = |e: &str, v: &str, seed: u64| (e.to_string(), v.to_string(), seed);
     let wanted: Vec<_> = all.iter().map(|j| key(j.experiment, &j.variant, j.cfg.seed)).collect();
@@ -914,6 +958,18 @@ mod tests {
 
     /// The beyond grid has the three learning-from-scratch variants, each
     /// without a demonstration and otherwise as its model's default.
+    #[test]
+    fn shards_split_the_grid_and_parse_strictly() {
+        let shards: Vec<Shard> = (1..=3).map(|k| format!("{k}/3").parse().expect("shard")).collect();
+        for position in 0..20 {
+            assert_eq!(shards.iter().filter(|s| s.contains(position)).count(), 1);
+        }
+        assert!(shards[1].contains(1) && shards[1].contains(4) && !shards[1].contains(2));
+        for bad in ["0/3", "4/3", "3", "a/b", "1/0", ""] {
+            assert!(bad.parse::<Shard>().is_err(), "{bad}");
+        }
+    }
+
     #[test]
     fn beyond_learns_from_scratch_for_each_model() {
         let settings = ExperimentSettings::quick();

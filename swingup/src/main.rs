@@ -119,9 +119,16 @@ struct ExperimentsArgs {
     /// finished run) and run only the missing ones.
     #[arg(long)]
     resume: bool,
-    /// With --resume: run nothing, write the report of the saved runs alone.
+    /// With --resume: run nothing, write the report of the saved runs alone
+    /// (of every `runs*.jsonl` in `--out`: merge shards by copying their
+    /// files into one directory).
     #[arg(long, requires = "resume")]
     report_only: bool,
+    /// Run only part K of N of the grid (e.g. `--shard 2/4`), for N machines
+    /// or a batch scheduler's job array; the part's runs go to
+    /// `runs-K-of-N.jsonl`.
+    #[arg(long)]
+    shard: Option<swingup::experiments::Shard>,
     /// Also write the claims table into this Markdown file (the README),
     /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines.
     #[arg(long)]
@@ -306,15 +313,12 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
-    let log = out.join("runs.jsonl");
-    let previous: Vec<swingup::experiments::RunSummary> = if args.resume && log.exists() {
-        std::fs::read_to_string(&log)
-            .with_context(|| format!("reading {}", log.display()))?
-            .lines()
-            .filter(|l| !l.trim().is_empty())
-            .map(serde_json::from_str)
-            .collect::<Result<_, _>>()
-            .with_context(|| format!("parsing {}", log.display()))?
+    let log = out.join(match args.shard {
+        Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
+        None => "runs.jsonl".into(),
+    });
+    let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
+        read_saved_runs(out)?
     } else {
         std::fs::write(&log, "").with_context(|| format!("creating {}", log.display()))?;
         vec![]
@@ -343,26 +347,33 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     }
     bar.set_position(previous.len() as u64);
     bar.reset_eta();
-    let report = run_experiments(&which, &settings, previous, !args.report_only, &|done, total, r| {
-        if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
-            use std::io::Write;
-            if let Err(e) = writeln!(f, "{line}") {
-                eprintln!("warning: could not save the run to runs.jsonl: {e}");
+    let report = run_experiments(
+        &which,
+        &settings,
+        previous,
+        !args.report_only,
+        args.shard,
+        &|done, total, r| {
+            if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
+                use std::io::Write;
+                if let Err(e) = writeln!(f, "{line}") {
+                    eprintln!("warning: could not save the run to runs.jsonl: {e}");
+                }
             }
-        }
-        let line = format!(
-            "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
-            r.experiment,
-            r.variant,
-            r.seed,
-            r.success_trial
-                .map_or("no success".into(), |t| format!("success at trial {t}")),
-            r.seconds
-        );
-        bar.set_length(total as u64);
-        bar.set_position(done as u64);
-        bar.suspend(|| println!("{line}"));
-    })?;
+            let line = format!(
+                "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
+                r.experiment,
+                r.variant,
+                r.seed,
+                r.success_trial
+                    .map_or("no success".into(), |t| format!("success at trial {t}")),
+                r.seconds
+            );
+            bar.set_length(total as u64);
+            bar.set_position(done as u64);
+            bar.suspend(|| println!("{line}"));
+        },
+    )?;
     bar.finish_and_clear();
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
@@ -393,6 +404,36 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         report.seconds
     );
     Ok(())
+}
+
+/// The runs saved in every `runs*.jsonl` of `dir` (a grid's file, or its
+/// shards' files), in file-name order; a run saved twice counts once.
+fn read_saved_runs(dir: &Path) -> anyhow::Result<Vec<swingup::experiments::RunSummary>> {
+    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("runs") && n.ends_with(".jsonl"))
+        })
+        .collect();
+    files.sort();
+    let mut runs: Vec<swingup::experiments::RunSummary> = Vec::new();
+    for file in files {
+        let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+        for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+            let run: swingup::experiments::RunSummary =
+                serde_json::from_str(line).with_context(|| format!("parsing {} line {}", file.display(), i + 1))?;
+            let same = |r: &swingup::experiments::RunSummary| {
+                (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed)
+            };
+            if !runs.iter().any(same) {
+                runs.push(run);
+            }
+        }
+    }
+    Ok(runs)
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {

@@ -17,7 +17,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         // the semiparametric model learns in two trials: a short test
         model: ModelKind::LwrParametric,
     };
-    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, &|_, _, _| {})?;
+    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &|_, _, _| {})?;
     assert_eq!(report.runs.len(), 2);
     let by = |v: &str| report.variants.iter().find(|x| x.variant == v);
     let zero = by("lambda=0e0").ok_or("no lambda = 0 variant")?;
@@ -33,9 +33,14 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     let back: ExperimentsReport = serde_json::from_str(&serde_json::to_string(&report)?)?;
     assert_eq!(back.runs.len(), report.runs.len());
     // resumed with its runs, nothing runs again and the result is the same
-    let again = run_experiments(&[Experiment::Lambda], &settings, back.runs.clone(), true, &|_, _, _| {
-        panic!("a finished run ran again")
-    })?;
+    let again = run_experiments(
+        &[Experiment::Lambda],
+        &settings,
+        back.runs.clone(),
+        true,
+        None,
+        &|_, _, _| panic!("a finished run ran again"),
+    )?;
     assert_eq!(again.variants, report.variants);
     // the report of the saved runs alone, one of them dropped: nothing runs
     let fewer = run_experiments(
@@ -43,9 +48,25 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         &settings,
         back.runs[..1].to_vec(),
         false,
+        None,
         &|_, _, _| panic!("nothing may run"),
     )?;
     assert_eq!(fewer.runs.len(), 1);
+    // two shards, with the lambda = 0 run saved: the first shard holds it
+    // and runs nothing, the second runs the other one alone
+    for k in [1usize, 2] {
+        let shard: swingup::experiments::Shard = format!("{k}/2").parse()?;
+        let part = run_experiments(
+            &[Experiment::Lambda],
+            &settings,
+            back.runs[..1].to_vec(),
+            true,
+            Some(shard),
+            &|_, _, r| assert_eq!(r.variant, "lambda=1e3", "shard {k} ran {}", r.variant),
+        )?;
+        assert_eq!(part.runs.len(), 1, "shard {k}");
+        assert_eq!(part.runs[0].variant, back.runs[k - 1].variant, "shard {k}");
+    }
     let md = swingup::experiments::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
