@@ -315,6 +315,9 @@ pub struct ModelConfig {
     pub kernel: Kernel,
     /// Gaussian kernel truncation, in bandwidths.
     pub cutoff: f64,
+    /// Initial metric scales relative to each input's spread (0 leaves an
+    /// input out of the distance; tuning starts from these).
+    pub input_scales: [f64; 5],
 }
 
 impl Default for ModelConfig {
@@ -327,6 +330,7 @@ impl Default for ModelConfig {
             prior_weight: 1.0,
             kernel: Kernel::Tricube,
             cutoff: 5.0,
+            input_scales: [1.0; 5],
         }
     }
 }
@@ -357,6 +361,12 @@ impl Config {
             "need at least 4 B-spline coefficients per channel"
         );
         anyhow::ensure!(self.model.bandwidth > 0.0, "the bandwidth must be positive");
+        anyhow::ensure!(
+            self.model.input_scales.iter().all(|m| m.is_finite() && *m >= 0.0)
+                && self.model.input_scales.iter().any(|m| *m > 0.0),
+            "model.input_scales must be finite and nonnegative, and not all 0, got {:?}",
+            self.model.input_scales
+        );
         let p = &self.planner;
         anyhow::ensure!(
             p.support_weight.is_finite() && p.support_weight >= 0.0,
@@ -720,7 +730,11 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(Lear
     let settings = LwrSettings {
         kernel: cfg.model.kernel,
         bandwidth: cfg.model.bandwidth,
-        scales: base_scales.clone(),
+        scales: base_scales
+            .iter()
+            .zip(&cfg.model.input_scales)
+            .map(|(b, r)| b * r)
+            .collect(),
         ridge: cfg.model.ridge,
         intercept_ridge: cfg.model.prior_weight,
         gaussian_cutoff: cfg.model.cutoff,

@@ -51,6 +51,12 @@ struct SensitivityArgs {
     /// Seeds of sensor noise per plan.
     #[arg(long, default_value_t = 10)]
     seeds: u64,
+    /// Learning runs (seeds) of the pure LWR whose models are measured.
+    #[arg(long, default_value_t = 8)]
+    model_seeds: u64,
+    /// Trials of each of those runs (models after 1, 2, ... trials).
+    #[arg(long, default_value_t = 3)]
+    model_trials: usize,
     /// Output directory.
     #[arg(long, default_value = "runs/sensitivity")]
     out: PathBuf,
@@ -150,19 +156,28 @@ fn main() -> anyhow::Result<()> {
 }
 
 fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
-    use swingup::sensitivity::{code_version, default_perturbations, markdown, open_loop_tolerance};
+    use swingup::sensitivity::{
+        code_version, default_perturbations, learned_model_error, markdown, open_loop_tolerance,
+    };
     let perturbations = default_perturbations();
     println!(
         "planning with {} perturbed exact models, each run on the robot over {} seeds",
         perturbations.len(),
         args.seeds
     );
-    let rows = open_loop_tolerance(&Config::default(), &perturbations, args.seeds)?;
+    let cfg = Config::default();
+    let rows = open_loop_tolerance(&cfg, &perturbations, args.seeds)?;
+    println!(
+        "learning with the pure LWR over {} seeds, {} trials each, to measure its error along the exact plan",
+        args.model_seeds, args.model_trials
+    );
+    let model_error = learned_model_error(&cfg, args.model_seeds, args.model_trials)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let md = markdown(&rows, &code_version());
+    let md = markdown(&rows, Some(&model_error), &code_version());
+    let json = serde_json::json!({ "tolerance": rows, "learned_model_error": model_error });
     write_atomic(
         &args.out.join("sensitivity.json"),
-        &serde_json::to_string_pretty(&rows)?,
+        &serde_json::to_string_pretty(&json)?,
     )?;
     write_atomic(&args.out.join("sensitivity.md"), &md)?;
     print!("{md}");

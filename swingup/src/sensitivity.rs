@@ -10,7 +10,13 @@
 //! the model error an open-loop plan tolerates: whatever a learned model
 //! gets wrong along the plan must stay inside them.
 //!
-//! `swingup sensitivity` runs it and writes `sensitivity.json` and
+//! The second half ([`learned_model_error`]) measures the other side of
+//! the budget: the error of the pure LWR model, learned after 1, 2, 3
+//! trials of ordinary learning runs, along the plan the exact model makes
+//! (the swing-up that works), against the error a gravity off by 1 %
+//! would make along the same plan.
+//!
+//! `swingup sensitivity` runs both and writes `sensitivity.json` and
 //! `sensitivity.md`.
 
 use std::fmt::Write as _;
@@ -19,9 +25,10 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::demo::demonstrate;
-use crate::learn::{Config, execute, plan};
+use crate::learn::{Config, ModelKind, execute, learn_model, plan, run};
 use crate::lqr::Lqr;
 use crate::model::KnownHand;
+use crate::model::PendulumRegression;
 use crate::plant::{Plant, PlantParams};
 use crate::record::TrialKind;
 use crate::truth::TrueRegression;
@@ -140,8 +147,135 @@ pub fn open_loop_tolerance(
         .collect()
 }
 
-/// `sensitivity.md`: one table per parameter, stamped with `version`.
-pub fn markdown(rows: &[SensitivityRow], version: &str) -> String {
+/// The learned model's error along the exact plan after some trials.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelErrorRow {
+    /// Trials the model was learned from (the first imitates).
+    pub trials: usize,
+    /// Runs (seeds) that had that many trials.
+    pub runs: usize,
+    /// Root mean square of $g(s_k, u_k) - \Delta\dot\theta_{true}(s_k, u_k)$
+    /// over the plan's samples with $|\theta| <$ [`SEEN_ANGLE`] (where the
+    /// imitation trial has data), all runs pooled (rad/s per sample).
+    #[serde(with = "crate::record::nullable")]
+    pub rms_seen: f64,
+    /// The same over the samples beyond [`SEEN_ANGLE`] (the final swing).
+    #[serde(with = "crate::record::nullable")]
+    pub rms_beyond: f64,
+    /// The mean error over the samples beyond [`SEEN_ANGLE`].
+    #[serde(with = "crate::record::nullable")]
+    pub bias_beyond: f64,
+}
+
+/// The angle (rad) below which the imitation trial (which peaks at 87
+/// degrees) has data.
+pub const SEEN_ANGLE: f64 = 1.4;
+
+/// Error budget and what the learned model achieves: the exact model's
+/// plan, the rms error a gravity off by `gravity_error` (e.g. 0.01) makes
+/// along it, and per number of trials the pure LWR's error along it.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ModelErrorReport {
+    /// The relative gravity error of the reference row.
+    pub gravity_error: f64,
+    /// The rms error that gravity error makes along the plan (rad/s per sample).
+    pub gravity_rms: f64,
+    /// The rms of the true $\Delta\dot\theta$ along the plan (the signal).
+    pub signal_rms: f64,
+    /// Per number of trials, the learned model's error.
+    pub rows: Vec<ModelErrorRow>,
+}
+
+/// Runs learning with the pure LWR (`cfg` with `model.kind = lwr`) for
+/// seeds `1..=seeds` and up to `max_trials` trials, refits its model after
+/// each trial, and measures the model's error along the exact model's
+/// plan (see [`ModelErrorReport`]); runs in parallel.
+///
+/// # Errors
+/// An invalid configuration or a failed run.
+pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> anyhow::Result<ModelErrorReport> {
+    cfg.validate()?;
+    anyhow::ensure!(seeds >= 1 && max_trials >= 1, "need at least one seed and one trial");
+    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+        .ok_or_else(|| anyhow::anyhow!("the human's balancing controller could not be designed"))?;
+    let truth = TrueRegression::new(cfg.robot)?;
+    let exact = plan(cfg, &demo, KnownHand::new(truth, cfg.robot.dt), None)?;
+    let points: Vec<[f64; 5]> = exact
+        .controls
+        .iter()
+        .zip(&exact.states)
+        .map(|(u, s)| [s[0], s[1], s[2], s[3], *u])
+        .collect();
+    let gravity_error = 0.01;
+    let off = TrueRegression::new(Parameter::Gravity.scale(&cfg.robot, 1.0 + gravity_error))?;
+    let rms = |v: &[f64]| (v.iter().map(|e| e * e).sum::<f64>() / v.len().max(1) as f64).sqrt();
+    let gravity_rms = rms(&points
+        .iter()
+        .map(|z| off.delta_omega(z, None) - truth.delta_omega(z, None))
+        .collect::<Vec<_>>());
+    let signal_rms = rms(&points.iter().map(|z| truth.delta_omega(z, None)).collect::<Vec<_>>());
+    let lwr = Config {
+        max_trials,
+        model: crate::learn::ModelConfig {
+            kind: ModelKind::Lwr,
+            ..cfg.model.clone()
+        },
+        ..cfg.clone()
+    };
+    // per seed, per number of trials: the errors at the seen and the beyond points
+    type Errors = Vec<(usize, Vec<f64>, Vec<f64>)>;
+    let per_seed: Vec<Errors> = (1..=seeds)
+        .into_par_iter()
+        .map(|seed| -> anyhow::Result<Errors> {
+            let c = Config { seed, ..lwr.clone() };
+            let record = run(&c, vec![], &mut |_: &crate::record::TrialRecord| {})?;
+            (1..=record.trials.len())
+                .map(|n| {
+                    let (model, _) = learn_model(&c, &record.trials[..n])?;
+                    let (mut seen, mut beyond) = (vec![], vec![]);
+                    for z in &points {
+                        let e = model.regression.delta_omega(z, None) - truth.delta_omega(z, None);
+                        if z[0].abs() < SEEN_ANGLE {
+                            seen.push(e);
+                        } else {
+                            beyond.push(e);
+                        }
+                    }
+                    Ok((n, seen, beyond))
+                })
+                .collect()
+        })
+        .collect::<anyhow::Result<_>>()?;
+    let rows = (1..=max_trials)
+        .map(|n| {
+            let these: Vec<&(usize, Vec<f64>, Vec<f64>)> = per_seed.iter().flatten().filter(|e| e.0 == n).collect();
+            let seen: Vec<f64> = these.iter().flat_map(|e| e.1.iter().copied()).collect();
+            let beyond: Vec<f64> = these.iter().flat_map(|e| e.2.iter().copied()).collect();
+            ModelErrorRow {
+                trials: n,
+                runs: these.len(),
+                rms_seen: if seen.is_empty() { f64::NAN } else { rms(&seen) },
+                rms_beyond: if beyond.is_empty() { f64::NAN } else { rms(&beyond) },
+                bias_beyond: if beyond.is_empty() {
+                    f64::NAN
+                } else {
+                    beyond.iter().sum::<f64>() / beyond.len() as f64
+                },
+            }
+        })
+        .filter(|r| r.runs > 0)
+        .collect();
+    Ok(ModelErrorReport {
+        gravity_error,
+        gravity_rms,
+        signal_rms,
+        rows,
+    })
+}
+
+/// `sensitivity.md`: one table per parameter, and the learned model's
+/// error against the budget when given, stamped with `version`.
+pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>, version: &str) -> String {
     let mut md = String::new();
     let _ = writeln!(md, "# Open-loop tolerance to model error\n");
     let _ = writeln!(
@@ -180,6 +314,38 @@ pub fn markdown(rows: &[SensitivityRow], version: &str) -> String {
         }
         md.push('\n');
     }
+    if let Some(m) = model_error {
+        let _ = writeln!(md, "## The pure LWR against that budget\n");
+        let _ = writeln!(
+            md,
+            "The pure LWR model (`--model lwr`, default settings) learned after each trial of \
+             ordinary learning runs, evaluated along the exact model's plan (the swing-up that \
+             works): root mean square of its error in the per-sample change of angular velocity \
+             (rad/s), where the imitation trial has data (|θ| < {SEEN_ANGLE} rad) and beyond (the \
+             final swing). Along the same plan the true change has rms {}, and a gravity off by \
+             {} % (which fails most trials above) makes an error of rms {}.\n",
+            crate::svg::num(m.signal_rms),
+            m.gravity_error * 100.0,
+            crate::svg::num(m.gravity_rms)
+        );
+        let _ = writeln!(
+            md,
+            "| trials learned from | runs | rms error, seen | rms error, beyond | mean error, beyond |"
+        );
+        let _ = writeln!(md, "|---:|---:|---:|---:|---:|");
+        for r in &m.rows {
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} | {} |",
+                r.trials,
+                r.runs,
+                crate::svg::num(r.rms_seen),
+                crate::svg::num(r.rms_beyond),
+                crate::svg::num(r.bias_beyond)
+            );
+        }
+        md.push('\n');
+    }
     md
 }
 
@@ -203,6 +369,21 @@ mod tests {
     /// The exact model's plan succeeds on every seed; a model whose
     /// pendulum is 10 % longer fails on every seed (its plan pumps too much
     /// energy); a bad factor is an error naming the parameter.
+    /// The budget row: a 1 % gravity error is about 1 % of the signal's
+    /// gravity part; after one trial the LWR is far outside it beyond the
+    /// imitation's data, and the table shows each row.
+    #[test]
+    fn learned_model_error_is_measured_against_the_budget() {
+        let cfg = Config::default();
+        let m = learned_model_error(&cfg, 1, 2).expect("model error");
+        assert!(m.gravity_rms > 0.0 && m.gravity_rms < 0.02 * m.signal_rms, "{m:?}");
+        assert_eq!(m.rows.len(), 2);
+        assert!(m.rows.iter().all(|r| r.runs == 1 && r.rms_seen.is_finite()));
+        assert!(m.rows[0].rms_beyond > 10.0 * m.gravity_rms, "{m:?}");
+        let md = markdown(&[], Some(&m), "commit test");
+        assert!(md.lines().any(|l| l.starts_with("| 1 | 1 |")), "{md}");
+    }
+
     #[test]
     fn exact_model_works_and_a_ten_percent_error_does_not() {
         let cfg = Config::default();
@@ -211,7 +392,7 @@ mod tests {
         assert_eq!(rows[0].successes, 2, "{:?}", rows[0]);
         assert_eq!(rows[1].successes, 0, "{:?}", rows[1]);
         assert!(rows[1].max_angles.iter().all(|a| *a > 200.0), "{:?}", rows[1]);
-        let md = markdown(&rows, "commit test");
+        let md = markdown(&rows, None, "commit test");
         assert!(md.contains("| 1 | 2/2 |") && md.contains("| 1.1 | 0/2 |"), "{md}");
         let e = open_loop_tolerance(&cfg, &[(Parameter::Gravity, -1.0)], 1)
             .expect_err("negative")
