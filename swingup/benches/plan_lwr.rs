@@ -1,0 +1,72 @@
+//! Planning the swing-up with the learned LWR model: the Eq. 3 plan
+//! (Gauss-Newton over cubic B-splines, the default planner with its
+//! lambda continuation) with the pure LWR learned from trials 1-2 of a
+//! fixed seed, on one and on two threads; and one model query with its
+//! Jacobian, the planner's inner loop.
+//!
+//! `cargo bench -p swingup --bench plan_lwr`
+
+use std::hint::black_box;
+
+use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
+use swingup::demo::demonstrate;
+use swingup::learn::{Config, ModelKind, learn_model, plan, run};
+use swingup::model::{LearnedModel, PendulumRegression};
+
+/// The default configuration with the pure LWR, its model learned from
+/// the first two trials of seed 1, and the demonstration.
+fn setup() -> (Config, LearnedModel, swingup::demo::Demonstration) {
+    let mut cfg = Config {
+        seed: 1,
+        max_trials: 2,
+        ..Config::default()
+    };
+    cfg.model.kind = ModelKind::Lwr;
+    let record = run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}).expect("learning run");
+    let (model, summary) = learn_model(&cfg, &record.trials[..2]).expect("model");
+    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demo");
+    let p = plan(&cfg, &demo, &model, None).expect("plan");
+    eprintln!(
+        "plan_lwr: model of {} points (bandwidth {:.3}, scales {:?}); the plan takes {} iterations ({})",
+        summary.n_points, summary.bandwidth, summary.scales, p.iterations, p.status
+    );
+    (cfg, model, demo)
+}
+
+fn plan_with_lwr(c: &mut Criterion) {
+    let (cfg, model, demo) = setup();
+    let mut group = c.benchmark_group("plan_lwr");
+    group.sample_size(10);
+    for threads in [1usize, 2] {
+        let pool = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .build()
+            .expect("thread pool");
+        group.bench_with_input(BenchmarkId::new("threads", threads), &threads, |b, _| {
+            b.iter(|| pool.install(|| plan(&cfg, &demo, &model, None).expect("plan")));
+        });
+    }
+    group.finish();
+
+    // one query with its Jacobian at points of the demonstration
+    let points: Vec<[f64; 5]> = demo
+        .controls
+        .iter()
+        .zip(&demo.states)
+        .map(|(u, s)| [s[0], s[1], s[2], s[3], *u])
+        .collect();
+    let mut group = c.benchmark_group("lwr_query_with_jacobian");
+    group.bench_function("demonstration_points", |b| {
+        b.iter(|| {
+            let mut j = [0.0; 5];
+            points
+                .iter()
+                .map(|z| model.regression.delta_omega(black_box(z), Some(&mut j)))
+                .sum::<f64>()
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, plan_with_lwr);
+criterion_main!(benches);
