@@ -758,6 +758,21 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(Lear
         (lwr.settings().clone(), loo.normalized_mse)
     };
     lwr.set_settings(settings.clone())?;
+    // the LWR part against its prior: LOO MSE of prior + LWR over the prior's MSE
+    let resid: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| y[0] - model.prior().delta_omega(x, None))
+        .collect();
+    let n = resid.len() as f64;
+    let mean = resid.iter().sum::<f64>() / n;
+    let variance = resid.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n;
+    let prior_mse = resid.iter().map(|r| r * r).sum::<f64>() / n;
+    let lwr_vs_prior = if prior_mse > 0.0 {
+        loo_nmse * variance / prior_mse
+    } else {
+        f64::NAN
+    };
     let summary = ModelSummary {
         kind: if cfg.model.kind == ModelKind::LwrParametric {
             "lwr-parametric"
@@ -770,6 +785,7 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(Lear
         scales: settings.scales.iter().zip(&base_scales).map(|(s, b)| s / b).collect(),
         bandwidth: settings.bandwidth,
         loo_nmse,
+        lwr_vs_prior,
     };
     Ok((KnownHand::new(model, cfg.robot.dt), summary))
 }
@@ -983,6 +999,7 @@ fn true_model_summary(trials: &[TrialRecord]) -> ModelSummary {
         scales: vec![],
         bandwidth: f64::NAN,
         loo_nmse: 0.0,
+        lwr_vs_prior: f64::NAN,
     }
 }
 

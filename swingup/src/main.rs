@@ -488,8 +488,20 @@ fn print_trial(t: &TrialRecord) {
         TrialKind::Exploration => "exploration".to_string(),
         TrialKind::Planned => match (&t.plan, &t.model) {
             (Some(p), Some(m)) => format!(
-                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}",
-                p.status, p.iterations, p.seconds, p.cost, p.task, p.inconsistency, m.n_points, m.loo_nmse
+                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}{}",
+                p.status,
+                p.iterations,
+                p.seconds,
+                p.cost,
+                p.task,
+                p.inconsistency,
+                m.n_points,
+                m.loo_nmse,
+                if m.lwr_vs_prior.is_finite() {
+                    format!(", LWR/prior error {:.3}", m.lwr_vs_prior)
+                } else {
+                    String::new()
+                }
             ),
             _ => "planned".to_string(),
         },

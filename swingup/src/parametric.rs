@@ -342,6 +342,7 @@ impl ParametricRegression {
             scales: Vec::new(),
             bandwidth: f64::NAN,
             loo_nmse: self.loo_nmse,
+            lwr_vs_prior: f64::NAN,
         }
     }
 }

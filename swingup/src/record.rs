@@ -74,6 +74,18 @@ pub struct ModelSummary {
     /// Leave-one-out normalised mean squared error after tuning.
     #[serde(with = "nullable")]
     pub loo_nmse: f64,
+    /// How much the nonparametric part changed the predictions: the
+    /// leave-one-out mean squared error of the model (prior plus LWR)
+    /// divided by the mean squared error of its prior alone on the same
+    /// data. 1: the LWR changes nothing; 0.1: it removes 90 % of the
+    /// prior's error. NaN for models without an LWR part (and in records
+    /// saved before it existed).
+    #[serde(default = "nan", with = "nullable")]
+    pub lwr_vs_prior: f64,
+}
+
+fn nan() -> f64 {
+    f64::NAN
 }
 
 /// One trial on the robot.

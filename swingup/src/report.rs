@@ -315,11 +315,14 @@ pub fn markdown(run: &RunRecord) -> String {
         let _ = writeln!(
             md,
             "Per-input scales of the distance metric after tuning, relative to the initial \
-             normalisation (0: input found irrelevant), with the bandwidth.\n"
+             normalisation (0: input found irrelevant), with the bandwidth; and how much the \
+             nonparametric part changed the predictions: the model's leave-one-out mean squared \
+             error over its prior's alone (1: the LWR changes nothing, 0.1: it removes 90 % of the \
+             prior's error).\n"
         );
         let names: Vec<String> = inputs.iter().map(|n| cell(n)).collect();
-        let _ = writeln!(md, "| trial | {} | bandwidth |", names.join(" | "));
-        let _ = writeln!(md, "|---:|{}---:|", "---:|".repeat(inputs.len()));
+        let _ = writeln!(md, "| trial | {} | bandwidth | LWR / prior error |", names.join(" | "));
+        let _ = writeln!(md, "|---:|{}---:|---:|", "---:|".repeat(inputs.len()));
         for t in &run.trials {
             let Some(m) = &t.model else { continue };
             let values: Vec<String> = inputs
@@ -332,7 +335,14 @@ pub fn markdown(run: &RunRecord) -> String {
                         .map_or("—".to_string(), |s| num(*s))
                 })
                 .collect();
-            let _ = writeln!(md, "| {} | {} | {} |", t.index, values.join(" | "), num(m.bandwidth));
+            let _ = writeln!(
+                md,
+                "| {} | {} | {} | {} |",
+                t.index,
+                values.join(" | "),
+                num(m.bandwidth),
+                num(m.lwr_vs_prior)
+            );
         }
         md.push('\n');
     }

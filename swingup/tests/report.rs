@@ -63,6 +63,7 @@ fn model(n_points: usize, loo_nmse: f64) -> ModelSummary {
         scales: vec![1.0, 0.5, 0.0, 2.0, 1.5],
         bandwidth: 0.3,
         loo_nmse,
+        lwr_vs_prior: 0.25,
     }
 }
 
@@ -293,7 +294,7 @@ fn markdown_has_the_trial_table_and_the_result() -> Result<(), Box<dyn std::erro
         "{md}"
     );
     assert!(
-        md.contains("| 2 | 1.000 | 0.5000 | 0 | 2.000 | 1.500 | 0.3000 |"),
+        md.contains("| 2 | 1.000 | 0.5000 | 0 | 2.000 | 1.500 | 0.3000 | 0.2500 |"),
         "{md}"
     );
     // the plan against reality: one row per planned trial, the time split
