@@ -60,6 +60,11 @@ struct SensitivityArgs {
     /// Output directory.
     #[arg(long, default_value = "runs/sensitivity")]
     out: PathBuf,
+    /// Also write the short summary into this Markdown file (the README),
+    /// between its `<!-- sensitivity:start -->` and
+    /// `<!-- sensitivity:end -->` lines.
+    #[arg(long)]
+    update_readme: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, Default, clap::Args)]
@@ -182,6 +187,11 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     write_atomic(&args.out.join("sensitivity.md"), &md)?;
     print!("{md}");
     println!("written: {}", args.out.join("sensitivity.md").display());
+    if let Some(readme) = &args.update_readme {
+        let short = swingup::sensitivity::readme_summary(&rows, &model_error, &code_version());
+        report::update_between(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", &short)?;
+        println!("updated the sensitivity summary in {}", readme.display());
+    }
     Ok(())
 }
 
@@ -400,14 +410,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     let table = swingup::experiments::claims_table(&report.claims);
     println!("\n{table}");
     if let Some(readme) = &args.update_readme {
-        let text = std::fs::read_to_string(readme).with_context(|| format!("reading {}", readme.display()))?;
-        let (start, end) = ("<!-- claims:start -->", "<!-- claims:end -->");
-        let (Some(a), Some(b)) = (text.find(start), text.find(end)) else {
-            anyhow::bail!("{} has no {start} ... {end} lines", readme.display());
-        };
-        anyhow::ensure!(a < b, "{}: {end} comes before {start}", readme.display());
-        let updated = format!("{}{start}\n{table}{}", &text[..a], &text[b..]);
-        write_atomic(readme, &updated)?;
+        report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &table)?;
         println!("updated the claims table in {}", readme.display());
     }
     println!(

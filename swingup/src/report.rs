@@ -72,6 +72,24 @@ pub fn write_trial(dir: &Path, trial: &TrialRecord) -> io::Result<()> {
     Ok(())
 }
 
+/// Replaces the text between the lines `start` and `end` of the file
+/// `path` with `text`.
+///
+/// # Errors
+/// The file cannot be read or written, or lacks the marker lines.
+pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str) -> anyhow::Result<()> {
+    let old = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("reading {}: {e}", path.display()))?;
+    let (Some(a), Some(b)) = (old.find(start), old.find(end)) else {
+        anyhow::bail!("{} has no {start} ... {end} lines", path.display());
+    };
+    anyhow::ensure!(a < b, "{}: {end} comes before {start}", path.display());
+    let new = format!("{}{start}\n{text}{}", &old[..a], &old[b..]);
+    let tmp = path.with_extension("tmp");
+    std::fs::write(&tmp, new).map_err(|e| anyhow::anyhow!("writing {}: {e}", tmp.display()))?;
+    std::fs::rename(&tmp, path).map_err(|e| anyhow::anyhow!("renaming to {}: {e}", path.display()))?;
+    Ok(())
+}
+
 /// Reads back the trials [`write_trial`] wrote into `dir`: `trial_01.json`,
 /// `trial_02.json`, ... in order, stopping at the first one missing (none
 /// at all, or no `dir`, gives an empty list).

@@ -349,6 +349,64 @@ pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>,
     md
 }
 
+/// The short form for the README: per parameter, the range of factors
+/// around 1 within which every seed succeeded; and the LWR's error beyond
+/// the imitation's data after each number of trials, in units of the error
+/// a 1 % gravity mistake makes. Stamped with `version`.
+pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, version: &str) -> String {
+    let mut md = String::new();
+    let _ = writeln!(
+        md,
+        "| planning model | every seed succeeded for factors | checked factors |\n|---|---|---|"
+    );
+    for parameter in [Parameter::Length, Parameter::Gravity, Parameter::Damping] {
+        let mut these: Vec<&SensitivityRow> = rows.iter().filter(|r| r.parameter == parameter).collect();
+        these.sort_by(|a, b| a.factor.total_cmp(&b.factor));
+        let Some(one) = these.iter().position(|r| r.factor == 1.0) else {
+            continue;
+        };
+        let all = |r: &&SensitivityRow| r.successes == r.seeds;
+        let lo = these[..=one]
+            .iter()
+            .rev()
+            .take_while(|r| all(r))
+            .last()
+            .map(|r| r.factor);
+        let hi = these[one..].iter().take_while(|r| all(r)).last().map(|r| r.factor);
+        let range = match (lo, hi) {
+            (Some(lo), Some(hi)) => format!("{lo} to {hi}"),
+            _ => "none (not even the exact model)".into(),
+        };
+        let checked: Vec<String> = these.iter().map(|r| r.factor.to_string()).collect();
+        let _ = writeln!(
+            md,
+            "| {} x factor | {range} | {} |",
+            parameter.name(),
+            checked.join(", ")
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n| pure LWR learned from | rms error where the imitation has data | rms error beyond it (final swing) |\n|---|---|---|"
+    );
+    for r in &model_error.rows {
+        let _ = writeln!(
+            md,
+            "| {} trial{} ({} runs) | {:.0}x a 1 % gravity error | {:.0}x |",
+            r.trials,
+            if r.trials == 1 { "" } else { "s" },
+            r.runs,
+            r.rms_seen / model_error.gravity_rms,
+            r.rms_beyond / model_error.gravity_rms
+        );
+    }
+    let _ = writeln!(
+        md,
+        "\n(`swingup sensitivity --out results --update-readme README.md` at {version}.)"
+    );
+    md
+}
+
 /// The code version for stamping generated results: `git describe
 /// --always --dirty` of the working directory, or `unknown`.
 pub fn code_version() -> String {
@@ -382,6 +440,20 @@ mod tests {
         assert!(m.rows[0].rms_beyond > 10.0 * m.gravity_rms, "{m:?}");
         let md = markdown(&[], Some(&m), "commit test");
         assert!(md.lines().any(|l| l.starts_with("| 1 | 1 |")), "{md}");
+        let rows = [(0.98, 0), (0.99, 3), (1.0, 3), (1.01, 3), (1.02, 1)].map(|(factor, successes)| SensitivityRow {
+            parameter: Parameter::Gravity,
+            factor,
+            plan_cost: 1.0,
+            successes,
+            seeds: 3,
+            max_angles: vec![180.0; 3],
+        });
+        let short = readme_summary(&rows, &m, "commit test");
+        assert!(
+            short.contains("| gravity x factor | 0.99 to 1.01 | 0.98, 0.99, 1, 1.01, 1.02 |"),
+            "{short}"
+        );
+        assert!(short.contains("| 1 trial (1 runs) |"), "{short}");
     }
 
     #[test]
