@@ -170,6 +170,8 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         perturbations.len(),
         args.seeds
     );
+    // the version before anything is written (which would make it dirty)
+    let version = code_version();
     let cfg = Config::default();
     let rows = open_loop_tolerance(&cfg, &perturbations, args.seeds)?;
     println!(
@@ -178,7 +180,7 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     );
     let model_error = learned_model_error(&cfg, args.model_seeds, args.model_trials)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let md = markdown(&rows, Some(&model_error), &code_version());
+    let md = markdown(&rows, Some(&model_error), &version);
     let json = serde_json::json!({ "tolerance": rows, "learned_model_error": model_error });
     write_atomic(
         &args.out.join("sensitivity.json"),
@@ -188,7 +190,7 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     print!("{md}");
     println!("written: {}", args.out.join("sensitivity.md").display());
     if let Some(readme) = &args.update_readme {
-        let short = swingup::sensitivity::readme_summary(&rows, &model_error, &code_version());
+        let short = swingup::sensitivity::readme_summary(&rows, &model_error, &version);
         report::update_between(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", &short)?;
         println!("updated the sensitivity summary in {}", readme.display());
     }

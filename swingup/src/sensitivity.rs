@@ -357,7 +357,8 @@ pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, v
     let mut md = String::new();
     let _ = writeln!(
         md,
-        "| planning model | every seed succeeded for factors | checked factors |\n|---|---|---|"
+        "| planning model | every seed succeeded for factors | half or more succeeded | checked factors |\n\
+         |---|---|---|---|"
     );
     for parameter in [Parameter::Length, Parameter::Gravity, Parameter::Damping] {
         let mut these: Vec<&SensitivityRow> = rows.iter().filter(|r| r.parameter == parameter).collect();
@@ -365,22 +366,27 @@ pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, v
         let Some(one) = these.iter().position(|r| r.factor == 1.0) else {
             continue;
         };
-        let all = |r: &&SensitivityRow| r.successes == r.seeds;
-        let lo = these[..=one]
-            .iter()
-            .rev()
-            .take_while(|r| all(r))
-            .last()
-            .map(|r| r.factor);
-        let hi = these[one..].iter().take_while(|r| all(r)).last().map(|r| r.factor);
-        let range = match (lo, hi) {
-            (Some(lo), Some(hi)) => format!("{lo} to {hi}"),
-            _ => "none (not even the exact model)".into(),
+        // the widest range of factors around 1 in which every row passes `ok`
+        let around = |ok: &dyn Fn(&SensitivityRow) -> bool| -> String {
+            let lo = these[..=one]
+                .iter()
+                .rev()
+                .take_while(|r| ok(r))
+                .last()
+                .map(|r| r.factor);
+            let hi = these[one..].iter().take_while(|r| ok(r)).last().map(|r| r.factor);
+            match (lo, hi) {
+                (Some(lo), Some(hi)) if lo == hi => format!("{lo} only"),
+                (Some(lo), Some(hi)) => format!("{lo} to {hi}"),
+                _ => "none".into(),
+            }
         };
+        let every = around(&|r| r.successes == r.seeds);
+        let half = around(&|r| 2 * r.successes >= r.seeds);
         let checked: Vec<String> = these.iter().map(|r| r.factor.to_string()).collect();
         let _ = writeln!(
             md,
-            "| {} x factor | {range} | {} |",
+            "| {} x factor | {every} | {half} | {} |",
             parameter.name(),
             checked.join(", ")
         );
@@ -450,7 +456,7 @@ mod tests {
         });
         let short = readme_summary(&rows, &m, "commit test");
         assert!(
-            short.contains("| gravity x factor | 0.99 to 1.01 | 0.98, 0.99, 1, 1.01, 1.02 |"),
+            short.contains("| gravity x factor | 0.99 to 1.01 | 0.99 to 1.01 | 0.98, 0.99, 1, 1.01, 1.02 |"),
             "{short}"
         );
         assert!(short.contains("| 1 trial (1 runs) |"), "{short}");
