@@ -380,6 +380,55 @@ impl std::str::FromStr for Shard {
     }
 }
 
+/// The runs saved in every `runs*.jsonl` file of `dir` (a grid's file, or
+/// its shards' files), in file-name order; a run saved twice counts once.
+/// A last line without its newline (a write cut short by a kill) is
+/// skipped, with a warning naming the file and line; any other line that
+/// does not parse is an error naming them.
+///
+/// # Errors
+/// `dir` or a file cannot be read, or a complete line does not parse.
+pub fn read_saved_runs(dir: &std::path::Path) -> anyhow::Result<(Vec<RunSummary>, Vec<String>)> {
+    use anyhow::Context as _;
+    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
+        .with_context(|| format!("reading {}", dir.display()))?
+        .filter_map(|e| e.ok().map(|e| e.path()))
+        .filter(|p| {
+            p.file_name()
+                .and_then(|n| n.to_str())
+                .is_some_and(|n| n.starts_with("runs") && n.ends_with(".jsonl"))
+        })
+        .collect();
+    files.sort();
+    let mut runs: Vec<RunSummary> = Vec::new();
+    let mut warnings = Vec::new();
+    for file in files {
+        let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+        let lines: Vec<&str> = text.split('\n').collect();
+        for (i, line) in lines.iter().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
+            let run: RunSummary = match serde_json::from_str(line) {
+                Ok(run) => run,
+                // the last piece has no newline after it: a torn write
+                Err(e) if i + 1 == lines.len() => {
+                    warnings.push(format!(
+                        "{} line {}: skipped an incomplete last record ({e}); that run will run again",
+                        file.display(),
+                        i + 1
+                    ));
+                    continue;
+                }
+                Err(e) => anyhow::bail!("{} line {}: not a saved run: {e}", file.display(), i + 1),
+            };
+            let same =
+                |r: &RunSummary| (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed);
+            if !runs.iter().any(same) {
+                runs.push(run);
+            }
+        }
+    }
+    Ok((runs, warnings))
+}
+
 /// Runs the experiments `which` on the grid `settings`, calling `progress`
 /// after each run with (runs done, runs in all, the run) so that the caller
 /// can save it at once. Runs in `previous` (an interrupted grid's, saved

@@ -345,7 +345,11 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         None => "runs.jsonl".into(),
     });
     let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
-        read_saved_runs(out)?
+        let (runs, warnings) = swingup::experiments::read_saved_runs(out)?;
+        for w in warnings {
+            eprintln!("warning: {w}");
+        }
+        runs
     } else {
         std::fs::write(&log, "").with_context(|| format!("creating {}", log.display()))?;
         vec![]
@@ -383,7 +387,8 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         &|done, total, r| {
             if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
                 use std::io::Write;
-                if let Err(e) = writeln!(f, "{line}") {
+                // one write per record: a kill leaves a whole line or a torn last line
+                if let Err(e) = f.write_all(format!("{line}\n").as_bytes()) {
                     eprintln!("warning: could not save the run to runs.jsonl: {e}");
                 }
             }
@@ -424,36 +429,6 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         report.seconds
     );
     Ok(())
-}
-
-/// The runs saved in every `runs*.jsonl` of `dir` (a grid's file, or its
-/// shards' files), in file-name order; a run saved twice counts once.
-fn read_saved_runs(dir: &Path) -> anyhow::Result<Vec<swingup::experiments::RunSummary>> {
-    let mut files: Vec<PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("runs") && n.ends_with(".jsonl"))
-        })
-        .collect();
-    files.sort();
-    let mut runs: Vec<swingup::experiments::RunSummary> = Vec::new();
-    for file in files {
-        let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
-        for (i, line) in text.lines().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-            let run: swingup::experiments::RunSummary =
-                serde_json::from_str(line).with_context(|| format!("parsing {} line {}", file.display(), i + 1))?;
-            let same = |r: &swingup::experiments::RunSummary| {
-                (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed)
-            };
-            if !runs.iter().any(same) {
-                runs.push(run);
-            }
-        }
-    }
-    Ok(runs)
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {

@@ -67,6 +67,31 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         assert_eq!(part.runs.len(), 1, "shard {k}");
         assert_eq!(part.runs[0].variant, back.runs[k - 1].variant, "shard {k}");
     }
+    // saved as runs.jsonl records: a torn last line is skipped with a
+    // warning naming the file and line, a bad complete line is an error
+    let dir = std::env::temp_dir().join(format!("swingup-saved-runs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let lines: Vec<String> = report
+        .runs
+        .iter()
+        .map(serde_json::to_string)
+        .collect::<Result<_, _>>()?;
+    let whole = format!("{}\n{}\n", lines[0], lines[1]);
+    std::fs::write(dir.join("runs.jsonl"), format!("{whole}{}", &lines[0][..20]))?;
+    std::fs::write(dir.join("runs-2-of-2.jsonl"), format!("{}\n", lines[1]))?;
+    let (runs, warnings) = swingup::experiments::read_saved_runs(&dir)?;
+    assert_eq!(runs.len(), 2, "both runs once, the torn copy skipped");
+    assert_eq!(warnings.len(), 1, "{warnings:?}");
+    assert!(warnings[0].contains("runs.jsonl line 3"), "{warnings:?}");
+    std::fs::write(
+        dir.join("runs.jsonl"),
+        format!("{}\nnot json\n{}\n", lines[0], lines[1]),
+    )?;
+    let e = swingup::experiments::read_saved_runs(&dir)
+        .expect_err("bad line")
+        .to_string();
+    assert!(e.contains("runs.jsonl line 2"), "{e}");
+    std::fs::remove_dir_all(&dir)?;
     let md = swingup::experiments::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
