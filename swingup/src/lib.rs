@@ -51,6 +51,7 @@ pub mod parametric;
 pub mod plant;
 pub mod record;
 pub mod report;
+pub mod rundir;
 pub mod sensitivity;
 pub mod support;
 mod svg;

@@ -104,6 +104,11 @@ struct LearnArgs {
     /// learning goes on after them.
     #[arg(long)]
     resume: bool,
+    /// Start a fresh run in an `--out` that holds another run: that run's
+    /// files (config.toml, report.*, trial_*, the plots) are deleted first;
+    /// nothing else in the directory is touched.
+    #[arg(long, conflicts_with = "resume")]
+    force: bool,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -140,13 +145,32 @@ struct ExperimentsArgs {
     /// `runs-K-of-N.jsonl`.
     #[arg(long)]
     shard: Option<swingup::experiments::Shard>,
+    /// Start the grid over in an `--out` whose runs file holds finished
+    /// runs (they are lost); without it such a directory is refused.
+    #[arg(long, conflicts_with = "resume")]
+    force: bool,
     /// Also write the claims table into this Markdown file (the README),
     /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines.
     #[arg(long)]
     update_readme: Option<PathBuf>,
 }
 
-fn main() -> anyhow::Result<()> {
+/// Errors print as the program's message and its causes, one line each,
+/// without a backtrace (even with `RUST_BACKTRACE` set), and exit with 1.
+fn main() -> std::process::ExitCode {
+    match run_command() {
+        Ok(()) => std::process::ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {e}");
+            for cause in e.chain().skip(1) {
+                eprintln!("  caused by: {cause}");
+            }
+            std::process::ExitCode::FAILURE
+        }
+    }
+}
+
+fn run_command() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command.unwrap_or(Command::Learn(LearnArgs::default())) {
         Command::Config => {
@@ -197,14 +221,22 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     Ok(())
 }
 
-fn load_config(args: &LearnArgs) -> anyhow::Result<Config> {
-    let mut cfg = match &args.config {
-        Some(path) => {
+/// The configuration file of `--config`, if given.
+fn config_file(args: &LearnArgs) -> anyhow::Result<Option<Config>> {
+    args.config
+        .as_ref()
+        .map(|path| {
             let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?
-        }
-        None => Config::default(),
-    };
+            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))
+        })
+        .transpose()
+}
+
+/// The command-line options over `cfg` (a `--config` file replaces it first).
+fn apply_options(args: &LearnArgs, file: Option<&Config>, cfg: &mut Config) {
+    if let Some(file) = file {
+        *cfg = file.clone();
+    }
     if let Some(seed) = args.seed {
         cfg.seed = seed;
     }
@@ -223,8 +255,6 @@ fn load_config(args: &LearnArgs) -> anyhow::Result<Config> {
     if let Some(basis) = args.basis {
         cfg.planner.basis = basis;
     }
-    cfg.validate()?;
-    Ok(cfg)
 }
 
 /// `runs/swingup-NNN`: the latest existing one (`latest`), or the first free one.
@@ -242,15 +272,24 @@ fn run_dir(latest: bool) -> anyhow::Result<PathBuf> {
 }
 
 fn learn(args: &LearnArgs) -> anyhow::Result<()> {
-    let cfg = load_config(args)?;
+    let file = config_file(args)?;
     let out = &match &args.out {
         Some(out) => out.clone(),
         None => run_dir(args.resume)?,
     };
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    // a resumed run continues with the settings that made it; a fresh one
+    // never writes over another run's files
+    let cfg = if args.resume {
+        swingup::rundir::resume_config(out, |c| apply_options(args, file.as_ref(), c))?
+    } else {
+        let mut cfg = Config::default();
+        apply_options(args, file.as_ref(), &mut cfg);
+        cfg.validate()?;
+        swingup::rundir::prepare_fresh(out, args.force)?;
+        cfg
+    };
     let previous = if args.resume {
         let trials = report::read_trials(out)?;
-        check_resume_config(out, &cfg)?;
         println!(
             "resuming {}: {} finished trial(s) read back",
             out.display(),
@@ -351,6 +390,14 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         }
         runs
     } else {
+        // a fresh grid never empties one that holds finished runs
+        let saved = std::fs::metadata(&log).map(|m| m.len()).unwrap_or(0);
+        anyhow::ensure!(
+            saved == 0 || args.force,
+            "{} holds finished runs; continue that grid with --resume, choose another --out, or pass --force \
+             to start over (its runs are then lost)",
+            log.display()
+        );
         std::fs::write(&log, "").with_context(|| format!("creating {}", log.display()))?;
         vec![]
     };
@@ -442,24 +489,6 @@ fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
 fn value_name(v: impl clap::ValueEnum) -> String {
     v.to_possible_value()
         .map_or_else(String::new, |p| p.get_name().to_string())
-}
-
-/// A resumed run must use the configuration its trials were made with.
-fn check_resume_config(out: &Path, cfg: &Config) -> anyhow::Result<()> {
-    let path = out.join("config.toml");
-    if let Ok(text) = std::fs::read_to_string(&path) {
-        let before: Config = toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?;
-        let same_except_cap = Config {
-            max_trials: cfg.max_trials,
-            ..before
-        } == *cfg;
-        anyhow::ensure!(
-            same_except_cap,
-            "{} was made with another configuration; resume with the same one (only --max-trials may change)",
-            out.display()
-        );
-    }
-    Ok(())
 }
 
 fn print_trial(t: &TrialRecord) {

@@ -1,0 +1,207 @@
+//! The rules of a learning run's directory: a fresh run never writes over
+//! another run's files, and a resumed run continues with the settings
+//! that made it.
+//!
+//! - [`prepare_fresh`]: a directory holding a run's files ([`run_files`])
+//!   is refused, naming the ways on (`--resume`, another `--out`,
+//!   `--force`); with `force` only those files are deleted, nothing else
+//!   in the directory.
+//! - [`resume_config`]: the run's saved `config.toml` is the starting
+//!   point of the resumed run's configuration; the caller's overrides may
+//!   change the trial cap only, and any other difference is refused,
+//!   naming the keys ([`config_differences`]).
+
+use std::path::{Path, PathBuf};
+
+use crate::learn::Config;
+
+/// Is `name` a file a learning run writes ([`crate::report`]), or the
+/// temporary file of one (`report.tmp` while `report.json` is written)?
+fn is_run_file(name: &str) -> bool {
+    let (stem, ext) = name.split_once('.').unwrap_or((name, ""));
+    let known = matches!(
+        stem,
+        "config" | "report" | "demonstration" | "figure3" | "learning" | "diagnostics"
+    ) || (stem.starts_with("trial_") && stem[6..].chars().all(|c| c.is_ascii_digit()));
+    known && matches!(ext, "toml" | "json" | "md" | "csv" | "svg" | "tmp" | "json.tmp")
+}
+
+/// The files of a learning run in `dir` (none if it does not exist), sorted.
+pub fn run_files(dir: &Path) -> Vec<PathBuf> {
+    let Ok(entries) = std::fs::read_dir(dir) else {
+        return Vec::new();
+    };
+    let mut files: Vec<PathBuf> = entries
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        .map(|e| e.path())
+        .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(is_run_file))
+        .collect();
+    files.sort();
+    files
+}
+
+/// Makes `dir` ready for a fresh run: creates it, and refuses when it holds
+/// another run's files, unless `force`, which deletes those files only.
+///
+/// # Errors
+/// Another run's files without `force` (the error names the directory and
+/// the ways on), or a file system error naming the path.
+pub fn prepare_fresh(dir: &Path, force: bool) -> anyhow::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+    let files = run_files(dir);
+    if files.is_empty() {
+        return Ok(());
+    }
+    anyhow::ensure!(
+        force,
+        "{} holds another run ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
+         or pass --force to delete that run's files first",
+        dir.display(),
+        files.len(),
+        files[0].file_name().and_then(|n| n.to_str()).unwrap_or("?")
+    );
+    for f in files {
+        std::fs::remove_file(&f).map_err(|e| anyhow::anyhow!("deleting {}: {e}", f.display()))?;
+    }
+    Ok(())
+}
+
+/// The dotted keys (`planner.lambda`, `seed`) whose values differ between
+/// two configurations, in alphabetical order; `max_trials` is left out
+/// when `ignore_cap`.
+pub fn config_differences(a: &Config, b: &Config, ignore_cap: bool) -> Vec<String> {
+    fn walk(prefix: &str, a: &toml::Value, b: Option<&toml::Value>, out: &mut Vec<String>) {
+        match (a, b) {
+            (toml::Value::Table(ta), Some(toml::Value::Table(tb))) => {
+                for (k, va) in ta {
+                    let key = if prefix.is_empty() {
+                        k.clone()
+                    } else {
+                        format!("{prefix}.{k}")
+                    };
+                    walk(&key, va, tb.get(k), out);
+                }
+            }
+            (va, Some(vb)) if va == vb => {}
+            _ => out.push(prefix.to_string()),
+        }
+    }
+    let (Ok(va), Ok(vb)) = (toml::Value::try_from(a), toml::Value::try_from(b)) else {
+        return vec!["(the configuration could not be compared)".into()];
+    };
+    let mut out = Vec::new();
+    walk("", &va, Some(&vb), &mut out);
+    out.retain(|k| !(ignore_cap && k == "max_trials"));
+    out
+}
+
+/// The configuration of a run resumed in `dir`: its saved `config.toml`
+/// with `overrides` applied (the caller's command-line options). Only the
+/// trial cap may change.
+///
+/// # Errors
+/// No or an unreadable `config.toml` (the run cannot be continued as it
+/// was made), or overrides that change anything but `max_trials` (the
+/// error names the keys and the way on).
+pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> anyhow::Result<Config> {
+    let path = dir.join("config.toml");
+    let text = std::fs::read_to_string(&path).map_err(|e| {
+        anyhow::anyhow!(
+            "cannot resume {}: its configuration {} cannot be read ({e}); without it the run cannot be \
+             continued as it was made (start a fresh run instead)",
+            dir.display(),
+            path.display()
+        )
+    })?;
+    let saved: Config = toml::from_str(&text).map_err(|e| anyhow::anyhow!("parsing {}: {e}", path.display()))?;
+    let mut cfg = saved.clone();
+    overrides(&mut cfg);
+    let changed = config_differences(&saved, &cfg, true);
+    anyhow::ensure!(
+        changed.is_empty(),
+        "{} was made with other settings: {} differ{} from its config.toml; resume without changing them \
+         (only --max-trials may change), or start a fresh run in another --out",
+        dir.display(),
+        changed.join(", "),
+        if changed.len() == 1 { "s" } else { "" }
+    );
+    cfg.validate()?;
+    Ok(cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    struct Scratch(PathBuf);
+
+    impl Scratch {
+        fn new(tag: &str) -> Self {
+            let p = std::env::temp_dir().join(format!("swingup-rundir-{tag}-{}", std::process::id()));
+            let _ = std::fs::remove_dir_all(&p);
+            std::fs::create_dir_all(&p).expect("scratch dir");
+            Self(p)
+        }
+    }
+
+    impl Drop for Scratch {
+        fn drop(&mut self) {
+            let _ = std::fs::remove_dir_all(&self.0);
+        }
+    }
+
+    /// A fresh run refuses a directory with another run's files, and with
+    /// `force` deletes those files and nothing else.
+    #[test]
+    fn fresh_runs_never_overwrite_another_run() {
+        let dir = Scratch::new("fresh");
+        prepare_fresh(&dir.0, false).expect("empty is fine");
+        std::fs::write(dir.0.join("notes.txt"), "mine").expect("write");
+        prepare_fresh(&dir.0, false).expect("other files are fine");
+        for f in [
+            "trial_03.json",
+            "trial_03.csv",
+            "report.md",
+            "config.toml",
+            "report.tmp",
+        ] {
+            std::fs::write(dir.0.join(f), "run").expect("write");
+        }
+        let e = prepare_fresh(&dir.0, false).expect_err("a run is there").to_string();
+        assert!(
+            e.contains("--resume") && e.contains("--force") && e.contains("5 of its files"),
+            "{e}"
+        );
+        prepare_fresh(&dir.0, true).expect("force");
+        assert!(run_files(&dir.0).is_empty());
+        assert_eq!(std::fs::read_to_string(dir.0.join("notes.txt")).expect("kept"), "mine");
+    }
+
+    /// Resuming starts from the saved configuration; changing the cap is
+    /// allowed, changing anything else is refused naming the keys; without
+    /// a saved configuration there is nothing to resume.
+    #[test]
+    fn resume_uses_the_saved_settings() {
+        let dir = Scratch::new("resume");
+        let e = resume_config(&dir.0, |_| {}).expect_err("no config").to_string();
+        assert!(e.contains("config.toml") && e.contains("fresh run"), "{e}");
+        let mut saved = Config {
+            seed: 3,
+            max_trials: 2,
+            ..Config::default()
+        };
+        saved.planner.lambda = 100.0;
+        std::fs::write(dir.0.join("config.toml"), toml::to_string(&saved).expect("toml")).expect("write");
+        let cfg = resume_config(&dir.0, |c| c.max_trials = 3).expect("cap may change");
+        assert_eq!((cfg.seed, cfg.max_trials, cfg.planner.lambda), (3, 3, 100.0));
+        let e = resume_config(&dir.0, |c| {
+            c.seed = 1;
+            c.planner.lambda = 1e3;
+        })
+        .expect_err("seed and lambda changed")
+        .to_string();
+        assert!(e.contains("planner.lambda, seed differ"), "{e}");
+        assert_eq!(config_differences(&saved, &saved, false), Vec::<String>::new());
+    }
+}
