@@ -12,7 +12,11 @@
 //! fit` subcommand and [`experiments`] the `swingup experiments` one. For
 //! the planner-by-model comparison (claim C6): a learned parametric model
 //! ([`parametric`]), the true model ([`truth`]) and a DDP planner
-//! ([`ddp_plan`]).
+//! ([`ddp_plan`]). [`diagnostics`] puts each plan against what the robot
+//! then did, [`support`] is the planner's optional penalty on leaving the
+//! data, [`sensitivity`] measures how much model error an open-loop
+//! swing-up tolerates, and [`rundir`] keeps runs from overwriting each
+//! other.
 //!
 //! # Example
 //!
