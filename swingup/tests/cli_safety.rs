@@ -6,6 +6,9 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
+use swingup::learn::Config;
+use swingup::rundir;
+
 struct Scratch(PathBuf);
 
 impl Scratch {
@@ -45,7 +48,10 @@ fn a_fresh_grid_never_empties_finished_runs() {
     let o = swingup(&["experiments", "lambda", "--quick"], &dir.0);
     assert!(!o.status.success());
     let e = stderr(&o);
-    assert!(e.contains("holds finished runs") && e.contains("--resume") && e.contains("--force"), "{e}");
+    assert!(
+        e.contains("holds finished runs") && e.contains("--resume") && e.contains("--force"),
+        "{e}"
+    );
     assert!(!e.contains("stack backtrace") && !e.contains("Stack backtrace"), "{e}");
     assert_eq!(std::fs::read_to_string(dir.0.join("runs.jsonl")).expect("kept"), saved);
 }
@@ -60,7 +66,10 @@ fn a_fresh_learning_run_never_overwrites_another() {
     assert!(!o.status.success());
     let e = stderr(&o);
     assert!(e.contains("holds another run") && e.contains("--force"), "{e}");
-    assert_eq!(std::fs::read_to_string(dir.0.join("trial_03.json")).expect("kept"), trial);
+    assert_eq!(
+        std::fs::read_to_string(dir.0.join("trial_03.json")).expect("kept"),
+        trial
+    );
     // --force deletes that run's files only, then runs
     let o = swingup(&["learn", "--max-trials", "1", "--force"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
@@ -73,4 +82,62 @@ fn a_fresh_learning_run_never_overwrites_another() {
     assert!(stderr(&o).contains("seed differs"), "{}", stderr(&o));
     let o = swingup(&["learn", "--resume", "--max-trials", "1"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
+}
+
+/// A fresh run refuses a directory with another run's files, and with
+/// `force` deletes those files and nothing else.
+#[test]
+fn prepare_fresh_refuses_another_run_and_force_deletes_its_files_only() {
+    let dir = Scratch::new("fresh");
+    rundir::prepare_fresh(&dir.0, false).expect("empty is fine");
+    std::fs::write(dir.0.join("notes.txt"), "mine").expect("write");
+    rundir::prepare_fresh(&dir.0, false).expect("other files are fine");
+    for f in [
+        "trial_03.json",
+        "trial_03.csv",
+        "report.md",
+        "config.toml",
+        "report.tmp",
+    ] {
+        std::fs::write(dir.0.join(f), "run").expect("write");
+    }
+    let e = rundir::prepare_fresh(&dir.0, false)
+        .expect_err("a run is there")
+        .to_string();
+    assert!(
+        e.contains("--resume") && e.contains("--force") && e.contains("5 of its files"),
+        "{e}"
+    );
+    rundir::prepare_fresh(&dir.0, true).expect("force");
+    assert!(rundir::run_files(&dir.0).is_empty());
+    assert_eq!(std::fs::read_to_string(dir.0.join("notes.txt")).expect("kept"), "mine");
+}
+
+/// Resuming starts from the saved configuration; changing the cap is
+/// allowed, changing anything else is refused naming the keys; without
+/// a saved configuration there is nothing to resume.
+#[test]
+fn resume_config_starts_from_the_saved_settings() {
+    let dir = Scratch::new("resume");
+    let e = rundir::resume_config(&dir.0, |_| {})
+        .expect_err("no config")
+        .to_string();
+    assert!(e.contains("config.toml") && e.contains("fresh run"), "{e}");
+    let mut saved = Config {
+        seed: 3,
+        max_trials: 2,
+        ..Config::default()
+    };
+    saved.planner.lambda = 100.0;
+    std::fs::write(dir.0.join("config.toml"), toml::to_string(&saved).expect("toml")).expect("write");
+    let cfg = rundir::resume_config(&dir.0, |c| c.max_trials = 3).expect("cap may change");
+    assert_eq!((cfg.seed, cfg.max_trials, cfg.planner.lambda), (3, 3, 100.0));
+    let e = rundir::resume_config(&dir.0, |c| {
+        c.seed = 1;
+        c.planner.lambda = 1e3;
+    })
+    .expect_err("seed and lambda changed")
+    .to_string();
+    assert!(e.contains("planner.lambda, seed differ"), "{e}");
+    assert_eq!(rundir::config_differences(&saved, &saved, false), Vec::<String>::new());
 }
