@@ -346,6 +346,69 @@ impl Config {
         self.robot.validate().map_err(anyhow::Error::msg)?;
         anyhow::ensure!(self.max_trials >= 1, "max_trials must be at least 1");
         anyhow::ensure!(self.horizon >= 10, "horizon must be at least 10 samples");
+        let p = &self.planner;
+        anyhow::ensure!(
+            self.horizon >= p.control_coeffs && self.horizon + 1 >= p.state_coeffs,
+            "horizon ({}) must be at least planner.control_coeffs ({}) and planner.state_coeffs - 1 ({}): \
+             the plan's B-splines are fitted to the horizon's samples",
+            self.horizon,
+            p.control_coeffs,
+            p.state_coeffs.saturating_sub(1)
+        );
+        // every scalar setting that must be finite and positive, or nonnegative, by its key
+        let positive = [
+            ("catch_angle", self.catch_angle),
+            ("catch_rate", self.catch_rate),
+            ("success_angle", self.success_angle),
+            ("success_seconds", self.success_seconds),
+            ("planner.confidence_full", p.confidence_full),
+            ("planner.u_max", p.u_max),
+            ("planner.x_max", p.x_max),
+            ("model.cutoff", self.model.cutoff),
+        ];
+        for (key, v) in positive {
+            anyhow::ensure!(v.is_finite() && v > 0.0, "{key} must be finite and positive, got {v}");
+        }
+        let nonnegative = [
+            ("planner.lambda_start", p.lambda_start),
+            ("planner.confidence_floor", p.confidence_floor),
+            ("planner.control_weight", p.control_weight),
+            ("planner.initial_state_weight", p.initial_state_weight),
+            ("planner.bound_weight", p.bound_weight),
+            ("model.ridge", self.model.ridge),
+            ("model.prior_weight", self.model.prior_weight),
+        ];
+        for (key, v) in nonnegative {
+            anyhow::ensure!(
+                v.is_finite() && v >= 0.0,
+                "{key} must be finite and nonnegative, got {v}"
+            );
+        }
+        let arrays: [(&str, &[f64]); 4] = [
+            ("feedback", &self.feedback),
+            ("hand_servo", &self.hand_servo),
+            ("planner.state_weights", &p.state_weights),
+            ("planner.terminal_weights", &p.terminal_weights),
+        ];
+        for (key, v) in arrays {
+            anyhow::ensure!(
+                v.iter().all(|x| x.is_finite() && *x >= 0.0),
+                "{key} must be finite and nonnegative, got {v:?}"
+            );
+        }
+        anyhow::ensure!(
+            p.max_iters >= 1 && p.powell_evals >= 1,
+            "planner.max_iters and planner.powell_evals must be at least 1, got {} and {}",
+            p.max_iters,
+            p.powell_evals
+        );
+        anyhow::ensure!(
+            self.balance as f64 * self.robot.dt >= self.success_seconds,
+            "balance ({} samples, {} s) must cover success_seconds ({} s): success is judged on the balancing",
+            self.balance,
+            self.balance as f64 * self.robot.dt,
+            self.success_seconds
+        );
         anyhow::ensure!(
             self.sensor_noise.iter().all(|s| s.is_finite() && *s >= 0.0),
             "sensor noise must be finite and nonnegative"
@@ -371,7 +434,6 @@ impl Config {
             "model.input_scales must be finite and nonnegative, and not all 0, got {:?}",
             self.model.input_scales
         );
-        let p = &self.planner;
         anyhow::ensure!(
             p.support_weight.is_finite() && p.support_weight >= 0.0,
             "planner.support_weight must be finite and nonnegative, got {}",
@@ -1200,6 +1262,25 @@ mod tests {
         let mut cfg = Config::default();
         cfg.planner.lambda = -1.0;
         assert!(cfg.validate().expect_err("negative").to_string().contains("lambda"));
+        for (set, key) in [
+            (
+                Box::new(|c: &mut Config| c.catch_angle = f64::NAN) as Box<dyn Fn(&mut Config)>,
+                "catch_angle",
+            ),
+            (Box::new(|c: &mut Config| c.balance = 0), "balance"),
+            (Box::new(|c: &mut Config| c.planner.max_iters = 0), "planner.max_iters"),
+            (
+                Box::new(|c: &mut Config| c.planner.lambda_start = f64::NAN),
+                "planner.lambda_start",
+            ),
+            (Box::new(|c: &mut Config| c.feedback[0] = f64::NAN), "feedback"),
+            (Box::new(|c: &mut Config| c.horizon = 12), "planner.state_coeffs"),
+        ] {
+            let mut cfg = Config::default();
+            set(&mut cfg);
+            let e = cfg.validate().expect_err(key).to_string();
+            assert!(e.contains(key), "{key}: {e}");
+        }
         let mut cfg = Config::default();
         cfg.planner.support_weight = f64::NAN;
         assert!(cfg.validate().expect_err("nan").to_string().contains("support_weight"));
