@@ -380,6 +380,58 @@ impl std::str::FromStr for Shard {
     }
 }
 
+/// The file in a grid's directory that holds the settings its runs were made with.
+pub const SETTINGS_FILE: &str = "settings.json";
+
+/// Checks that a grid resumed in `dir` uses the settings its saved runs
+/// were made with ([`SETTINGS_FILE`]), and records them for a fresh grid
+/// (`resume` false). Returns a warning when a resumed directory has no
+/// settings file (a grid saved before it existed: its runs cannot be checked).
+///
+/// # Errors
+/// Different settings (the error names the keys and the ways on), or a
+/// file that cannot be read, parsed or written.
+pub fn check_grid_settings(
+    dir: &std::path::Path,
+    settings: &ExperimentSettings,
+    resume: bool,
+) -> anyhow::Result<Option<String>> {
+    let path = dir.join(SETTINGS_FILE);
+    if !resume {
+        let tmp = path.with_extension("tmp");
+        std::fs::write(&tmp, serde_json::to_string_pretty(settings)?)
+            .map_err(|e| anyhow::anyhow!("writing {}: {e}", tmp.display()))?;
+        std::fs::rename(&tmp, &path).map_err(|e| anyhow::anyhow!("renaming to {}: {e}", path.display()))?;
+        return Ok(None);
+    }
+    let Ok(text) = std::fs::read_to_string(&path) else {
+        return Ok(Some(format!(
+            "{} has no {SETTINGS_FILE}: the saved runs cannot be checked against this grid's settings",
+            dir.display()
+        )));
+    };
+    let saved: serde_json::Value =
+        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("parsing {}: {e}", path.display()))?;
+    let now = serde_json::to_value(settings)?;
+    let differ: Vec<String> = match (saved.as_object(), now.as_object()) {
+        (Some(a), Some(b)) => b
+            .iter()
+            .filter(|(k, v)| a.get(*k) != Some(*v))
+            .map(|(k, _)| k.clone())
+            .collect(),
+        _ => vec!["(all)".into()],
+    };
+    anyhow::ensure!(
+        differ.is_empty(),
+        "the runs saved in {} were made with other settings ({} differ{}); resume with the same options, \
+         or start a fresh grid in another --out (or here with --force, losing those runs)",
+        dir.display(),
+        differ.join(", "),
+        if differ.len() == 1 { "s" } else { "" }
+    );
+    Ok(None)
+}
+
 /// The runs saved in every `runs*.jsonl` file of `dir` (a grid's file, or
 /// its shards' files), in file-name order; a run saved twice counts once.
 /// A last line without its newline (a write cut short by a kill) is

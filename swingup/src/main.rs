@@ -379,6 +379,10 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
+    // the saved runs must have been made with these settings
+    if let Some(w) = swingup::experiments::check_grid_settings(out, &settings, args.resume)? {
+        eprintln!("warning: {w}");
+    }
     let log = out.join(match args.shard {
         Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
         None => "runs.jsonl".into(),

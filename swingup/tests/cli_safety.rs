@@ -57,6 +57,26 @@ fn a_fresh_grid_never_empties_finished_runs() {
 }
 
 #[test]
+fn a_resumed_grid_refuses_other_settings() {
+    let dir = Scratch::new("grid-settings");
+    let o = swingup(&["experiments", "lambda", "--quick", "--max-trials", "1"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let runs = std::fs::read_to_string(dir.0.join("runs.jsonl")).expect("runs");
+    // resumed with the grid's default trial cap: refused, naming it; nothing runs
+    let o = swingup(&["experiments", "lambda", "--quick", "--resume"], &dir.0);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("max_trials differs"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(dir.0.join("runs.jsonl")).expect("runs"), runs);
+    // with the same settings it resumes (and runs nothing new)
+    let o = swingup(
+        &["experiments", "lambda", "--quick", "--max-trials", "1", "--resume"],
+        &dir.0,
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(dir.0.join("runs.jsonl")).expect("runs"), runs);
+}
+
+#[test]
 fn a_fresh_learning_run_never_overwrites_another() {
     let dir = Scratch::new("learn");
     let trial = "{\"a trial\": 3}";
