@@ -398,7 +398,9 @@ pub fn check_grid_settings(
 ) -> anyhow::Result<Option<String>> {
     let path = dir.join(SETTINGS_FILE);
     if !resume {
-        let tmp = path.with_extension("tmp");
+        // a temporary name of this process's own: the shards of a job
+        // array may start in one directory at once
+        let tmp = dir.join(format!("settings.{}.tmp", std::process::id()));
         std::fs::write(&tmp, serde_json::to_string_pretty(settings)?)
             .map_err(|e| anyhow::anyhow!("writing {}: {e}", tmp.display()))?;
         std::fs::rename(&tmp, &path).map_err(|e| anyhow::anyhow!("renaming to {}: {e}", path.display()))?;
