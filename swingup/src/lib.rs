@@ -15,8 +15,9 @@
 //! ([`ddp_plan`]). [`diagnostics`] puts each plan against what the robot
 //! then did, [`support`] is the planner's optional penalty on leaving the
 //! data, [`sensitivity`] measures how much model error an open-loop
-//! swing-up tolerates, and [`rundir`] keeps runs from overwriting each
-//! other.
+//! swing-up tolerates, and [`rundir`] and [`grid`] keep runs and grids
+//! from overwriting or mixing with each other. [`config`] holds every
+//! setting of a run.
 //!
 //! # Example
 //!
@@ -41,6 +42,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod config;
 pub mod cost;
 pub mod ddp_plan;
 pub mod demo;
@@ -48,6 +50,7 @@ pub mod diagnostics;
 pub mod experiments;
 pub mod figures;
 pub mod fit_cmd;
+pub mod grid;
 pub mod learn;
 pub mod lqr;
 pub mod model;

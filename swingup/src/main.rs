@@ -380,7 +380,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         out.display()
     );
     // the saved runs must have been made with these settings
-    if let Some(w) = swingup::experiments::check_grid_settings(out, &settings, args.resume)? {
+    if let Some(w) = swingup::grid::check_grid_settings(out, &settings, args.resume)? {
         eprintln!("warning: {w}");
     }
     let log = out.join(match args.shard {
@@ -388,7 +388,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         None => "runs.jsonl".into(),
     });
     let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
-        let (runs, warnings) = swingup::experiments::read_saved_runs(out)?;
+        let (runs, warnings) = swingup::grid::read_saved_runs(out)?;
         for w in warnings {
             eprintln!("warning: {w}");
         }
