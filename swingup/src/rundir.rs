@@ -13,7 +13,7 @@
 
 use std::path::{Path, PathBuf};
 
-use crate::learn::Config;
+use crate::config::Config;
 
 /// Is `name` a file a learning run writes ([`crate::report`]), or the
 /// temporary file of one (`report.tmp` while `report.json` is written)?
