@@ -681,6 +681,7 @@ pub fn plan<M: trajopt::Model>(
     let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
     let solver = GaussNewton::new(GaussNewtonSettings {
         max_iters: p.max_iters,
+        tol_cost: p.tol_cost,
         ..GaussNewtonSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
@@ -822,6 +823,31 @@ mod tests {
         assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
         with_demo.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
         assert!(r.iter().any(|v| v.abs() > 1e-3), "upright is not the demonstration");
+    }
+
+    /// `planner.tol_cost` reaches the solver: a loose tolerance ends every
+    /// stage by `ConvergedCost` in fewer iterations than the tight one, at a
+    /// criterion close to the tight one's.
+    #[test]
+    fn plans_stop_at_the_configured_cost_tolerance() {
+        let mut cfg = Config::default();
+        cfg.planner.lambda_start = cfg.planner.lambda;
+        let d = demo(&cfg);
+        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let plan_at = |tol: f64| {
+            let mut c = cfg.clone();
+            c.planner.tol_cost = tol;
+            plan(&c, &d, &model, None).expect("plan")
+        };
+        let (tight, loose) = (plan_at(1e-14), plan_at(1e-3));
+        assert_eq!(loose.status, "ConvergedCost");
+        assert!(
+            loose.iterations < tight.iterations,
+            "{} iterations at 1e-3, {} at 1e-14",
+            loose.iterations,
+            tight.iterations
+        );
+        assert!(loose.cost <= tight.cost * 1.05, "{} against {}", loose.cost, tight.cost);
     }
 
     /// A trial shorter than the planning window is refused.
