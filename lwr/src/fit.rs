@@ -210,6 +210,65 @@ fn factorise(
     }
 }
 
+/// The length in input units over which coefficient `c` ($\ge 1$) of the
+/// local polynomial is penalised: $h / m_j$ for the slope of input $j$,
+/// $(h / m_a)(h / m_b)$ for a quadratic term; infinite where a scale is 0.
+fn coefficient_length(degree: Degree, metric: &Metric, h: f64, d: usize, c: usize) -> f64 {
+    let length = |j: usize| h / metric.input_scale(j);
+    if c <= d {
+        return length(c - 1);
+    }
+    debug_assert_eq!(degree, Degree::Quadratic);
+    let mut t = d + 1;
+    for a in 0..d {
+        for b in a..d {
+            if t == c {
+                return length(a) * length(b);
+            }
+            t += 1;
+        }
+    }
+    unreachable!("coefficient {c} of a quadratic in {d} inputs")
+}
+
+/// Adds `LwrSettings::slope_ridge` to the normal matrix `a` ($p \times p$,
+/// full): $\lambda_s L_c^2$ on the diagonal of every coefficient $c \ge 1$
+/// of length $L_c$ ([`coefficient_length`]); a coefficient of infinite
+/// length is removed instead (its row and column of `a` and `b2` cleared,
+/// its diagonal set to 1, its right-hand sides in `b` to 0), so that it
+/// comes out exactly 0 and the other coefficients are the fit without it.
+#[allow(clippy::too_many_arguments)]
+fn add_slope_ridge(
+    ridge: f64,
+    degree: Degree,
+    metric: &Metric,
+    h: f64,
+    d: usize,
+    o: usize,
+    a: &mut [f64],
+    b: &mut [f64],
+    b2: &mut [f64],
+) {
+    let p = degree.n_coeffs(d);
+    for c in 1..p {
+        let length = coefficient_length(degree, metric, h, d, c);
+        if length.is_finite() {
+            a[c * p + c] += ridge * length * length;
+            continue;
+        }
+        for r in 0..p {
+            a[r * p + c] = 0.0;
+            a[c * p + r] = 0.0;
+            if !b2.is_empty() {
+                b2[r * p + c] = 0.0;
+                b2[c * p + r] = 0.0;
+            }
+        }
+        a[c * p + c] = 1.0;
+        b[c * o..(c + 1) * o].fill(0.0);
+    }
+}
+
 /// The kernel weight $K(u)$ at $u = \sqrt{d^2} / h$; the Gaussian's as
 /// $e^{-d^2 / (2 h^2)}$, without the square root.
 #[inline]
@@ -511,6 +570,9 @@ pub(crate) fn fit_found(
         } else {
             settings.intercept_ridge
         };
+    }
+    if settings.slope_ridge > 0.0 {
+        add_slope_ridge(settings.slope_ridge, degree, metric, h, d, o, a, b, b2);
     }
     let (condition, regularized) = factorise(a, p, settings, factor, scaled)?;
 

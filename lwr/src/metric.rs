@@ -138,6 +138,15 @@ impl Metric {
         }
     }
 
+    /// The metric's scale along input $j$: $m_j$, or $\sqrt{G_{jj}}$ for
+    /// the full metric (0 exactly when the metric ignores input $j$).
+    pub(crate) fn input_scale(&self, j: usize) -> f64 {
+        match self {
+            Metric::Diagonal(scales) => scales[j],
+            Metric::Full(f) => f.g[j * f.d + j].sqrt(),
+        }
+    }
+
     /// $d^2(x, q)$.
     #[inline]
     pub(crate) fn dist2(&self, x: &[f64], q: &[f64]) -> f64 {

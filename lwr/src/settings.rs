@@ -111,6 +111,7 @@ impl Degree {
 /// | `metric` | `[]` (diagonal) | $M$, $d^2$ finite entries row-major, or empty | full metric $d_i = \lVert \operatorname{diag}(m) M (x_i - q) \rVert$ |
 /// | `degree` | `Linear` | | local constant, linear or quadratic model |
 /// | `ridge` | 0 | $\ge 0$ | $\lambda$ added to the diagonal of $Z^\top K Z$ except the intercept's |
+/// | `slope_ridge` | 0 | $\ge 0$ | $\lambda_s$: ridge on each slope per bandwidth unit, $\lambda_s (h / m_j)^2$ on the slope of input $j$; terms of inputs with $m_j = 0$ leave the local polynomial |
 /// | `intercept_ridge` | 0 | $\ge 0$ | $\lambda_0$ added to the intercept's diagonal entry: shrinks the prediction towards 0 where the total weight $\sum_i k_i$ is not large against it (a prior mean of 0, e.g. for residuals of a global model) |
 /// | `gaussian_cutoff` | 5 | $> 0$ | Gaussian truncated at $u = c$ |
 /// | `confidence_level` | 0.95 | $(0, 1)$ | level of the confidence and prediction intervals |
@@ -141,6 +142,21 @@ pub struct LwrSettings {
     pub degree: Degree,
     /// Ridge $\lambda \ge 0$ on every coefficient but the intercept.
     pub ridge: f64,
+    /// Ridge $\lambda_s \ge 0$ on the slopes *per bandwidth unit*: the
+    /// slope $\beta_j$ of input $j$ pays $\lambda_s (\beta_j h / m_j)^2$,
+    /// the change of the local model over one bandwidth along input $j$, so
+    /// that one value serves inputs of any unit and any tuned scale (a
+    /// quadratic term $\beta_{ab}$ pays $\lambda_s (\beta_{ab} h^2 / (m_a m_b))^2$;
+    /// with a full metric $m_j = \sqrt{G_{jj}}$, $G$ the metric's matrix).
+    /// Where the metric ignores an input ($m_j = 0$) the penalty is
+    /// infinite: the input's terms leave the local polynomial, which then
+    /// fits only the inputs the weights see, instead of a slope along the
+    /// whole slab of data the zero scale lets in. With $\lambda_s = 0$
+    /// (the default) nothing changes. Its derivative in the query is zero,
+    /// so predictions' Jacobians stay exact. Models saved before it
+    /// existed load with 0.
+    #[serde(default)]
+    pub slope_ridge: f64,
     /// Ridge $\lambda_0 \ge 0$ on the intercept. With it, and `ridge` on the
     /// slopes, the local model shrinks smoothly to 0 as the data thin out,
     /// instead of extrapolating a fit made from a few far points. Models
@@ -166,6 +182,7 @@ impl Default for LwrSettings {
             metric: Vec::new(),
             degree: Degree::Linear,
             ridge: 0.0,
+            slope_ridge: 0.0,
             intercept_ridge: 0.0,
             gaussian_cutoff: 5.0,
             confidence_level: 0.95,
@@ -221,6 +238,12 @@ impl LwrSettings {
         }
         if !(self.ridge.is_finite() && self.ridge >= 0.0) {
             return Err(invalid("ridge", format!("must be finite and >= 0, got {}", self.ridge)));
+        }
+        if !(self.slope_ridge.is_finite() && self.slope_ridge >= 0.0) {
+            return Err(invalid(
+                "slope_ridge",
+                format!("must be finite and >= 0, got {}", self.slope_ridge),
+            ));
         }
         if !(self.intercept_ridge.is_finite() && self.intercept_ridge >= 0.0) {
             return Err(invalid(

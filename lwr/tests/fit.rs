@@ -69,10 +69,11 @@ proptest! {
         scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 2),
         ridge in prop_oneof![Just(0.0), 1e-3..1e-1f64],
         intercept_ridge in prop_oneof![Just(0.0), 1e-2..2.0f64],
+        slope_ridge in prop_oneof![Just(0.0), 1e-2..2.0f64],
         q in proptest::collection::vec(-0.7..0.7f64, 2),
     ) {
         let settings = LwrSettings {
-            kernel, degree, bandwidth, scales: scales.clone(), ridge, intercept_ridge,
+            kernel, degree, bandwidth, scales: scales.clone(), ridge, intercept_ridge, slope_ridge,
             gaussian_cutoff: 40.0, // no truncation: the Gaussian fit is smooth
             ..Default::default()
         };
@@ -138,6 +139,130 @@ fn intercept_ridge_shrinks_towards_zero_by_the_total_weight() {
         ..Default::default()
     };
     assert!(LwrModel::new(1, 1, bad).is_err());
+}
+
+proptest! {
+    #![proptest_config(ProptestConfig::with_cases(48))]
+
+    /// With a slope ridge, an input the metric ignores ($m_j = 0$) leaves
+    /// the local polynomial: the model predicts exactly what a model of the
+    /// other inputs alone predicts, intervals included.
+    #[test]
+    fn slope_ridge_drops_the_inputs_the_metric_ignores(
+        data in smooth_data(2, 1, 15..60, true, 0.05),
+        quadratic in any::<bool>(),
+        bandwidth in 0.3..2.0f64,
+        slope_ridge in 1e-3..2.0f64,
+        q in proptest::collection::vec(-0.7..0.7f64, 2),
+    ) {
+        let degree = if quadratic { Degree::Quadratic } else { Degree::Linear };
+        let settings = |scales: Vec<f64>| LwrSettings {
+            degree, bandwidth, scales, slope_ridge, ..Default::default()
+        };
+        let both = data.to_model(settings(vec![1.3, 0.0])).expect("valid");
+        let mut alone = LwrModel::new(1, 1, settings(vec![1.3])).expect("valid");
+        for (x, y) in data.inputs.iter().zip(&data.outputs) {
+            alone.insert(&x[..1], y).expect("valid");
+        }
+        let (Ok(a), Ok(b)) = (both.predict(&q), alone.predict(&q[..1])) else { return Ok(()) };
+        prop_assume!(a.status == FitStatus::Ok && b.status == FitStatus::Ok);
+        let close = |x: f64, y: f64| (x - y).abs() <= 1e-9 * (1.0 + y.abs());
+        prop_assert!(close(a.mean[0], b.mean[0]), "{} vs {}", a.mean[0], b.mean[0]);
+        prop_assert!(close(a.leverage, b.leverage), "{} vs {}", a.leverage, b.leverage);
+        prop_assert!(close(a.dof, b.dof), "{} vs {}", a.dof, b.dof);
+        prop_assert!(close(a.std_error[0], b.std_error[0]));
+        let (_, jac) = both.predict_with_jacobian(&q).expect("weighted");
+        prop_assert_eq!(jac[(0, 1)], 0.0);
+    }
+
+    /// The slope ridge is per bandwidth unit: measuring input 0 in other
+    /// units ($x_0 \to c x_0$, its scale $m_0 \to m_0 / c$) changes no
+    /// prediction, where the plain `ridge` (per raw unit) does.
+    #[test]
+    fn slope_ridge_does_not_depend_on_the_inputs_units(
+        data in smooth_data(2, 1, 15..60, true, 0.05),
+        quadratic in any::<bool>(),
+        c in prop_oneof![0.01..0.2f64, 5.0..100.0f64],
+        q in proptest::collection::vec(-0.7..0.7f64, 2),
+    ) {
+        let degree = if quadratic { Degree::Quadratic } else { Degree::Linear };
+        let model = |c: f64, slope_ridge: f64, ridge: f64| {
+            let settings = LwrSettings {
+                degree, bandwidth: 0.8, scales: vec![1.0 / c, 1.0], slope_ridge, ridge,
+                ..Default::default()
+            };
+            let mut m = LwrModel::new(2, 1, settings).expect("valid");
+            for (x, y) in data.inputs.iter().zip(&data.outputs) {
+                m.insert(&[c * x[0], x[1]], y).expect("valid");
+            }
+            m.predict(&[c * q[0], q[1]])
+        };
+        let (Ok(a), Ok(b)) = (model(1.0, 0.5, 0.0), model(c, 0.5, 0.0)) else { return Ok(()) };
+        prop_assume!(a.status == FitStatus::Ok && b.status == FitStatus::Ok);
+        prop_assert!((a.mean[0] - b.mean[0]).abs() <= 1e-8 * (1.0 + a.mean[0].abs()),
+            "{} vs {}", a.mean[0], b.mean[0]);
+        // the raw ridge sees the units: the same check fails for it
+        let (Ok(a), Ok(b)) = (model(1.0, 0.0, 0.5), model(c, 0.0, 0.5)) else { return Ok(()) };
+        prop_assume!(a.status == FitStatus::Ok && b.status == FitStatus::Ok);
+        prop_assume!(a.condition < 1e8 && b.condition < 1e8);
+        let raw_shift = (a.mean[0] - b.mean[0]).abs();
+        let a0 = model(1.0, 0.0, 0.0).expect("weighted").mean[0];
+        // only meaningful where the ridge moves the prediction at all
+        prop_assume!((a.mean[0] - a0).abs() > 1e-6);
+        prop_assert!(raw_shift > 1e-9, "raw ridge unchanged by units: {}", raw_shift);
+    }
+}
+
+/// A local linear fit in one input with the slope ridge solves the
+/// penalised normal equations
+/// $\begin{pmatrix} \sum k & \sum k\delta \\ \sum k\delta & \sum k\delta^2 + \lambda_s (h/m)^2 \end{pmatrix} \beta = \begin{pmatrix} \sum k y \\ \sum k \delta y \end{pmatrix}$,
+/// $\delta = x - q$, written out here by Cramer's rule.
+#[test]
+fn slope_ridge_solves_the_penalised_normal_equations() {
+    let (h, m, lambda) = (0.4, 2.5, 0.3);
+    let settings = LwrSettings {
+        bandwidth: h,
+        scales: vec![m],
+        slope_ridge: lambda,
+        gaussian_cutoff: 40.0,
+        ..Default::default()
+    };
+    let mut model = LwrModel::new(1, 1, settings).expect("valid");
+    let mut seed = 11;
+    let data: Vec<(f64, f64)> = (0..25)
+        .map(|_| {
+            let x = lcg(&mut seed) - 0.5;
+            (x, (3.0 * x).sin() + 0.1 * lcg(&mut seed))
+        })
+        .collect();
+    for (x, y) in &data {
+        model.insert(&[*x], &[*y]).expect("valid");
+    }
+    for q in [-0.3, 0.0, 0.2] {
+        let (mut s0, mut s1, mut s2, mut t0, mut t1) = (0.0, 0.0, 0.0, 0.0, 0.0);
+        for (x, y) in &data {
+            let delta = x - q;
+            let k = (-0.5 * (m * delta / h).powi(2)).exp();
+            s0 += k;
+            s1 += k * delta;
+            s2 += k * delta * delta;
+            t0 += k * y;
+            t1 += k * delta * y;
+        }
+        let s2 = s2 + lambda * (h / m).powi(2);
+        let intercept = (t0 * s2 - s1 * t1) / (s0 * s2 - s1 * s1);
+        let got = model.predict_mean(&[q]).expect("weighted")[0];
+        assert!((got - intercept).abs() < 1e-12, "at {q}: {got} vs {intercept}");
+        // and it differs from the fit without the ridge
+        let plain = (t0 * (s2 - lambda * (h / m).powi(2)) - s1 * t1) / (s0 * (s2 - lambda * (h / m).powi(2)) - s1 * s1);
+        assert!((plain - intercept).abs() > 1e-6, "the ridge has no effect at {q}");
+    }
+    let bad = LwrSettings {
+        slope_ridge: f64::NAN,
+        ..Default::default()
+    };
+    let e = LwrModel::new(1, 1, bad).expect_err("nan").to_string();
+    assert!(e.contains("slope_ridge"), "{e}");
 }
 
 #[test]

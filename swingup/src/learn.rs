@@ -400,6 +400,7 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(Lear
             .map(|(b, r)| b * r)
             .collect(),
         ridge: cfg.model.ridge,
+        slope_ridge: cfg.model.slope_ridge,
         intercept_ridge: cfg.model.prior_weight,
         gaussian_cutoff: cfg.model.cutoff,
         ..LwrSettings::default()
