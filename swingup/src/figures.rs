@@ -339,6 +339,7 @@ mod tests {
             scales,
             rollouts: vec![],
             seconds: 0.0,
+            code_version: "commit test".into(),
         }
     }
 
@@ -383,6 +384,7 @@ mod tests {
             ],
             claims: vec![],
             seconds: 0.0,
+            threads: 1,
         };
         let svg = lambda_svg(&report).expect("figure");
         let cy: Vec<f64> = svg

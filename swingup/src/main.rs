@@ -468,7 +468,8 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     let table = swingup::experiments::claims_table(&report.claims);
     println!("\n{table}");
     if let Some(readme) = &args.update_readme {
-        report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &table)?;
+        let block = format!("{}\n\n{table}", swingup::experiments::provenance(&report));
+        report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
         println!("updated the claims table in {}", readme.display());
     }
     println!(

@@ -145,6 +145,11 @@ pub struct RunSummary {
     pub rollouts: Vec<Rollout>,
     /// Wall time (s).
     pub seconds: f64,
+    /// The code that made the run (`git describe` of the working
+    /// directory, see [`crate::sensitivity::code_version`]); empty for runs
+    /// saved before it was recorded.
+    #[serde(default)]
+    pub code_version: String,
 }
 
 /// Aggregate of one variant over its seeds.
@@ -192,8 +197,12 @@ pub struct ExperimentsReport {
     pub variants: Vec<VariantSummary>,
     /// The claims table.
     pub claims: Vec<Claim>,
-    /// Wall time (s).
+    /// Wall time of the invocation that wrote the report (s): with
+    /// `--resume`, of its part of the grid only.
     pub seconds: f64,
+    /// Worker threads of that invocation.
+    #[serde(default)]
+    pub threads: usize,
 }
 
 /// The learning-from-scratch variants of `beyond`: model and name.
@@ -399,6 +408,7 @@ pub fn run_experiments(
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
 ) -> anyhow::Result<ExperimentsReport> {
     let start = Instant::now();
+    let version = crate::sensitivity::code_version();
     let all: Vec<Job> = jobs(which, settings)
         .into_iter()
         .enumerate()
@@ -425,7 +435,7 @@ pub fn run_experiments(
     let errors = Mutex::new(Vec::new());
     let mut runs: Vec<RunSummary> = jobs
         .par_iter()
-        .filter_map(|job| match run_one(job) {
+        .filter_map(|job| match run_one(job, &version) {
             Ok(r) => {
                 let n = done.fetch_add(1, Ordering::Relaxed) + 1;
                 progress(n, total, &r);
@@ -455,10 +465,11 @@ pub fn run_experiments(
         variants,
         claims,
         seconds: start.elapsed().as_secs_f64(),
+        threads: rayon::current_num_threads(),
     })
 }
 
-fn run_one(job: &Job) -> anyhow::Result<RunSummary> {
+fn run_one(job: &Job, version: &str) -> anyhow::Result<RunSummary> {
     let start = Instant::now();
     let record = run(&job.cfg, vec![], &mut |_: &TrialRecord| {})?;
     let rollouts = if job.rollouts {
@@ -494,6 +505,7 @@ fn run_one(job: &Job) -> anyhow::Result<RunSummary> {
             .collect(),
         rollouts,
         seconds: start.elapsed().as_secs_f64(),
+        code_version: version.to_string(),
     })
 }
 
@@ -576,19 +588,56 @@ fn summarise(runs: &[RunSummary]) -> Vec<VariantSummary> {
         .collect()
 }
 
+/// Which code made the runs and how long the grid took: one line, for the
+/// report and above the README's claims table. Runs of more than one code
+/// version are named as such, with their counts.
+pub fn provenance(report: &ExperimentsReport) -> String {
+    let mut versions: Vec<(String, usize)> = Vec::new();
+    for r in &report.runs {
+        let v = if r.code_version.is_empty() {
+            "an unrecorded commit".to_string()
+        } else {
+            r.code_version.clone()
+        };
+        match versions.iter_mut().find(|(name, _)| *name == v) {
+            Some((_, n)) => *n += 1,
+            None => versions.push((v, 1)),
+        }
+    }
+    let code = match versions.as_slice() {
+        [] => "no runs".to_string(),
+        [(v, n)] => format!("{n} runs, all made at {v}"),
+        _ => format!(
+            "{} runs made by more than one code version ({}): regenerate the grid with --force before comparing them",
+            report.runs.len(),
+            versions
+                .iter()
+                .map(|(v, n)| format!("{n} at {v}"))
+                .collect::<Vec<_>>()
+                .join(", ")
+        ),
+    };
+    format!(
+        "{code}; {:.0} s of run time summed over the runs, {:.0} s of wall time for the invocation that wrote this on {} threads.",
+        report.runs.iter().map(|r| r.seconds).sum::<f64>(),
+        report.seconds,
+        report.threads
+    )
+}
+
 /// `experiments.md`: the claims table, then one table per experiment.
 pub fn markdown(report: &ExperimentsReport) -> String {
     let mut md = String::from("# Experiments\n\n");
     md.push_str(&format!(
-        "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each; {:.0} s of run time (the sum over runs; the wall time is about that divided by the cores). Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
+        "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each. Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
         report.runs.len(),
         report.settings.learning_seeds,
         report.settings.wavelet_seeds,
         report.settings.powell_seeds,
         report.settings.seeds,
         report.settings.max_trials,
-        report.runs.iter().map(|r| r.seconds).sum::<f64>()
     ));
+    md.push_str(&format!("{}\n\n", provenance(report)));
     md.push_str(&claims_table(&report.claims));
     let figures = crate::figures::figures(report);
     if !figures.is_empty() {
@@ -690,7 +739,38 @@ mod tests {
             scales: vec![],
             rollouts: vec![],
             seconds: 0.0,
+            code_version: "commit test".into(),
         }
+    }
+
+    /// The provenance line names the one code version of a uniform grid,
+    /// and every version with its count in a mixed one (old runs without a
+    /// version count as unrecorded).
+    #[test]
+    fn provenance_names_every_code_version() {
+        let mut runs = vec![
+            summary("lambda", "lambda=1e3", 1, Some(2), 1.0),
+            summary("lambda", "lambda=1e3", 2, None, 1.0),
+        ];
+        let report = |runs: Vec<RunSummary>| ExperimentsReport {
+            settings: ExperimentSettings::quick(),
+            experiments: vec![],
+            runs,
+            variants: vec![],
+            claims: vec![],
+            seconds: 12.0,
+            threads: 2,
+        };
+        let one = provenance(&report(runs.clone()));
+        assert!(one.starts_with("2 runs, all made at commit test"), "{one}");
+        assert!(one.contains("12 s of wall time") && one.contains("2 threads"), "{one}");
+        runs[1].code_version = String::new();
+        let mixed = provenance(&report(runs));
+        assert!(mixed.contains("more than one code version"), "{mixed}");
+        assert!(
+            mixed.contains("1 at commit test") && mixed.contains("1 at an unrecorded commit"),
+            "{mixed}"
+        );
     }
 
     /// The beyond grid has the three learning-from-scratch variants, each
