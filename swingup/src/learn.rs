@@ -37,6 +37,8 @@
 //! 3 trials in each of seeds 1 to 10 (at trial 2 in 9). `--model lwr` runs the paper's.
 
 use std::sync::Arc;
+
+use anyhow::Context;
 use std::time::Instant;
 
 use faer::Mat;
@@ -62,13 +64,26 @@ use crate::truth::TrueRegression;
 
 /// Progress reports from [`run`].
 pub trait Progress {
-    /// A trial finished.
-    fn trial(&mut self, trial: &TrialRecord);
+    /// A trial finished. An error (say, the trial could not be saved)
+    /// stops the run at once: [`run`] returns it without running another
+    /// trial.
+    ///
+    /// # Errors
+    /// Whatever the caller could not do with the trial.
+    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()>;
+
+    /// Trial `index` starts a long phase (`"learning the model"`,
+    /// `"planning"`), for a progress display; nothing by default.
+    fn phase(&mut self, index: usize, phase: &str) {
+        let _ = (index, phase);
+    }
 }
 
+/// Any closure taking a trial reports progress and never fails.
 impl<F: FnMut(&TrialRecord)> Progress for F {
-    fn trial(&mut self, trial: &TrialRecord) {
-        self(trial)
+    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()> {
+        self(trial);
+        Ok(())
     }
 }
 
@@ -133,24 +148,35 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 support_seconds,
                 index,
             };
+            let (n_points, solver) = (
+                trials.iter().map(|t| t.commands.len()).sum::<usize>(),
+                cfg.planner.solver,
+            );
+            let planning = format!("planning ({solver:?}, {:?} basis)", cfg.planner.basis).to_lowercase();
             match cfg.model.kind {
                 ModelKind::Lwr | ModelKind::LwrParametric => {
                     let started = Instant::now();
+                    progress.phase(index, &format!("learning the model from {n_points} samples"));
                     let (model, summary) = learn_model(cfg, &trials)?;
+                    progress.phase(index, &planning);
                     at.run(&model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::Parametric => {
                     let started = Instant::now();
                     let (model, summary) = crate::parametric::learn_parametric(cfg, &trials)?;
+                    progress.phase(index, &planning);
                     at.run(&model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::True => {
                     let model = KnownHand::new(TrueRegression::new(cfg.robot)?, cfg.robot.dt);
+                    progress.phase(index, &planning);
                     at.run(&model, true_model_summary(&trials), 0.0)?
                 }
             }
         };
-        progress.trial(&trial);
+        progress
+            .trial(&trial)
+            .with_context(|| format!("after trial {index}; the run stopped there"))?;
         trials.push(trial);
     }
     let success_trial = trials.iter().find(|t| t.success).map(|t| t.index);

@@ -277,6 +277,8 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         Some(out) => out.clone(),
         None => run_dir(args.resume)?,
     };
+    // one program at a time in a run's directory
+    let _lock = swingup::rundir::lock_dir(out, swingup::rundir::LOCK_FILE)?;
     // a resumed run continues with the settings that made it; a fresh one
     // never writes over another run's files
     let cfg = if args.resume {
@@ -299,7 +301,7 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     } else {
         Vec::new()
     };
-    std::fs::write(out.join("config.toml"), toml::to_string(&cfg)?)?;
+    write_atomic(&out.join("config.toml"), &toml::to_string(&cfg)?)?;
     println!(
         "swingup: robot l = {} m, b = {} /s, hand lag {} s; human l = {} m; model {}, planner {}, basis {}, lambda = {:e}; up to {} trials; seed {}",
         cfg.robot.length,
@@ -315,19 +317,8 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     );
     println!("writing to {}", out.display());
     let start = std::time::Instant::now();
-    let mut save_error = None;
-    let mut progress = |t: &TrialRecord| {
-        print_trial(t);
-        // every finished trial is saved at once, so an interrupted run loses nothing
-        if let Err(e) = report::write_trial(out, t) {
-            save_error.get_or_insert(e);
-        }
-    };
-    let record = run(&cfg, previous, &mut progress)?;
-    if let Some(e) = save_error {
-        return Err(e).context("saving a trial");
-    }
-    report::write_run(out, &record)?;
+    let record = run(&cfg, previous, &mut SaveAndShow { out })?;
+    report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;
     println!("{}", report::result_line(&record));
     println!(
         "report: {}, plots: {}, {} ({:.1} s)",
@@ -337,6 +328,24 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         start.elapsed().as_secs_f64()
     );
     Ok(())
+}
+
+/// A learning run's progress: each phase and trial shown as it happens,
+/// each finished trial saved at once (so an interrupted run loses nothing,
+/// and a run that cannot save stops at once).
+struct SaveAndShow<'a> {
+    out: &'a Path,
+}
+
+impl swingup::learn::Progress for SaveAndShow<'_> {
+    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()> {
+        print_trial(trial);
+        report::write_trial(self.out, trial)
+    }
+
+    fn phase(&mut self, index: usize, phase: &str) {
+        println!("trial {index:>2}: {phase} ...");
+    }
 }
 
 fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
@@ -371,6 +380,12 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     };
     let out = &args.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
+    let log_name = match args.shard {
+        Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
+        None => "runs.jsonl".into(),
+    };
+    // one program at a time per runs file (shards of one grid may share the directory)
+    let _lock = swingup::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
     println!(
         "experiments {:?}: {} seeds, up to {} trials per run, on {} threads; writing to {}",
         which,
@@ -383,10 +398,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     if let Some(w) = swingup::grid::check_grid_settings(out, &settings, args.resume)? {
         eprintln!("warning: {w}");
     }
-    let log = out.join(match args.shard {
-        Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
-        None => "runs.jsonl".into(),
-    });
+    let log = out.join(&log_name);
     let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
         let (runs, warnings) = swingup::grid::read_saved_runs(out)?;
         for w in warnings {
@@ -484,10 +496,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, text).with_context(|| format!("writing {}", tmp.display()))?;
-    std::fs::rename(&tmp, path).with_context(|| format!("renaming to {}", path.display()))?;
-    Ok(())
+    Ok(report::write_atomic(path, text)?)
 }
 
 /// The command-line spelling of an option's value.

@@ -46,8 +46,11 @@ pub fn trial_csv_name(index: usize) -> String {
 /// `report.md`, `demonstration.csv`, `figure3.svg`, `learning.svg`, and for
 /// `diagnostics.svg`, and for each trial `trial_NN.json` and
 /// `trial_NN.csv` (as [`write_trial`]).
-pub fn write_run(dir: &Path, run: &RunRecord) -> io::Result<()> {
-    fs::create_dir_all(dir)?;
+///
+/// # Errors
+/// A file cannot be written; the error names it.
+pub fn write_run(dir: &Path, run: &RunRecord) -> anyhow::Result<()> {
+    fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
     for trial in &run.trials {
         write_trial(dir, trial)?;
     }
@@ -65,10 +68,13 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> io::Result<()> {
 ///
 /// Each file is written to a temporary name and then renamed, so an
 /// interrupted run never leaves a half-written record behind.
-pub fn write_trial(dir: &Path, trial: &TrialRecord) -> io::Result<()> {
-    fs::create_dir_all(dir)?;
-    write_atomic(&dir.join(trial_csv_name(trial.index)), &trial_csv(trial))?;
-    write_atomic(&dir.join(trial_json_name(trial.index)), &to_json(trial)?)?;
+pub fn write_trial(dir: &Path, trial: &TrialRecord) -> anyhow::Result<()> {
+    fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+    write_atomic(&dir.join(trial_csv_name(trial.index)), &trial_csv(trial))
+        .map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
+    let json = to_json(trial).map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
+    write_atomic(&dir.join(trial_json_name(trial.index)), &json)
+        .map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
     Ok(())
 }
 
@@ -126,13 +132,27 @@ fn to_json<T: serde::Serialize>(value: &T) -> io::Result<String> {
 }
 
 /// Writes `contents` to `path` through a temporary file and a rename.
-fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
+/// Writes `contents` to `path` through `path.tmp` in the same directory
+/// and a rename, so that `path` holds either its old or its new contents;
+/// on failure the temporary file is removed and the error names the file.
+///
+/// # Errors
+/// The temporary file cannot be written or renamed.
+pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
     let mut tmp: PathBuf = path.to_path_buf();
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     tmp.set_file_name(name);
-    fs::write(&tmp, contents)?;
-    fs::rename(&tmp, path)
+    let named =
+        |e: io::Error, what: &str, file: &Path| io::Error::new(e.kind(), format!("{what} {}: {e}", file.display()));
+    if let Err(e) = fs::write(&tmp, contents) {
+        let _ = fs::remove_file(&tmp);
+        return Err(named(e, "writing", &tmp));
+    }
+    fs::rename(&tmp, path).map_err(|e| {
+        let _ = fs::remove_file(&tmp);
+        named(e, "renaming into place", path)
+    })
 }
 
 // ---------------------------------------------------------------- CSV

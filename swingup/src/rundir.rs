@@ -10,6 +10,9 @@
 //!   point of the resumed run's configuration; the caller's overrides may
 //!   change the trial cap only, and any other difference is refused,
 //!   naming the keys ([`config_differences`]).
+//! - [`lock_dir`]: one program at a time in a run's (or a grid's)
+//!   directory; a second one is refused at once instead of mixing its
+//!   files with the first one's.
 
 use std::path::{Path, PathBuf};
 
@@ -39,6 +42,43 @@ pub fn run_files(dir: &Path) -> Vec<PathBuf> {
         .collect();
     files.sort();
     files
+}
+
+/// The lock file a learning run holds in its directory ([`lock_dir`]); a
+/// grid holds one per runs file (`.runs.jsonl.lock`, and one per shard).
+pub const LOCK_FILE: &str = ".swingup.lock";
+
+/// An exclusive lock on a directory, held until the value is dropped (or
+/// the process ends, however it ends: the operating system releases it).
+#[derive(Debug)]
+pub struct DirLock {
+    _file: std::fs::File,
+}
+
+/// Creates `dir` if needed and takes the exclusive lock on its file `name`
+/// (e.g. [`LOCK_FILE`]), without waiting.
+///
+/// # Errors
+/// Another process holds the lock (the error names the directory and the
+/// ways on), or a file system error naming the path.
+pub fn lock_dir(dir: &Path, name: &str) -> anyhow::Result<DirLock> {
+    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+    let path = dir.join(name);
+    let file = std::fs::OpenOptions::new()
+        .create(true)
+        .truncate(false)
+        .write(true)
+        .open(&path)
+        .map_err(|e| anyhow::anyhow!("opening the lock file {}: {e}", path.display()))?;
+    match file.try_lock() {
+        Ok(()) => Ok(DirLock { _file: file }),
+        Err(std::fs::TryLockError::WouldBlock) => anyhow::bail!(
+            "another swingup program is working in {} (it holds {}); wait for it to finish, or choose another --out",
+            dir.display(),
+            path.display()
+        ),
+        Err(std::fs::TryLockError::Error(e)) => anyhow::bail!("locking {}: {e}", path.display()),
+    }
 }
 
 /// Makes `dir` ready for a fresh run: creates it, and refuses when it holds

@@ -161,3 +161,49 @@ fn resume_config_starts_from_the_saved_settings() {
     assert!(e.contains("planner.lambda, seed differ"), "{e}");
     assert_eq!(rundir::config_differences(&saved, &saved, false), Vec::<String>::new());
 }
+
+/// A second program in a directory another one is working in is refused
+/// before it writes anything; once the first is gone, it runs.
+#[test]
+fn a_second_program_in_a_busy_directory_is_refused() {
+    let dir = Scratch::new("lock");
+    let held = rundir::lock_dir(&dir.0, rundir::LOCK_FILE).expect("lock");
+    let o = swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("another swingup program is working in"), "{e}");
+    assert!(
+        rundir::run_files(&dir.0).is_empty(),
+        "wrote {:?}",
+        rundir::run_files(&dir.0)
+    );
+    // a grid in the same directory has a lock of its own per runs file
+    let grid = rundir::lock_dir(&dir.0, ".runs.jsonl.lock").expect("grid lock");
+    let o = swingup(&["experiments", "lambda", "--quick"], &dir.0);
+    assert!(stderr(&o).contains("another swingup program"), "{}", stderr(&o));
+    assert!(!dir.0.join("runs.jsonl").exists());
+    drop((held, grid));
+    let o = swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(dir.0.join("trial_01.json").exists());
+}
+
+/// A trial that cannot be saved (a full disk: the temporary file is
+/// `/dev/full`) stops the run at once, with an error naming the file, and
+/// leaves no temporary file behind.
+#[cfg(target_os = "linux")]
+#[test]
+fn a_run_that_cannot_save_stops_at_once_and_names_the_file() {
+    let dir = Scratch::new("full");
+    let tmp = dir.0.join("trial_01.csv.tmp");
+    std::os::unix::fs::symlink("/dev/full", &tmp).expect("symlink");
+    let o = swingup(&["learn", "--model", "true", "--max-trials", "3"], &dir.0);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("trial_01.csv.tmp") && e.contains("saving trial 1"), "{e}");
+    assert!(e.contains("the run stopped there"), "{e}");
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(!out.contains("trial  2:"), "ran on after the failed save:\n{out}");
+    assert!(std::fs::symlink_metadata(&tmp).is_err(), "the temporary file was left");
+    assert!(!dir.0.join("trial_01.csv").exists());
+}
