@@ -2,17 +2,22 @@
 """Golden data for the wavelet transforms of the `splines` crate.
 
 Source: PyWavelets (pywt) 1.9.0 with numpy 2.4.6, Python 3.11 (see
-scripts/requirements.txt). Writes splines/tests/data/pywt_golden.json, read by
+scripts/requirements.txt; that wheel's pywt.__version__, which the JSON's
+"source" records, reads 1.8.0). Writes splines/tests/data/pywt_golden.json, read by
 splines/tests/wavelet.rs; the Rust tests never run Python.
 
 Contents (floats written by json.dump, i.e. by repr, so they round-trip):
 - "filters": pywt.Wavelet(name).filter_bank for haar, db2, ..., db8;
 - "signals": the input signals, keyed by length (seeded random, values in [-10, 10]);
-- "dwt": pywt.dwt for each wavelet (haar, db2, db3, db4) x mode x length;
+- "dwt": pywt.dwt for each wavelet (haar, db2, db3, db4) x mode x length
+  (all nine modes; 'reflect' and 'antireflect' skip length 1, which pywt refuses);
 - "idwt": pywt.idwt of random coefficient pairs (not from an analysis, so the
   synthesis is tested on its own);
 - "wavedec": pywt.wavedec at level 2 and at pywt's default (maximum) level,
-  for lengths where that level is at most floor(log2(n)).
+  for lengths where that level is at most floor(log2(n)); and, for the longer
+  filters (db5, ..., db8) x mode, at the deepest level of two signals shorter
+  than the filter (n = 2: one level; n = 5: two levels), where the extension
+  wraps around the signal several times.
 
 Usage: python3 -m venv .venv-ref && .venv-ref/bin/pip install -r scripts/requirements.txt
        .venv-ref/bin/python scripts/golden/pywt_golden.py
@@ -28,9 +33,22 @@ import pywt
 
 WAVELETS = ["haar", "db2", "db3", "db4"]
 ALL_FILTERS = ["haar", "db2", "db3", "db4", "db5", "db6", "db7", "db8"]
-MODES = ["periodization", "symmetric", "reflect", "zero", "constant", "periodic"]
+# every pywt mode (pywt.Modes.modes, in another order)
+MODES = [
+    "periodization",
+    "symmetric",
+    "reflect",
+    "zero",
+    "constant",
+    "periodic",
+    "smooth",
+    "antisymmetric",
+    "antireflect",
+]
+LONG_WAVELETS = ["db5", "db6", "db7", "db8"]
 DWT_LENGTHS = [1, 2, 5, 16, 37, 101]
 WAVEDEC_LENGTHS = [2, 5, 16, 37, 64]
+LONG_WAVEDEC_LENGTHS = [2, 5]  # at their deepest level, floor(log2(n))
 IDWT_LENGTHS = [1, 4, 9]  # raised to the filter's half length where pywt needs it
 
 OUT = pathlib.Path(__file__).resolve().parents[2] / "splines" / "tests" / "data" / "pywt_golden.json"
@@ -50,26 +68,45 @@ def main():
     for w in WAVELETS:
         for mode in MODES:
             for n in DWT_LENGTHS:
-                if mode == "reflect" and n == 1:
+                if mode in ("reflect", "antireflect") and n == 1:
                     continue  # pywt refuses; the Rust side extends as a constant
                 a, d = pywt.dwt(np.array(signals[str(n)]), w, mode=mode)
                 dwt_cases.append({"wavelet": w, "mode": mode, "n": n, "approx": floats(a), "detail": floats(d)})
 
     idwt_cases = []
-    for w in WAVELETS:
-        half = pywt.Wavelet(w).dec_len // 2
-        for mode in MODES:
-            for m in IDWT_LENGTHS:
-                if mode != "periodization":
-                    m = max(m, half)
-                a = rng.uniform(-10.0, 10.0, m)
-                d = rng.uniform(-10.0, 10.0, m)
-                x = pywt.idwt(a, d, w, mode=mode)
-                idwt_cases.append(
-                    {"wavelet": w, "mode": mode, "approx": floats(a), "detail": floats(d), "out": floats(x)}
-                )
+    # the modes added last draw their random coefficients after the first six
+    # (whose cases thus stay as they were before)
+    for modes in (MODES[:6], MODES[6:]):
+        for w in WAVELETS:
+            half = pywt.Wavelet(w).dec_len // 2
+            for mode in modes:
+                for m in IDWT_LENGTHS:
+                    if mode != "periodization":
+                        m = max(m, half)
+                    a = rng.uniform(-10.0, 10.0, m)
+                    d = rng.uniform(-10.0, 10.0, m)
+                    x = pywt.idwt(a, d, w, mode=mode)
+                    idwt_cases.append(
+                        {"wavelet": w, "mode": mode, "approx": floats(a), "detail": floats(d), "out": floats(x)}
+                    )
 
     wavedec_cases = []
+
+    def add_wavedec(w, mode, n, level):
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")  # "level too high" for short signals
+            coeffs = pywt.wavedec(np.array(signals[str(n)]), w, mode=mode, level=level)
+        wavedec_cases.append(
+            {
+                "wavelet": w,
+                "mode": mode,
+                "n": n,
+                "level": level,
+                "is_max_level": level == pywt.dwt_max_level(n, pywt.Wavelet(w).dec_len),
+                "coeffs": [floats(c) for c in coeffs],
+            }
+        )
+
     for w in WAVELETS:
         for mode in MODES:
             for n in WAVEDEC_LENGTHS:
@@ -77,19 +114,11 @@ def main():
                 for level in sorted({2, max_level}):
                     if level < 1 or level > int(np.floor(np.log2(n))):
                         continue
-                    with warnings.catch_warnings():
-                        warnings.simplefilter("ignore")  # "level too high" for short signals
-                        coeffs = pywt.wavedec(np.array(signals[str(n)]), w, mode=mode, level=level)
-                    wavedec_cases.append(
-                        {
-                            "wavelet": w,
-                            "mode": mode,
-                            "n": n,
-                            "level": level,
-                            "is_max_level": level == max_level,
-                            "coeffs": [floats(c) for c in coeffs],
-                        }
-                    )
+                    add_wavedec(w, mode, n, level)
+    for w in LONG_WAVELETS:
+        for mode in MODES:
+            for n in LONG_WAVEDEC_LENGTHS:
+                add_wavedec(w, mode, n, int(np.floor(np.log2(n))))
 
     data = {
         "source": f"pywt {pywt.__version__}",

@@ -34,10 +34,24 @@
 //! | `Zero` | `'zero'` | `… 0 0 \| x0 x1 … xn-1 \| 0 0 …` | $\lfloor (n+F-1)/2 \rfloor$ |
 //! | `ConstantEdge` | `'constant'` | `… x0 x0 \| x0 x1 … xn-1 \| xn-1 xn-1 …` | $\lfloor (n+F-1)/2 \rfloor$ |
 //! | `Periodic` | `'periodic'` | `… xn-2 xn-1 \| x0 x1 … xn-1 \| x0 x1 …` | $\lfloor (n+F-1)/2 \rfloor$ |
+//! | `Smooth` | `'smooth'` | `… x0+2(x0-x1) x0+(x0-x1) \| x0 x1 … xn-1 \| xn-1+(xn-1-xn-2) xn-1+2(xn-1-xn-2) …` | $\lfloor (n+F-1)/2 \rfloor$ |
+//! | `Antisymmetric` | `'antisymmetric'` | `… -x1 -x0 \| x0 x1 … xn-1 \| -xn-1 -xn-2 …` | $\lfloor (n+F-1)/2 \rfloor$ |
+//! | `Antireflect` | `'antireflect'` | `… 2x0-x2 2x0-x1 \| x0 x1 … xn-1 \| 2xn-1-xn-2 2xn-1-xn-3 …` | $\lfloor (n+F-1)/2 \rfloor$ |
 //!
-//! The one difference from PyWavelets: `'reflect'` refuses signals of length 1;
-//! here [`Boundary::Reflect`] extends a single sample as a constant (the only
-//! whole-sample symmetric extension of it).
+//! Where the extension is longer than the signal (signals shorter than the
+//! filter), it continues as in PyWavelets: `Symmetric` and `Antisymmetric`
+//! mirror back and forth (period $2n$; the antisymmetric mirror images carry a
+//! minus sign), `Reflect` likewise without repeating the edge samples (period
+//! $2n - 2$), `Antireflect` keeps reflecting through the edge value it reached
+//! (`-1 1 0 -1 | 1 3 2 | 1 3 5 4`: each period of $2n - 2$ samples is shifted
+//! by $2(x_{n-1} - x_0)$), and `Smooth` continues the straight line through the
+//! two edge samples (a single sample is extended as a constant, as in
+//! PyWavelets).
+//!
+//! The one difference from PyWavelets: `'reflect'` and `'antireflect'` refuse
+//! signals of length 1; here [`Boundary::Reflect`] and [`Boundary::Antireflect`]
+//! extend a single sample as a constant (what their formulas give for it:
+//! $x_0$ and $2x_0 - x_0$).
 //!
 //! # Redundancy
 //!
@@ -211,17 +225,29 @@ pub enum Boundary {
     ConstantEdge,
     /// `'periodic'`: periodic with period $n$ (redundant, unlike `Periodization`).
     Periodic,
+    /// `'smooth'`: linear extrapolation with the slope of the two edge samples
+    /// (first-derivative extension; a single sample is extended as a constant).
+    Smooth,
+    /// `'antisymmetric'`: half-sample anti-symmetric, the edge sample repeated
+    /// with its sign flipped (`… -x1 -x0 | x0 x1 …`).
+    Antisymmetric,
+    /// `'antireflect'`: whole-sample anti-symmetric, the signal reflected
+    /// through the edge value (`… 2x0-x2 2x0-x1 | x0 x1 …`).
+    Antireflect,
 }
 
 impl Boundary {
     /// Every mode.
-    pub const ALL: [Boundary; 6] = [
+    pub const ALL: [Boundary; 9] = [
         Boundary::Periodization,
         Boundary::Symmetric,
         Boundary::Reflect,
         Boundary::Zero,
         Boundary::ConstantEdge,
         Boundary::Periodic,
+        Boundary::Smooth,
+        Boundary::Antisymmetric,
+        Boundary::Antireflect,
     ];
 
     /// The PyWavelets mode name.
@@ -233,6 +259,9 @@ impl Boundary {
             Boundary::Zero => "zero",
             Boundary::ConstantEdge => "constant",
             Boundary::Periodic => "periodic",
+            Boundary::Smooth => "smooth",
+            Boundary::Antisymmetric => "antisymmetric",
+            Boundary::Antireflect => "antireflect",
         }
     }
 }
@@ -247,7 +276,8 @@ impl FromStr for Boundary {
     type Err = SplineError;
 
     /// Parses a PyWavelets mode name (`"periodization"`, `"symmetric"`,
-    /// `"reflect"`, `"zero"`, `"constant"`, `"periodic"`), ignoring ASCII case.
+    /// `"reflect"`, `"zero"`, `"constant"`, `"periodic"`, `"smooth"`,
+    /// `"antisymmetric"`, `"antireflect"`), ignoring ASCII case.
     fn from_str(s: &str) -> Result<Self> {
         let lower = s.to_ascii_lowercase();
         Boundary::ALL
@@ -256,7 +286,8 @@ impl FromStr for Boundary {
             .ok_or_else(|| SplineError::InvalidParameter {
                 name: "boundary",
                 reason: format!(
-                    "unknown mode {s:?}; expected periodization, symmetric, reflect, zero, constant or periodic"
+                    "unknown mode {s:?}; expected one of {}",
+                    Boundary::ALL.map(Boundary::name).join(", ")
                 ),
             })
     }
@@ -503,7 +534,18 @@ mod tests {
         }
         assert_eq!("DB1".parse::<Wavelet>()?, Wavelet::Haar);
         assert!("db9".parse::<Wavelet>().is_err());
-        assert!("smooth".parse::<Boundary>().is_err());
+        assert_eq!("smooth".parse::<Boundary>()?, Boundary::Smooth);
+        assert_eq!("AntiSymmetric".parse::<Boundary>()?, Boundary::Antisymmetric);
+        assert_eq!("antireflect".parse::<Boundary>()?, Boundary::Antireflect);
+        match "asymw".parse::<Boundary>() {
+            Err(SplineError::InvalidParameter { reason, .. }) => {
+                assert!(
+                    reason.contains("unknown mode") && reason.contains("antireflect"),
+                    "{reason}"
+                );
+            }
+            other => panic!("{other:?}"),
+        }
         Ok(())
     }
 
@@ -560,6 +602,12 @@ mod tests {
                 assert_eq!(d.len(), a.len());
                 let x = idwt(&a, &d, w, b, 1)?;
                 assert!((x[0] - 2.0).abs() < 1e-12, "{w} {b}: {x:?}");
+            }
+            // one sample: 'smooth' is 'constant' (as pywt); 'reflect' and
+            // 'antireflect' (which pywt refuses) are too
+            let constant = dwt(&[2.0], w, Boundary::ConstantEdge)?;
+            for b in [Boundary::Smooth, Boundary::Reflect, Boundary::Antireflect] {
+                assert_eq!(dwt(&[2.0], w, b)?, constant, "{w} {b}");
             }
         }
         Ok(())

@@ -57,6 +57,45 @@ mod golden {
         assert!(data["source"].as_str().unwrap().starts_with("pywt "));
     }
 
+    /// The golden data holds every mode, every (wavelet, mode) pair in a
+    /// multilevel case, and every pair but Haar's at a signal shorter than the
+    /// filter: a mode or wavelet dropped from the generator fails here.
+    #[test]
+    fn covers_every_mode_and_wavelet() {
+        let data = golden();
+        let cases = |section: &str| -> Vec<(Wavelet, Boundary, u64, u64)> {
+            data[section]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|c| {
+                    let (w, b) = case_params(c);
+                    (w, b, c["n"].as_u64().unwrap_or(0), c["level"].as_u64().unwrap_or(1))
+                })
+                .collect()
+        };
+        let (dwt_cases, idwt_cases, wavedec_cases) = (cases("dwt"), cases("idwt"), cases("wavedec"));
+        for b in Boundary::ALL {
+            assert!(dwt_cases.iter().any(|c| c.1 == b), "dwt: no {b} case");
+            assert!(idwt_cases.iter().any(|c| c.1 == b), "idwt: no {b} case");
+            assert!(
+                wavedec_cases.iter().any(|c| c.1 == b && c.3 >= 2),
+                "wavedec: no {b} case at level 2 or more"
+            );
+            for w in Wavelet::ALL {
+                assert!(
+                    wavedec_cases.iter().any(|c| (c.0, c.1) == (w, b)),
+                    "wavedec: no {w} {b} case"
+                );
+                let short = |c: &&(Wavelet, Boundary, u64, u64)| (c.0, c.1) == (w, b) && c.2 < w.filter_len() as u64;
+                assert!(
+                    w == Wavelet::Haar || dwt_cases.iter().chain(&wavedec_cases).any(|c| short(&c)),
+                    "no {w} {b} case shorter than the filter"
+                );
+            }
+        }
+    }
+
     #[test]
     fn filter_banks_match_pywt() {
         let data = golden();
@@ -163,6 +202,9 @@ mod reconstruction {
             (Wavelet::Db4, Boundary::Zero),
             (Wavelet::Db5, Boundary::ConstantEdge),
             (Wavelet::Db8, Boundary::Periodic),
+            (Wavelet::Db6, Boundary::Smooth),
+            (Wavelet::Db7, Boundary::Antisymmetric),
+            (Wavelet::Db3, Boundary::Antireflect),
         ];
         for (w, b) in pairs {
             for n in 1..=300 {

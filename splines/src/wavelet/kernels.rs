@@ -100,10 +100,49 @@ pub(super) fn synthesis_ext_len(m: usize, wavelet: Wavelet) -> usize {
     m + wavelet.filter_len()
 }
 
-/// The extended signal's value at index `i` (0 = `x[0]`), `x` nonempty.
+/// The extended signal's value at index `i` (0 = `x[0]`), `x` nonempty; as
+/// PyWavelets' `downsampling_convolution` extends it, also where the
+/// extension is longer than the signal.
 fn extended(x: &[f64], boundary: Boundary, i: isize) -> f64 {
     let n = x.len() as isize;
     let idx = match boundary {
+        Boundary::Smooth => {
+            // the line through the two edge samples (pywt: a constant for n < 2)
+            let last = x.len() - 1;
+            return if n < 2 || (0..n).contains(&i) {
+                x[i.clamp(0, n - 1) as usize]
+            } else if i < 0 {
+                x[0] + i.unsigned_abs() as f64 * (x[0] - x[1])
+            } else {
+                x[last] + (i - n + 1) as f64 * (x[last] - x[last - 1])
+            };
+        }
+        Boundary::Antisymmetric => {
+            // period 2n: x, then x reversed with the sign flipped
+            let r = i.rem_euclid(2 * n);
+            return if r < n {
+                x[r as usize]
+            } else {
+                -x[(2 * n - 1 - r) as usize]
+            };
+        }
+        Boundary::Antireflect => {
+            // point reflections through the edge values, again and again: the
+            // whole-sample antisymmetric pattern of period p = 2n - 2, shifted by
+            // 2 (x[n-1] - x[0]) per period (pywt refuses n = 1; a constant here)
+            if n == 1 {
+                return x[0];
+            }
+            let p = 2 * n - 2;
+            let (q, r) = (i.div_euclid(p), i.rem_euclid(p));
+            let last = x[x.len() - 1];
+            let base = if r < n {
+                x[r as usize]
+            } else {
+                last - (x[(p - r) as usize] - last)
+            };
+            return base + q as f64 * (2.0 * (last - x[0]));
+        }
         Boundary::Zero => {
             if (0..n).contains(&i) {
                 i
@@ -397,5 +436,59 @@ fn synthesise_fixed<const H: usize>(
     }
     if let ([last], Some((wa, wd))) = (pairs.into_remainder(), window(q)) {
         *last = dot(le, wa) + dot(he, wd);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The extension of `x` at indices `from..to`.
+    fn ext(x: &[f64], boundary: Boundary, from: isize, to: isize) -> Vec<f64> {
+        (from..to).map(|i| extended(x, boundary, i)).collect()
+    }
+
+    #[test]
+    fn new_modes_extend_as_pywt() {
+        // pywt's test_dwt_short_input_allmodes signal, four samples either side
+        // (as pywt.dwt extends it; the far left of its 'antireflect' pad differs)
+        let x = [1.0, 3.0, 2.0];
+        let cases = [
+            (
+                Boundary::Smooth,
+                [-7.0, -5.0, -3.0, -1.0, 1.0, 3.0, 2.0, 1.0, 0.0, -1.0, -2.0],
+            ),
+            (
+                Boundary::Antisymmetric,
+                [2.0, -2.0, -3.0, -1.0, 1.0, 3.0, 2.0, -2.0, -3.0, -1.0, 1.0],
+            ),
+            (
+                Boundary::Antireflect,
+                [-1.0, 1.0, 0.0, -1.0, 1.0, 3.0, 2.0, 1.0, 3.0, 5.0, 4.0],
+            ),
+        ];
+        for (b, expected) in cases {
+            assert_eq!(ext(&x, b, -4, 7), expected, "{b}");
+        }
+        // a straight line continues as itself, over several periods
+        // (pywt.dwt's values; the comment in pywt's C header draws the second
+        // period differently)
+        let line: Vec<f64> = (-5..8).map(|k| k as f64 + 1.0).collect();
+        assert_eq!(ext(&[1.0, 2.0, 3.0], Boundary::Antireflect, -5, 8), line);
+        assert_eq!(ext(&[1.0, 2.0, 3.0], Boundary::Smooth, -5, 8), line);
+        // two samples: every other extension sample is an edge reflection
+        assert_eq!(
+            ext(&[1.0, 2.0], Boundary::Antireflect, -3, 5),
+            [-2.0, -1.0, 0.0, 1.0, 2.0, 3.0, 4.0, 5.0]
+        );
+        assert_eq!(
+            ext(&[1.0, 2.0], Boundary::Antisymmetric, -3, 5),
+            [2.0, -2.0, -1.0, 1.0, 2.0, -2.0, -1.0, 1.0]
+        );
+        // a single sample: constant for smooth (as pywt) and antireflect
+        for b in [Boundary::Smooth, Boundary::Antireflect] {
+            assert_eq!(ext(&[4.0], b, -3, 4), [4.0; 7], "{b}");
+        }
+        assert_eq!(ext(&[4.0], Boundary::Antisymmetric, -2, 3), [4.0, -4.0, 4.0, -4.0, 4.0]);
     }
 }
