@@ -267,6 +267,45 @@ pub enum FitError {
         /// Its only value.
         value: f64,
     },
+    /// Every training row is the same: nothing varies to regress on.
+    #[error("{file}: all {rows} data rows are identical; a regression needs rows that differ")]
+    IdenticalRows {
+        /// The file.
+        file: PathBuf,
+        /// Its number of rows.
+        rows: usize,
+    },
+    /// Fewer rows than the local polynomial has coefficients (plus one),
+    /// or more coefficients than a local fit can hold.
+    #[error(
+        "{file}: a local {degree} fit in {inputs} inputs has {coefficients} coefficients; {reason}; \
+         use a lower --degree or fewer input columns"
+    )]
+    ModelTooLarge {
+        /// The training file.
+        file: PathBuf,
+        /// `constant`, `linear` or `quadratic`.
+        degree: &'static str,
+        /// Number of input columns.
+        inputs: usize,
+        /// Coefficients of one local fit.
+        coefficients: usize,
+        /// What does not fit: too few rows, or too many coefficients.
+        reason: String,
+    },
+    /// A target that takes one value only: nothing to regress, and its
+    /// normalised errors would divide by a zero variance.
+    #[error("{file}: the target column {column} '{name}' is {value} in every row; there is nothing to regress")]
+    ConstantTarget {
+        /// The file.
+        file: PathBuf,
+        /// Column number, from 1.
+        column: usize,
+        /// Column name.
+        name: String,
+        /// Its only value.
+        value: f64,
+    },
     /// Every training column is a target.
     #[error("{file}: every column is a target; at least one input column is needed")]
     NoInputs {
@@ -558,7 +597,68 @@ fn check_args(args: &FitArgs) -> Result<(), FitError> {
             reason: "needs --test (the predictions are for the test rows)".into(),
         });
     }
+    if let Some(out) = &args.out {
+        for (flag, input) in [("--train", Some(&args.train)), ("--test", args.test.as_ref())] {
+            if input.is_some_and(|input| same_file(out, input)) {
+                return Err(FitError::InvalidArgument {
+                    name: "--out",
+                    reason: format!(
+                        "{} is also the {flag} file; writing the predictions would destroy it",
+                        out.display()
+                    ),
+                });
+            }
+        }
+    }
     Ok(())
+}
+
+/// Whether `a` and `b` name one existing file (through links and `..`).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (fs::canonicalize(a), fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
+/// The most coefficients a local fit may have: its normal matrix is
+/// $p^2$ numbers per query (2000: 32 MB).
+const MAX_COEFFICIENTS: usize = 2000;
+
+/// Refuses training data a local fit of `degree` cannot be made from:
+/// identical rows, fewer rows than coefficients plus one, or a local
+/// polynomial too large to hold.
+fn check_size(train: &Table, degree: DegreeArg, inputs: usize) -> Result<(), FitError> {
+    let rows = train.rows.len();
+    if rows > 1 && train.rows.windows(2).all(|w| w[0] == w[1]) {
+        return Err(FitError::IdenticalRows {
+            file: train.file.clone(),
+            rows,
+        });
+    }
+    let coefficients = Degree::from(degree).n_coeffs(inputs);
+    let reason = if coefficients > MAX_COEFFICIENTS {
+        format!("at most {MAX_COEFFICIENTS} are supported (a normal matrix of {coefficients}^2 numbers per query)")
+    } else if rows <= coefficients {
+        format!(
+            "it needs at least {} training rows, and {} has {rows}",
+            coefficients + 1,
+            train.file.display()
+        )
+    } else {
+        return Ok(());
+    };
+    Err(FitError::ModelTooLarge {
+        file: train.file.clone(),
+        degree: match degree {
+            DegreeArg::Constant => "constant",
+            DegreeArg::Linear => "linear",
+            DegreeArg::Quadratic => "quadratic",
+        },
+        inputs,
+        coefficients,
+        reason,
+    })
 }
 
 /// Fits, tunes and tests as `swingup fit` does, writes `--out` if given, and
@@ -568,6 +668,15 @@ fn check_args(args: &FitArgs) -> Result<(), FitError> {
 /// `anyhow::Error` to inspect it), an [`lwr::LwrError`] if the model cannot
 /// be built or tuned, or an I/O error writing `--out`.
 pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
+    fit_report_with(args, &mut |_: &str| {})
+}
+
+/// [`fit_report`], telling `progress` each long phase as it starts
+/// (`swingup fit` prints them on stderr).
+///
+/// # Errors
+/// As [`fit_report`].
+pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> anyhow::Result<FitReport> {
     check_args(args)?;
     let train = Table::read(&args.train)?;
     let target_cols = args
@@ -581,6 +690,18 @@ pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
             file: train.file.clone(),
         }
         .into());
+    }
+    check_size(&train, args.degree, input_cols.len())?;
+    for &j in &target_cols {
+        if train.rows.iter().all(|r| r[j] == train.rows[0][j]) {
+            return Err(FitError::ConstantTarget {
+                file: train.file.clone(),
+                column: j + 1,
+                name: train.names[j].clone(),
+                value: train.rows[0][j],
+            }
+            .into());
+        }
     }
     let xs: Vec<Vec<f64>> = train
         .rows
@@ -629,6 +750,11 @@ pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
         .with_context(|| format!("{}: storing the training rows", train.file.display()))?;
 
     let (initial_loo_nmse, tune_evals, tune_converged) = if args.tune_evals > 0 {
+        progress(&format!(
+            "tuning the metric: up to {} leave-one-out evaluations over {} rows",
+            args.tune_evals,
+            train.rows.len()
+        ));
         let tuned = model
             .tune(&TuneSettings {
                 max_evals: args.tune_evals,
@@ -641,6 +767,7 @@ pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
     } else {
         (f64::NAN, 0, None)
     };
+    progress("leave-one-out cross-validation of the final model");
     let loo = model
         .loo()
         .with_context(|| format!("{}: leave-one-out cross-validation", train.file.display()))?;
@@ -690,6 +817,7 @@ pub fn fit_report(args: &FitArgs) -> anyhow::Result<FitReport> {
 
     if let Some(test_path) = &args.test {
         let test = Table::read(test_path)?;
+        progress(&format!("predicting {} test rows", test.rows.len()));
         let (report_test, predictions) = run_test(&model, &train, &input_cols, &args.targets, &test)?;
         if let Some(out) = &args.out {
             write_predictions(out, &args.targets, &predictions)?;
@@ -809,7 +937,8 @@ fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPredictio
         text.push_str(&cells.join(","));
         text.push('\n');
     }
-    fs::write(out, text).with_context(|| format!("{}: writing the predictions", out.display()))
+    // through a temporary file: a failed write leaves any old file whole
+    crate::report::write_atomic(out, &text).with_context(|| format!("{}: writing the predictions", out.display()))
 }
 
 fn fmt_num(v: f64) -> String {
@@ -904,6 +1033,10 @@ impl fmt::Display for FitReport {
             }
             match t.nmse {
                 Some(e) => writeln!(s, "test normalised MSE: {}", fmt_num(e))?,
+                None if t.n_predicted == 0 => writeln!(
+                    s,
+                    "test normalised MSE: - (no test row could be predicted: none has training data within the kernel's reach)"
+                )?,
                 None => writeln!(s, "test normalised MSE: - (no target column in the test file)")?,
             }
             for e in &t.targets {
@@ -928,7 +1061,7 @@ impl fmt::Display for FitReport {
 /// Runs `swingup fit`: [`fit_report`], then prints the summary as text or,
 /// with `--json`, as JSON (non-finite numbers as `null`).
 pub fn fit_command(args: &FitArgs) -> anyhow::Result<()> {
-    let report = fit_report(args)?;
+    let report = fit_report_with(args, &mut |phase: &str| eprintln!("{phase} ..."))?;
     if args.json {
         println!("{}", serde_json::to_string_pretty(&report)?);
     } else {

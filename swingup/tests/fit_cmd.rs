@@ -232,7 +232,7 @@ fn bad_training_files_name_row_and_column() {
         "{msg}"
     );
 
-    let (msg, typed) = train_error("constant", "a,b,y\n1,2,3\n1,5,6\n1,4,2\n");
+    let (msg, typed) = train_error("constant", "a,b,y\n1,2,3\n1,5,6\n1,4,2\n1,3,3\n1,1,1\n");
     assert!(typed);
     assert!(msg.contains("column 1 'a'") && msg.contains("constant"), "{msg}");
 
@@ -332,4 +332,82 @@ fn command_line_parses_with_defaults() {
     // a target is required, and --out needs --test
     assert!(Cli::try_parse_from(["fit", "--train", "t.csv"]).is_err());
     assert!(Cli::try_parse_from(["fit", "--train", "t.csv", "--target", "y", "--out", "p.csv"]).is_err());
+}
+
+/// Data a local fit cannot be made from is refused before any work, with
+/// what is wrong with it: identical rows (not "a constant column"), fewer
+/// rows than coefficients, a local polynomial too large to hold (300 inputs
+/// at quadratic degree used to allocate until the process was killed), and
+/// a constant target (whose normalised errors would divide by zero).
+#[test]
+fn data_too_small_for_the_model_is_refused_with_the_reason() {
+    let dir = TempDir::new("size");
+    let message = |train: &PathBuf, degree: &str| {
+        let mut args = FitArgs::new(train, &["y"]);
+        args.degree = match degree {
+            "quadratic" => swingup::fit_cmd::DegreeArg::Quadratic,
+            _ => swingup::fit_cmd::DegreeArg::Linear,
+        };
+        format!("{:#}", fit_report(&args).expect_err("refused"))
+    };
+    let twins = dir.write("twins.csv", "a,b,y\n1,2,3\n1,2,3\n");
+    let e = message(&twins, "linear");
+    assert!(
+        e.contains("all 2 data rows are identical") && !e.contains("constant"),
+        "{e}"
+    );
+
+    let few = dir.write("few.csv", "a,b,c,y\n1,2,3,4\n2,1,3,5\n3,3,1,6\n");
+    let e = message(&few, "linear");
+    assert!(
+        e.contains("4 coefficients") && e.contains("at least 5 training rows") && e.contains("has 3"),
+        "{e}"
+    );
+
+    let mut wide = (0..300).map(|j| format!("x{j}")).collect::<Vec<_>>().join(",");
+    wide.push_str(",y\n");
+    let mut seed = 3;
+    for _ in 0..10 {
+        let row: Vec<String> = (0..301).map(|_| uniform(&mut seed).to_string()).collect();
+        wide.push_str(&row.join(","));
+        wide.push('\n');
+    }
+    let wide = dir.write("wide.csv", &wide);
+    let e = message(&wide, "quadratic");
+    assert!(
+        e.contains("quadratic fit in 300 inputs has 45451 coefficients") && e.contains("at most 2000"),
+        "{e}"
+    );
+
+    let flat = dir.write("flat.csv", "a,y\n1,7\n2,7\n3,7\n4,7\n");
+    let e = message(&flat, "linear");
+    assert!(e.contains("target column 2 'y' is 7 in every row"), "{e}");
+}
+
+/// `--out` naming the training or test file is refused and the file kept;
+/// test rows none of which can be predicted are reported as such, not as a
+/// missing target column.
+#[test]
+fn predictions_never_overwrite_the_inputs_and_unpredictable_tests_say_so() {
+    let dir = TempDir::new("out");
+    let text = data(40, 8);
+    let train = dir.write("train.csv", &text);
+    let test = dir.write("test.csv", "a,b,c,y\n50,50,50,1\n60,60,60,2\n");
+    for out in [&train, &test] {
+        let mut args = FitArgs::new(&train, &["y", "z"]);
+        args.tune_evals = 0;
+        args.test = Some(test.clone());
+        args.out = Some(out.clone());
+        let e = format!("{:#}", fit_report(&args).expect_err("refused"));
+        assert!(e.contains("writing the predictions would destroy it"), "{e}");
+    }
+    assert_eq!(fs::read_to_string(&train).expect("kept"), text);
+    let mut args = FitArgs::new(&train, &["y", "z"]);
+    args.tune_evals = 0;
+    args.kernel = swingup::fit_cmd::KernelArg::Tricube;
+    args.test = Some(test);
+    let report = fit_report(&args).expect("fit");
+    assert_eq!(report.test.as_ref().map(|t| t.n_predicted), Some(0));
+    let shown = report.to_string();
+    assert!(shown.contains("no test row could be predicted"), "{shown}");
 }
