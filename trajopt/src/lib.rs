@@ -105,7 +105,7 @@ mod split;
 pub mod strategies;
 
 pub use error::{Result, TrajoptError};
-pub use gauss_newton::{GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus};
+pub use gauss_newton::{GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, MIN_PARALLEL_PARAMS};
 pub use least_squares::{LeastSquaresProblem, LinearBounds, LinearLeastSquares};
 pub use models::LinearModel;
 pub use problem::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};

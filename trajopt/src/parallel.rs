@@ -12,6 +12,13 @@
 //! helper's band matrix and vectors), which travel to the helper and back
 //! through channels, so no memory is shared and nothing is allocated per
 //! iteration.
+//!
+//! On a machine whose cores are busy a helper may wait for a core for a
+//! whole scheduler time slice at every hand-over, which made a two-thread
+//! solve 10-85 times slower than one thread. So every answer's wait is
+//! timed against the work this thread did meanwhile: after [`LATE_LIMIT`]
+//! answer(s) that came [late](is_late), [`Helpers::degraded`] says so and the
+//! solver goes on with one thread ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
 
 use std::ops::Range;
 use std::sync::Arc;
@@ -29,6 +36,17 @@ use crate::split::{self, SplitDone, SplitJob};
 /// where the split pays, short enough not to hold a core for long after a
 /// solve.
 const SPIN: Duration = Duration::from_millis(2);
+
+/// How many late answers make the helpers [degraded](Helpers::degraded).
+const LATE_LIMIT: usize = 1;
+
+/// Whether an answer that took `waited` after this thread had worked `own`
+/// since sending the job was late: the parts are balanced, so a helper that
+/// had its core answers within about `own`; one waiting for a core takes a
+/// scheduler time slice (milliseconds) more.
+fn is_late(own: Duration, waited: Duration) -> bool {
+    waited > 2 * own + Duration::from_millis(1)
+}
 
 /// One part to form, with the buffers it is formed into.
 struct PartJob {
@@ -83,11 +101,34 @@ struct Helper {
     done: Receiver<Done>,
     spare: Option<PartJob>,
     spare_residuals: Option<ResidualJob>,
+    /// When the last job was sent.
+    sent_at: Instant,
+}
+
+impl Helper {
+    /// Sends `job`; false if the helper is gone.
+    fn send(&mut self, job: Job) -> bool {
+        self.sent_at = Instant::now();
+        self.jobs.send(job).is_ok()
+    }
+
+    /// The answer to the last job, counting it in `late` if it came late
+    /// ([`is_late`]); `None` if the helper is gone.
+    fn answer(&self, late: &mut usize) -> Option<Done> {
+        let asked = Instant::now();
+        let done = receive(&self.done);
+        if is_late(asked - self.sent_at, asked.elapsed()) {
+            *late += 1;
+        }
+        done
+    }
 }
 
 /// The helper threads of one solve; dropping it ends them.
 pub(crate) struct Helpers {
     helpers: Vec<Helper>,
+    /// Answers that came late ([`is_late`]).
+    late: usize,
 }
 
 impl Helpers {
@@ -155,10 +196,17 @@ impl Helpers {
                     done,
                     spare: None,
                     spare_residuals: None,
+                    sent_at: Instant::now(),
                 }
             })
             .collect();
-        Self { helpers }
+        Self { helpers, late: 0 }
+    }
+
+    /// Whether [`LATE_LIMIT`] answers came late: the helpers are waiting
+    /// for cores, and one thread would be faster.
+    pub(crate) fn degraded(&self) -> bool {
+        self.late >= LATE_LIMIT
     }
 
     /// [`LeastSquaresProblem::band_normal_equations`] formed in parts, part
@@ -239,7 +287,7 @@ impl Helpers {
                 (true, None) => Some(vec![0.0; n_grad]),
                 (false, _) => None,
             };
-            if helper.jobs.send(Job::Band(job)).is_err() {
+            if !helper.send(Job::Band(job)) {
                 break;
             }
             sent += 1;
@@ -254,8 +302,9 @@ impl Helpers {
         // is left in a channel for the next call
         let mut outcome = mine;
         let (mut any_s, mut all_s) = (matches!(outcome, Ok(true)), matches!(outcome, Ok(true)));
-        for helper in &mut self.helpers[..sent] {
-            let Some(Done::Band(done)) = receive(&helper.done) else {
+        let Self { helpers, late } = self;
+        for helper in &mut helpers[..sent] {
+            let Some(Done::Band(done)) = helper.answer(late) else {
                 outcome = Err(helper_lost());
                 continue;
             };
@@ -298,14 +347,13 @@ impl Helpers {
 
     /// Sends a job to the first helper's split part; false if it is gone.
     pub(crate) fn split_send(&mut self, job: SplitJob) -> bool {
-        self.helpers
-            .first()
-            .is_some_and(|h| h.jobs.send(Job::Split(job)).is_ok())
+        self.helpers.first_mut().is_some_and(|h| h.send(Job::Split(job)))
     }
 
     /// The first helper's answer to its split job; `None` if it is gone.
     pub(crate) fn split_receive(&mut self) -> Option<SplitDone> {
-        match receive(&self.helpers.first()?.done)? {
+        let Self { helpers, late } = self;
+        match helpers.first()?.answer(late)? {
             Done::Split(done) => Some(done),
             _ => None,
         }
@@ -338,15 +386,16 @@ impl Helpers {
             job.parts = parts;
             copy_into(&mut job.theta, theta);
             job.r.resize(r.len(), 0.0);
-            if helper.jobs.send(Job::Residuals(job)).is_err() {
+            if !helper.send(Job::Residuals(job)) {
                 break;
             }
             sent += 1;
         }
         let mine = problem.residuals_part(0, parts, theta, r);
         let mut outcome = mine.map(|range| vec![range]);
-        for helper in &mut self.helpers[..sent] {
-            let Some(Done::Residuals(job, result)) = receive(&helper.done) else {
+        let Self { helpers, late } = self;
+        for helper in &mut helpers[..sent] {
+            let Some(Done::Residuals(job, result)) = helper.answer(late) else {
                 outcome = Err(helper_lost());
                 continue;
             };
@@ -413,7 +462,9 @@ fn receive<T>(rx: &Receiver<T>) -> Option<T> {
             Err(TryRecvError::Disconnected) => return None,
             Err(TryRecvError::Empty) => {}
         }
-        std::hint::spin_loop();
+        // a yield, not a pure spin: on a busy core it lets the thread this
+        // one waits for run (on an idle machine it returns at once)
+        std::thread::yield_now();
         spins += 1;
         if spins.is_multiple_of(64) && start.elapsed() > SPIN {
             return rx.recv().ok();
