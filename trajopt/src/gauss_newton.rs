@@ -699,9 +699,9 @@ pub const MIN_PARALLEL_PARAMS: usize = 500;
 impl System {
     /// Whether this system's helper threads answered late often enough
     /// that one thread would be faster ([`Helpers::degraded`]).
-    fn helpers_degraded(&self) -> bool {
+    fn helpers_degraded(&mut self) -> bool {
         match self {
-            Self::Band(b) => b.helpers.as_ref().is_some_and(Helpers::degraded),
+            Self::Band(b) => b.helpers.as_mut().is_some_and(Helpers::degraded),
             Self::Split(b) => b.helpers.degraded(),
             Self::Sparse(_) => false,
         }

@@ -90,6 +90,8 @@ enum Job {
 }
 
 enum Done {
+    /// The helper's thread has started.
+    Ready,
     Band(PartDone),
     Residuals(ResidualJob, Result<Range<usize>>),
     Split(SplitDone),
@@ -116,7 +118,11 @@ impl Helper {
     /// ([`is_late`]); `None` if the helper is gone.
     fn answer(&self, late: &mut usize) -> Option<Done> {
         let asked = Instant::now();
-        let done = receive(&self.done);
+        let mut done = receive(&self.done);
+        if matches!(done, Some(Done::Ready)) {
+            // its start, not yet seen by `Helpers::degraded`
+            done = receive(&self.done);
+        }
         if is_late(asked - self.sent_at, asked.elapsed()) {
             *late += 1;
         }
@@ -129,7 +135,15 @@ pub(crate) struct Helpers {
     helpers: Vec<Helper>,
     /// Answers that came late ([`is_late`]).
     late: usize,
+    /// Whether every helper has said it started ([`Done::Ready`]).
+    ready: bool,
 }
+
+/// How long the solver waits for its helpers' threads to start before it
+/// goes on without them (a thread starts in tens of microseconds on an
+/// idle machine; on a busy one it may wait for a core for many
+/// milliseconds, at the first hand-over).
+const START: Duration = Duration::from_millis(1);
 
 impl Helpers {
     /// Starts `count` helper threads in `scope`, each forming the parts of
@@ -143,6 +157,9 @@ impl Helpers {
                 let (jobs, job_rx) = channel::<Job>();
                 let (done_tx, done) = channel::<Done>();
                 scope.spawn(move || {
+                    if done_tx.send(Done::Ready).is_err() {
+                        return;
+                    }
                     // the helper's part of a split system, kept between jobs
                     let mut split_part = None;
                     while let Some(job) = receive(&job_rx) {
@@ -200,12 +217,34 @@ impl Helpers {
                 }
             })
             .collect();
-        Self { helpers, late: 0 }
+        Self {
+            helpers,
+            late: 0,
+            ready: false,
+        }
     }
 
-    /// Whether [`LATE_LIMIT`] answers came late: the helpers are waiting
-    /// for cores, and one thread would be faster.
-    pub(crate) fn degraded(&self) -> bool {
+    /// Whether the helpers are waiting for cores and one thread would be
+    /// faster: a helper's thread did not start within [`START`] of the
+    /// first call, or [`LATE_LIMIT`] answers came late.
+    pub(crate) fn degraded(&mut self) -> bool {
+        if !self.ready {
+            let start = Instant::now();
+            for helper in &self.helpers {
+                loop {
+                    match helper.done.try_recv() {
+                        Ok(Done::Ready) => break,
+                        Err(TryRecvError::Empty) if start.elapsed() < START => std::thread::yield_now(),
+                        // not started in time, gone, or out of order: go on alone
+                        _ => {
+                            self.late = LATE_LIMIT;
+                            break;
+                        }
+                    }
+                }
+            }
+            self.ready = true;
+        }
         self.late >= LATE_LIMIT
     }
 
@@ -302,7 +341,7 @@ impl Helpers {
         // is left in a channel for the next call
         let mut outcome = mine;
         let (mut any_s, mut all_s) = (matches!(outcome, Ok(true)), matches!(outcome, Ok(true)));
-        let Self { helpers, late } = self;
+        let Self { helpers, late, .. } = self;
         for helper in &mut helpers[..sent] {
             let Some(Done::Band(done)) = helper.answer(late) else {
                 outcome = Err(helper_lost());
@@ -352,7 +391,7 @@ impl Helpers {
 
     /// The first helper's answer to its split job; `None` if it is gone.
     pub(crate) fn split_receive(&mut self) -> Option<SplitDone> {
-        let Self { helpers, late } = self;
+        let Self { helpers, late, .. } = self;
         match helpers.first()?.answer(late)? {
             Done::Split(done) => Some(done),
             _ => None,
@@ -393,7 +432,7 @@ impl Helpers {
         }
         let mine = problem.residuals_part(0, parts, theta, r);
         let mut outcome = mine.map(|range| vec![range]);
-        let Self { helpers, late } = self;
+        let Self { helpers, late, .. } = self;
         for helper in &mut helpers[..sent] {
             let Some(Done::Residuals(job, result)) = helper.answer(late) else {
                 outcome = Err(helper_lost());
