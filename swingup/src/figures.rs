@@ -385,6 +385,7 @@ mod tests {
             claims: vec![],
             seconds: 0.0,
             threads: 1,
+            ran: 0,
         };
         let svg = lambda_svg(&report).expect("figure");
         let cy: Vec<f64> = svg

@@ -203,6 +203,10 @@ pub struct ExperimentsReport {
     /// Worker threads of that invocation.
     #[serde(default)]
     pub threads: usize,
+    /// Runs that invocation made (the others were read back from the runs
+    /// file: `--resume`, `--report-only`).
+    #[serde(default)]
+    pub ran: usize,
 }
 
 /// The learning-from-scratch variants of `beyond`: model and name.
@@ -454,6 +458,7 @@ pub fn run_experiments(
         .collect();
     let errors = errors.into_inner().unwrap_or_default();
     anyhow::ensure!(errors.is_empty(), "runs failed:\n{}", errors.join("\n"));
+    let ran = runs.len();
     runs.extend(previous);
     runs.sort_by(|a, b| (&a.experiment, &a.variant, a.seed).cmp(&(&b.experiment, &b.variant, b.seed)));
     let variants = summarise(&runs);
@@ -466,6 +471,7 @@ pub fn run_experiments(
         claims,
         seconds: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
+        ran,
     })
 }
 
@@ -617,11 +623,20 @@ pub fn provenance(report: &ExperimentsReport) -> String {
                 .join(", ")
         ),
     };
+    let wall = match report.ran {
+        0 => "written from saved runs (no wall time measured)".to_string(),
+        n if n == report.runs.len() => format!(
+            "all run by one invocation in {:.0} s of wall time on {} threads",
+            report.seconds, report.threads
+        ),
+        n => format!(
+            "{n} of them run by the invocation that wrote this, in {:.0} s of wall time on {} threads",
+            report.seconds, report.threads
+        ),
+    };
     format!(
-        "{code}; {:.0} s of run time summed over the runs, {:.0} s of wall time for the invocation that wrote this on {} threads.",
-        report.runs.iter().map(|r| r.seconds).sum::<f64>(),
-        report.seconds,
-        report.threads
+        "{code}; {:.0} s of run time summed over the runs; {wall}.",
+        report.runs.iter().map(|r| r.seconds).sum::<f64>()
     )
 }
 
@@ -760,10 +775,23 @@ mod tests {
             claims: vec![],
             seconds: 12.0,
             threads: 2,
+            ran: 2,
         };
         let one = provenance(&report(runs.clone()));
         assert!(one.starts_with("2 runs, all made at commit test"), "{one}");
-        assert!(one.contains("12 s of wall time") && one.contains("2 threads"), "{one}");
+        assert!(
+            one.contains("all run by one invocation in 12 s of wall time on 2 threads"),
+            "{one}"
+        );
+        let saved = ExperimentsReport {
+            ran: 0,
+            ..report(runs.clone())
+        };
+        assert!(
+            provenance(&saved).contains("no wall time measured"),
+            "{}",
+            provenance(&saved)
+        );
         runs[1].code_version = String::new();
         let mixed = provenance(&report(runs));
         assert!(mixed.contains("more than one code version"), "{mixed}");
