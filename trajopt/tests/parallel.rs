@@ -12,10 +12,13 @@ use trajopt::{
 /// A horizon whose problem has at least `MIN_PARALLEL_PARAMS` parameters.
 const HORIZON: usize = 700;
 
+/// The solver in a mode; without the fallback to one thread, so that the
+/// parallel path is what these tests test, however busy the machine.
 fn solver(second_order: bool, adaptive: bool) -> GaussNewton {
     GaussNewton::new(GaussNewtonSettings {
         second_order,
         adaptive,
+        one_thread_fallback: false,
         ..GaussNewtonSettings::default()
     })
     .expect("settings")
@@ -71,12 +74,8 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
                 &format!("{threads} threads, newton {second_order}, adaptive {adaptive}"),
             );
             let again = s.solve_parallel(&p, &theta0, threads)?;
-            // bit for bit, unless a busy machine made a solve go on with one thread
-            if par.one_thread_from.is_none() && again.one_thread_from.is_none() {
-                assert_eq!(par.theta, again.theta, "{threads} threads are not deterministic");
-            } else {
-                assert_close(&again, &par, &format!("{threads} threads, one fell back"));
-            }
+            assert_eq!(par.one_thread_from, None);
+            assert_eq!(par.theta, again.theta, "{threads} threads are not deterministic");
         }
     }
     Ok(())
@@ -429,14 +428,12 @@ fn a_late_helper_makes_the_solve_go_on_with_one_thread() -> Result<()> {
         solver_thread,
         helper_calls: std::sync::atomic::AtomicUsize::new(0),
     })?;
-    let s = solver(false, false);
+    let s = GaussNewton::new(GaussNewtonSettings::default())?;
     let one = s.solve(&p, &theta0)?;
     let two = s.solve_parallel(&p, &theta0, 2)?;
     assert_close(&two, &one, "late helper");
+    // (on a busy machine the helper may not even start in time: then it never runs)
     let helper_calls = p.model().helper_calls.load(std::sync::atomic::Ordering::Relaxed);
-    if std::thread::available_parallelism().map_or(1, usize::from) >= 2 {
-        assert!(helper_calls >= 1, "the helper never ran");
-    }
     // (without the fallback: at every one of the iterations)
     assert!(
         4 * helper_calls < two.iterations,
