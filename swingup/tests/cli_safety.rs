@@ -207,3 +207,18 @@ fn a_run_that_cannot_save_stops_at_once_and_names_the_file() {
     assert!(std::fs::symlink_metadata(&tmp).is_err(), "the temporary file was left");
     assert!(!dir.0.join("trial_01.csv").exists());
 }
+
+/// A learning run shows each trial's long phases as they start, so a slow
+/// planner (Powell's takes minutes) never runs without a line.
+#[test]
+fn a_learning_run_shows_its_phases() {
+    let dir = Scratch::new("phases");
+    let o = swingup(&["learn", "--model", "lwr", "--max-trials", "2"], &dir.0);
+    assert!(o.status.success(), "{}", stderr(&o));
+    let out = String::from_utf8_lossy(&o.stdout);
+    let learning = out.find("trial  2: learning the model from 330 samples ...");
+    let planning = out.find("trial  2: planning (gaussnewton, bspline basis) ...");
+    let done = out.find("trial  2: max angle");
+    assert!(learning.is_some() && planning.is_some() && done.is_some(), "{out}");
+    assert!(learning < planning && planning < done, "{out}");
+}
