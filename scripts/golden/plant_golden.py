@@ -58,7 +58,7 @@ DT = 1.0 / 60.0
 N = 120  # samples, 2 s
 RTOL = ATOL = 1e-12
 
-# the Rust constructors' values (swingup/src/plant.rs); the Rust test checks
+# the Rust constructors' values (swingup/src/plant/mod.rs); the Rust test checks
 # them against PlantParams::human() / robot() so a change there shows up here
 HUMAN = {"gravity": 9.81, "length": 0.5, "damping": 0.05, "lag": 0.0, "dt": DT}
 ROBOT = {**HUMAN, "length": 0.6, "damping": 0.2}

@@ -9,13 +9,16 @@
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use swingup::demo::demonstrate;
-use swingup::learn::{Config, ModelKind, learn_model, plan, run};
-use swingup::model::{LearnedModel, PendulumRegression};
+use swingup::config::{Config, ModelKind};
+use swingup::learn::run;
+use swingup::models::learned::learn_model;
+use swingup::models::{LearnedModel, PendulumRegression};
+use swingup::planning::eq3::plan;
+use swingup::plant::demo::demonstrate;
 
 /// The default configuration with the pure LWR, its model learned from
 /// the first two trials of seed 1, and the demonstration.
-fn setup() -> (Config, LearnedModel, swingup::demo::Demonstration) {
+fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration) {
     let mut cfg = Config {
         seed: 1,
         max_trials: 2,

@@ -6,8 +6,8 @@
 use lwr::Kernel;
 use serde::{Deserialize, Serialize};
 
-use crate::demo::HumanSwingup;
 use crate::plant::PlantParams;
+use crate::plant::demo::HumanSwingup;
 
 /// Everything a learning run depends on. `swingup config` prints the
 /// defaults as TOML; `--config FILE` reads one (missing fields keep their
@@ -189,7 +189,7 @@ pub struct PlannerConfig {
     pub initial_state_weight: f64,
     /// Largest planned command (m/s²), below the actuator limit.
     pub u_max: f64,
-    /// Weight $w_b$ of the soft bounds on $|x|$ and $|u|$ (see [`crate::cost`]).
+    /// Weight $w_b$ of the soft bounds on $|x|$ and $|u|$ (see [`crate::planning::cost`]).
     pub bound_weight: f64,
     /// Largest planned hand excursion (m), inside the robot's workspace
     /// to leave the hand servo room.
@@ -209,7 +209,7 @@ pub struct PlannerConfig {
     /// fb7f531) as many runs learned (8) in 58 % of the run time.
     pub tol_cost: f64,
     /// Weight $w$ of the penalty on planning where the robot has no data
-    /// ([`crate::support`]): each planned sample pays up to $w$ by how
+    /// ([`crate::planning::support`]): each planned sample pays up to $w$ by how
     /// little data lie near its $(s_k, u_k)$; 0 (the default) turns it
     /// off. Measured with the pure LWR over 40 seeds it made learning less
     /// likely, not more (the plans stop short of upright where the data
@@ -279,7 +279,7 @@ pub struct ModelConfig {
     pub tune_evals: usize,
     /// Ridge on the LWR's intercept: the weight of the prior that the
     /// residual of the global linear fit is 0 (see
-    /// [`LwrRegression`](crate::model::LwrRegression)); in units of kernel weight, i.e. data points.
+    /// [`LwrRegression`](crate::models::LwrRegression)); in units of kernel weight, i.e. data points.
     pub prior_weight: f64,
     /// The LWR kernel. Tricube goes to zero smoothly at the edge of its
     /// support; the Gaussian's truncation makes the prediction jump by a

@@ -636,7 +636,8 @@ fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPredictio
         text.push('\n');
     }
     // through a temporary file: a failed write leaves any old file whole
-    crate::report::write_atomic(out, &text).with_context(|| format!("{}: writing the predictions", out.display()))
+    crate::output::run_report::write_atomic(out, &text)
+        .with_context(|| format!("{}: writing the predictions", out.display()))
 }
 
 fn fmt_num(v: f64) -> String {

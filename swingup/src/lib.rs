@@ -3,26 +3,36 @@
 //!
 //! A pendulum hangs from a hand that moves horizontally,
 //! $\ddot\theta = -(g/l)\sin\theta - (a/l)\cos\theta - b\dot\theta$, $\ddot x = a$
-//! ([`plant`]). A "human" plant demonstrates a swing-up ([`demo`]); the robot,
-//! a different plant with noisy sensors, imitates it, then learns a locally
-//! weighted regression model of its own dynamics ([`model`]) and plans with
-//! the paper's Eq. 3 and the Eq. 5 task cost ([`cost`], [`learn`]) until an
-//! LQR ([`lqr`]) can catch and balance the pendulum. [`record`] and
-//! [`report`] hold and write what a run saw; [`fit_cmd`] is the `swingup
-//! fit` subcommand and [`experiments`] the `swingup experiments` one. For
-//! the planner-by-model comparison (claim C6): a learned parametric model
-//! ([`parametric`]), the true model ([`truth`]) and a DDP planner
-//! ([`ddp_plan`]). [`diagnostics`] puts each plan against what the robot
-//! then did, [`support`] is the planner's optional penalty on leaving the
-//! data, [`sensitivity`] measures how much model error an open-loop
-//! swing-up tolerates, and [`rundir`] and [`grid`] keep runs and grids
-//! from overwriting or mixing with each other. [`config`] holds every
-//! setting of a run.
+//! ([`plant`]). A "human" plant demonstrates a swing-up ([`plant::demo`]);
+//! the robot, a different plant with noisy sensors, imitates it, then
+//! learns a locally weighted regression model of its own dynamics
+//! ([`models`]) and plans with the paper's Eq. 3 and the Eq. 5 task cost
+//! ([`planning`]) until an LQR ([`plant::lqr`]) can catch and balance the
+//! pendulum ([`learn`]).
+//!
+//! # Layout
+//!
+//! The modules form layers; each imports only from the layers above it in
+//! this list (checked by `tests/tests/layers.rs` of the workspace):
+//!
+//! | layer | modules | what |
+//! |---|---|---|
+//! | plant | [`plant`], [`plant::lqr`], [`plant::demo`] | the simulated pendulum on a hand, the LQR catch, the human's demonstration |
+//! | config | [`config`] | every setting of a run, validated |
+//! | records | [`record`] | what a trial and a run saw, and the training pairs drawn from it |
+//! | models | [`models`] ([`models::nonparametric`], [`models::parametric`], [`models::truth`], [`models::learned`]) | the robot's models of its dynamics, and fitting them to the trials |
+//! | planning | [`planning`] ([`planning::cost`], [`planning::support`], [`planning::eq3`], [`planning::ddp`]) | the task cost, the penalty on leaving the data, Eq. 3 by Gauss-Newton or Powell, and DDP |
+//! | learning | [`learn`], [`diagnostics`] | the trial loop; each plan against what the robot then did |
+//! | experiments | [`experiments`] ([`experiments::claims`], [`experiments::sensitivity`]) | the grid behind the paper's claims, and how much model error an open-loop swing-up tolerates |
+//! | output | [`output`] ([`output::run_report`], [`output::figures`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk, and the rules that keep runs from overwriting or mixing |
+//!
+//! [`fit_cmd`] is the `swingup fit` subcommand (locally weighted regression
+//! on a CSV file); it uses nothing else of this crate.
 //!
 //! # Example
 //!
 //! ```
-//! use swingup::demo::{HumanSwingup, demonstrate};
+//! use swingup::plant::demo::{HumanSwingup, demonstrate};
 //! use swingup::plant::{Plant, PlantParams, PlantState, from_upright};
 //!
 //! // the human's demonstration: 150 samples of swing-up at 60 Hz, then balancing
@@ -43,23 +53,13 @@
 #![warn(missing_docs)]
 
 pub mod config;
-pub mod cost;
-pub mod ddp_plan;
-pub mod demo;
 pub mod diagnostics;
 pub mod experiments;
-pub mod figures;
 pub mod fit_cmd;
-pub mod grid;
+pub mod format;
 pub mod learn;
-pub mod lqr;
-pub mod model;
-pub mod parametric;
+pub mod models;
+pub mod output;
+pub mod planning;
 pub mod plant;
 pub mod record;
-pub mod report;
-pub mod rundir;
-pub mod sensitivity;
-pub mod support;
-mod svg;
-pub mod truth;

@@ -7,10 +7,11 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
+use swingup::config::{BasisKind, Config, ModelKind, Solver};
 use swingup::experiments::{Experiment, ExperimentSettings, run_experiments};
-use swingup::learn::{BasisKind, Config, ModelKind, Solver, run};
+use swingup::learn::run;
+use swingup::output::run_report;
 use swingup::record::{TrialKind, TrialRecord};
-use swingup::report;
 
 /// Learn a pendulum swing-up from a human demonstration, as in Atkeson's
 /// "Nonparametric Model-Based Reinforcement Learning" (simulated).
@@ -185,7 +186,7 @@ fn run_command() -> anyhow::Result<()> {
 }
 
 fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
-    use swingup::sensitivity::{
+    use swingup::experiments::sensitivity::{
         code_version, default_perturbations, learned_model_error, markdown, open_loop_tolerance,
     };
     let perturbations = default_perturbations();
@@ -214,8 +215,8 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     print!("{md}");
     println!("written: {}", args.out.join("sensitivity.md").display());
     if let Some(readme) = &args.update_readme {
-        let short = swingup::sensitivity::readme_summary(&rows, &model_error, &version);
-        report::update_between(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", &short)?;
+        let short = swingup::experiments::sensitivity::readme_summary(&rows, &model_error, &version);
+        run_report::update_between(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", &short)?;
         println!("updated the sensitivity summary in {}", readme.display());
     }
     Ok(())
@@ -278,20 +279,20 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         None => run_dir(args.resume)?,
     };
     // one program at a time in a run's directory
-    let _lock = swingup::rundir::lock_dir(out, swingup::rundir::LOCK_FILE)?;
+    let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
     // a resumed run continues with the settings that made it; a fresh one
     // never writes over another run's files
     let cfg = if args.resume {
-        swingup::rundir::resume_config(out, |c| apply_options(args, file.as_ref(), c))?
+        swingup::output::rundir::resume_config(out, |c| apply_options(args, file.as_ref(), c))?
     } else {
         let mut cfg = Config::default();
         apply_options(args, file.as_ref(), &mut cfg);
         cfg.validate()?;
-        swingup::rundir::prepare_fresh(out, args.force)?;
+        swingup::output::rundir::prepare_fresh(out, args.force)?;
         cfg
     };
     let previous = if args.resume {
-        let trials = report::read_trials(out)?;
+        let trials = run_report::read_trials(out)?;
         println!(
             "resuming {}: {} finished trial(s) read back",
             out.display(),
@@ -318,8 +319,8 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     println!("writing to {}", out.display());
     let start = std::time::Instant::now();
     let record = run(&cfg, previous, &mut SaveAndShow { out })?;
-    report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;
-    println!("{}", report::result_line(&record));
+    run_report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;
+    println!("{}", run_report::result_line(&record));
     println!(
         "report: {}, plots: {}, {} ({:.1} s)",
         out.join("report.md").display(),
@@ -340,7 +341,7 @@ struct SaveAndShow<'a> {
 impl swingup::learn::Progress for SaveAndShow<'_> {
     fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()> {
         print_trial(trial);
-        report::write_trial(self.out, trial)
+        run_report::write_trial(self.out, trial)
     }
 
     fn phase(&mut self, index: usize, phase: &str) {
@@ -385,7 +386,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         None => "runs.jsonl".into(),
     };
     // one program at a time per runs file (shards of one grid may share the directory)
-    let _lock = swingup::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
+    let _lock = swingup::output::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
     println!(
         "experiments {:?}: {} seeds, up to {} trials per run, on {} threads; writing to {}",
         which,
@@ -395,12 +396,12 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         out.display()
     );
     // the saved runs must have been made with these settings
-    if let Some(w) = swingup::grid::check_grid_settings(out, &settings, args.resume)? {
+    if let Some(w) = swingup::output::grid::check_grid_settings(out, &settings, args.resume)? {
         eprintln!("warning: {w}");
     }
     let log = out.join(&log_name);
     let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
-        let (runs, warnings) = swingup::grid::read_saved_runs(out)?;
+        let (runs, warnings) = swingup::output::grid::read_saved_runs(out)?;
         for w in warnings {
             eprintln!("warning: {w}");
         }
@@ -472,16 +473,19 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     bar.finish_and_clear();
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
-    write_atomic(&out.join("experiments.md"), &swingup::experiments::markdown(&report))?;
-    let figures = swingup::figures::figures(&report);
+    write_atomic(
+        &out.join("experiments.md"),
+        &swingup::output::grid_report::markdown(&report),
+    )?;
+    let figures = swingup::output::figures::figures(&report);
     for (name, svg) in &figures {
         write_atomic(&out.join(name), svg)?;
     }
-    let table = swingup::experiments::claims_table(&report.claims);
+    let table = swingup::output::grid_report::claims_table(&report.claims);
     println!("\n{table}");
     if let Some(readme) = &args.update_readme {
-        let block = format!("{}\n\n{table}", swingup::experiments::provenance(&report));
-        report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
+        let block = format!("{}\n\n{table}", swingup::output::grid_report::provenance(&report));
+        run_report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
         println!("updated the claims table in {}", readme.display());
     }
     println!(
@@ -496,7 +500,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {
-    Ok(report::write_atomic(path, text)?)
+    Ok(run_report::write_atomic(path, text)?)
 }
 
 /// The command-line spelling of an option's value.

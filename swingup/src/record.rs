@@ -4,7 +4,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::demo::Demonstration;
+use crate::plant::demo::Demonstration;
 
 /// How a trial chose its commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -15,7 +15,7 @@ pub enum TrialKind {
     /// Executing a plan made with the learned model.
     Planned,
     /// Random smooth commands (trial 1 when learning without a
-    /// demonstration, [`crate::learn::Start::Scratch`]).
+    /// demonstration, [`crate::config::Start::Scratch`]).
     Exploration,
 }
 
@@ -251,4 +251,19 @@ pub(crate) mod nullable {
     pub(crate) fn deserialize<'de, T: Nullable, D: Deserializer<'de>>(d: D) -> Result<T, D::Error> {
         T::Repr::deserialize(d).map(T::from_repr)
     }
+}
+
+/// Training pairs from the trials: inputs $(\theta, \dot\theta, x, \dot x, u)$
+/// observed at $k$, output the observed change of $\dot\theta$.
+pub fn training_data(trials: &[TrialRecord]) -> (Vec<[f64; 5]>, Vec<[f64; 1]>) {
+    let mut xs = Vec::new();
+    let mut ys = Vec::new();
+    for t in trials {
+        for (k, &u) in t.commands.iter().enumerate() {
+            let (o, o1) = (t.observed[k], t.observed[k + 1]);
+            xs.push([o[0], o[1], o[2], o[3], u]);
+            ys.push([o1[1] - o[1]]);
+        }
+    }
+    (xs, ys)
 }

@@ -6,8 +6,8 @@
 use std::path::{Path, PathBuf};
 use std::process::{Command, Output};
 
-use swingup::learn::Config;
-use swingup::rundir;
+use swingup::config::Config;
+use swingup::output::rundir;
 
 struct Scratch(PathBuf);
 

@@ -1,13 +1,13 @@
-//! The run directory: report, logs and plots written by `swingup::report`.
+//! The run directory: report, logs and plots written by `swingup::output::run_report`.
 
 use std::fs;
 use std::path::{Path, PathBuf};
 
-use swingup::demo::Demonstration;
-use swingup::record::{ModelSummary, PlanSummary, RunRecord, TrialDiagnostics, TrialKind, TrialRecord, TrialTiming};
-use swingup::report::{
+use swingup::output::run_report::{
     DEMONSTRATION_CSV_HEADER, TRIAL_CSV_HEADER, read_trials, trial_csv_name, trial_json_name, write_run, write_trial,
 };
+use swingup::plant::demo::Demonstration;
+use swingup::record::{ModelSummary, PlanSummary, RunRecord, TrialDiagnostics, TrialKind, TrialRecord, TrialTiming};
 
 const DT: f64 = 1.0 / 60.0;
 

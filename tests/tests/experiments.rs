@@ -1,8 +1,8 @@
 //! `swingup experiments` on a tiny grid: the lambda sweep's two ends and
 //! the claims table built from them.
 
+use swingup::config::ModelKind;
 use swingup::experiments::{Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
-use swingup::learn::ModelKind;
 
 #[test]
 fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::error::Error>> {
@@ -79,7 +79,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     let whole = format!("{}\n{}\n", lines[0], lines[1]);
     std::fs::write(dir.join("runs.jsonl"), format!("{whole}{}", &lines[0][..20]))?;
     std::fs::write(dir.join("runs-2-of-2.jsonl"), format!("{}\n", lines[1]))?;
-    let (runs, warnings) = swingup::grid::read_saved_runs(&dir)?;
+    let (runs, warnings) = swingup::output::grid::read_saved_runs(&dir)?;
     assert_eq!(runs.len(), 2, "both runs once, the torn copy skipped");
     assert_eq!(warnings.len(), 1, "{warnings:?}");
     assert!(warnings[0].contains("runs.jsonl line 3"), "{warnings:?}");
@@ -87,10 +87,12 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         dir.join("runs.jsonl"),
         format!("{}\nnot json\n{}\n", lines[0], lines[1]),
     )?;
-    let e = swingup::grid::read_saved_runs(&dir).expect_err("bad line").to_string();
+    let e = swingup::output::grid::read_saved_runs(&dir)
+        .expect_err("bad line")
+        .to_string();
     assert!(e.contains("runs.jsonl line 2"), "{e}");
     std::fs::remove_dir_all(&dir)?;
-    let md = swingup::experiments::markdown(&report);
+    let md = swingup::output::grid_report::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
 }

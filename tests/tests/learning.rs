@@ -5,9 +5,10 @@
 
 use std::path::PathBuf;
 
-use swingup::learn::{Config, ModelKind, Start, run};
+use swingup::config::{Config, ModelKind, Start};
+use swingup::learn::run;
+use swingup::output::run_report;
 use swingup::record::{TrialKind, TrialRecord};
-use swingup::report;
 
 /// A fresh scratch directory, removed afterwards.
 struct Scratch(PathBuf);
@@ -39,7 +40,7 @@ fn imitation_fails_and_learning_succeeds() -> Result<(), Box<dyn std::error::Err
     let dir = Scratch::new("default");
     let cfg = config(4);
     let record = run(&cfg, vec![], &mut |_: &TrialRecord| {})?;
-    report::write_run(&dir.0, &record)?;
+    run_report::write_run(&dir.0, &record)?;
     let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.0.join("report.json"))?)?;
     let trials = json["trials"].as_array().ok_or("no trials in report.json")?;
     // trial 1 imitates and does not get halfway up (claim C1)
@@ -68,9 +69,9 @@ fn an_interrupted_run_resumes_to_the_same_trials() -> Result<(), Box<dyn std::er
     let first = run(&config(1), vec![], &mut |t: &TrialRecord| saved.push(t.clone()))?;
     assert_eq!(first.trials.len(), 1);
     for t in &saved {
-        report::write_trial(&dir.0, t)?;
+        run_report::write_trial(&dir.0, t)?;
     }
-    let previous = report::read_trials(&dir.0)?;
+    let previous = run_report::read_trials(&dir.0)?;
     let resumed = run(&config(3), previous, &mut |_: &TrialRecord| {})?;
     assert_eq!(whole.trials.len(), resumed.trials.len());
     assert_eq!(whole.success_trial, resumed.success_trial);

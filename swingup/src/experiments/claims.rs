@@ -7,7 +7,8 @@ fn rate(v: Option<&VariantSummary>) -> Option<f64> {
     v.filter(|v| v.runs > 0).map(|v| v.successes as f64 / v.runs as f64)
 }
 
-pub(super) fn describe(v: Option<&VariantSummary>) -> String {
+/// A variant's outcome in words: successes over runs and the median trial.
+pub fn describe(v: Option<&VariantSummary>) -> String {
     match v {
         Some(v) => format!(
             "{}/{} succeeded{}",

@@ -13,6 +13,8 @@
 //! Every run is a [`crate::learn::run`] with a configuration that differs
 //! from the defaults only where the table says.
 
+pub mod sensitivity;
+
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicUsize, Ordering};
 use std::time::Instant;
@@ -20,12 +22,14 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::learn::{BasisKind, Config, ModelKind, Solver, Start, learn_model, run};
-use crate::model::PendulumRegression;
+use crate::config::{BasisKind, Config, ModelKind, Solver, Start};
+use crate::learn::run;
+use crate::models::PendulumRegression;
+use crate::models::learned::learn_model;
 use crate::record::{RunRecord, TrialRecord};
 
-mod claims;
-use claims::{claims, describe};
+pub mod claims;
+use claims::claims;
 
 /// Which experiments to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
@@ -146,7 +150,7 @@ pub struct RunSummary {
     /// Wall time (s).
     pub seconds: f64,
     /// The code that made the run (`git describe` of the working
-    /// directory, see [`crate::sensitivity::code_version`]); empty for runs
+    /// directory, see [`crate::experiments::sensitivity::code_version`]); empty for runs
     /// saved before it was recorded.
     #[serde(default)]
     pub code_version: String,
@@ -412,7 +416,7 @@ pub fn run_experiments(
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
 ) -> anyhow::Result<ExperimentsReport> {
     let start = Instant::now();
-    let version = crate::sensitivity::code_version();
+    let version = crate::experiments::sensitivity::code_version();
     let all: Vec<Job> = jobs(which, settings)
         .into_iter()
         .enumerate()
@@ -498,7 +502,7 @@ fn run_one(job: &Job, version: &str) -> anyhow::Result<RunSummary> {
             .iter()
             .map(|t| match &t.plan {
                 Some(p) if p.planner == "ddp" => {
-                    format!("{} [ddp: {}]", t.failure, crate::ddp_plan::classify_ddp_failure(p))
+                    format!("{} [ddp: {}]", t.failure, crate::planning::ddp::classify_ddp_failure(p))
                 }
                 _ => t.failure.clone(),
             })
@@ -594,116 +598,6 @@ fn summarise(runs: &[RunSummary]) -> Vec<VariantSummary> {
         .collect()
 }
 
-/// Which code made the runs and how long the grid took: one line, for the
-/// report and above the README's claims table. Runs of more than one code
-/// version are named as such, with their counts.
-pub fn provenance(report: &ExperimentsReport) -> String {
-    let mut versions: Vec<(String, usize)> = Vec::new();
-    for r in &report.runs {
-        let v = if r.code_version.is_empty() {
-            "an unrecorded commit".to_string()
-        } else {
-            r.code_version.clone()
-        };
-        match versions.iter_mut().find(|(name, _)| *name == v) {
-            Some((_, n)) => *n += 1,
-            None => versions.push((v, 1)),
-        }
-    }
-    let code = match versions.as_slice() {
-        [] => "no runs".to_string(),
-        [(v, n)] => format!("{n} runs, all made at {v}"),
-        _ => format!(
-            "{} runs made by more than one code version ({}): regenerate the grid with --force before comparing them",
-            report.runs.len(),
-            versions
-                .iter()
-                .map(|(v, n)| format!("{n} at {v}"))
-                .collect::<Vec<_>>()
-                .join(", ")
-        ),
-    };
-    let wall = match report.ran {
-        0 => "written from saved runs (no wall time measured)".to_string(),
-        n if n == report.runs.len() => format!(
-            "all run by one invocation in {:.0} s of wall time on {} threads",
-            report.seconds, report.threads
-        ),
-        n => format!(
-            "{n} of them run by the invocation that wrote this, in {:.0} s of wall time on {} threads",
-            report.seconds, report.threads
-        ),
-    };
-    format!(
-        "{code}; {:.0} s of run time summed over the runs; {wall}.",
-        report.runs.iter().map(|r| r.seconds).sum::<f64>()
-    )
-}
-
-/// `experiments.md`: the claims table, then one table per experiment.
-pub fn markdown(report: &ExperimentsReport) -> String {
-    let mut md = String::from("# Experiments\n\n");
-    md.push_str(&format!(
-        "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each. Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
-        report.runs.len(),
-        report.settings.learning_seeds,
-        report.settings.wavelet_seeds,
-        report.settings.powell_seeds,
-        report.settings.seeds,
-        report.settings.max_trials,
-    ));
-    md.push_str(&format!("{}\n\n", provenance(report)));
-    md.push_str(&claims_table(&report.claims));
-    let figures = crate::figures::figures(report);
-    if !figures.is_empty() {
-        md.push_str("\n## Figures\n\n");
-        for (name, _) in &figures {
-            md.push_str(&format!("![{}]({name})\n\n", name.trim_end_matches(".svg")));
-        }
-    }
-    md.push_str("\n## Variants\n\n| experiment | variant | runs | successes | median trial of success | range | median robot seconds to success |\n|---|---|---|---|---|---|---|\n");
-    for v in &report.variants {
-        md.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} | {} |\n",
-            v.experiment,
-            v.variant,
-            v.runs,
-            v.successes,
-            v.median_trials.map_or("-".into(), |m| format!("{m}")),
-            v.trial_range.map_or("-".into(), |(a, b)| format!("{a}-{b}")),
-            v.median_robot_seconds.map_or("-".into(), |m| format!("{m:.1}"))
-        ));
-    }
-    let worth = demonstration_worth(&report.variants);
-    if !worth.is_empty() {
-        md.push_str("\n## The demonstration's worth (beyond the paper)\n\nLearning with the demonstration against learning from scratch (`start = \"scratch\"` in the configuration: a random exploration trial first, the cost tracking upright throughout, each plan starting from the previous trial). Robot seconds count every trial up to success, the demonstration itself not included; runs that never succeed are not in the medians.\n\n| model | with the demonstration | from scratch |\n|---|---|---|\n");
-        for (model, with, without) in worth {
-            md.push_str(&format!(
-                "| {model} | {} | {} |\n",
-                with_seconds(with),
-                with_seconds(without)
-            ));
-        }
-    }
-    md.push_str("\n## Runs\n\n| experiment | variant | seed | success | max angle per trial (deg) | plan statuses |\n|---|---|---|---|---|---|\n");
-    for r in &report.runs {
-        md.push_str(&format!(
-            "| {} | {} | {} | {} | {} | {} |\n",
-            r.experiment,
-            r.variant,
-            r.seed,
-            r.success_trial.map_or("no".into(), |t| format!("trial {t}")),
-            r.max_angles
-                .iter()
-                .map(|a| format!("{:.0}", a.to_degrees()))
-                .collect::<Vec<_>>()
-                .join(" "),
-            r.plan_statuses.join(" ")
-        ));
-    }
-    md
-}
-
 /// The pairs of variants that differ only in the demonstration: (model,
 /// with it, without it), where both ran.
 pub fn demonstration_worth(variants: &[VariantSummary]) -> Vec<(&'static str, &VariantSummary, &VariantSummary)> {
@@ -718,29 +612,17 @@ pub fn demonstration_worth(variants: &[VariantSummary]) -> Vec<(&'static str, &V
     .collect()
 }
 
-fn with_seconds(v: &VariantSummary) -> String {
-    format!(
-        "{}{}",
-        describe(Some(v)),
-        v.median_robot_seconds
-            .map_or(String::new(), |s| format!(", median {s:.1} s of robot data"))
-    )
-}
-
-/// The claims table alone (also copied into the README).
-pub fn claims_table(claims: &[Claim]) -> String {
-    let mut md = String::from("| claim | paper | ours | reproduced |\n|---|---|---|---|\n");
-    for c in claims {
-        md.push_str(&format!("| {} | {} | {} | {} |\n", c.id, c.paper, c.ours, c.reproduced));
-    }
-    md
-}
-
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
 
-    fn summary(experiment: &str, variant: &str, seed: u64, success: Option<usize>, first_angle: f64) -> RunSummary {
+    pub(crate) fn summary(
+        experiment: &str,
+        variant: &str,
+        seed: u64,
+        success: Option<usize>,
+        first_angle: f64,
+    ) -> RunSummary {
         RunSummary {
             experiment: experiment.into(),
             variant: variant.into(),
@@ -756,49 +638,6 @@ mod tests {
             seconds: 0.0,
             code_version: "commit test".into(),
         }
-    }
-
-    /// The provenance line names the one code version of a uniform grid,
-    /// and every version with its count in a mixed one (old runs without a
-    /// version count as unrecorded).
-    #[test]
-    fn provenance_names_every_code_version() {
-        let mut runs = vec![
-            summary("lambda", "lambda=1e3", 1, Some(2), 1.0),
-            summary("lambda", "lambda=1e3", 2, None, 1.0),
-        ];
-        let report = |runs: Vec<RunSummary>| ExperimentsReport {
-            settings: ExperimentSettings::quick(),
-            experiments: vec![],
-            runs,
-            variants: vec![],
-            claims: vec![],
-            seconds: 12.0,
-            threads: 2,
-            ran: 2,
-        };
-        let one = provenance(&report(runs.clone()));
-        assert!(one.starts_with("2 runs, all made at commit test"), "{one}");
-        assert!(
-            one.contains("all run by one invocation in 12 s of wall time on 2 threads"),
-            "{one}"
-        );
-        let saved = ExperimentsReport {
-            ran: 0,
-            ..report(runs.clone())
-        };
-        assert!(
-            provenance(&saved).contains("no wall time measured"),
-            "{}",
-            provenance(&saved)
-        );
-        runs[1].code_version = String::new();
-        let mixed = provenance(&report(runs));
-        assert!(mixed.contains("more than one code version"), "{mixed}");
-        assert!(
-            mixed.contains("1 at commit test") && mixed.contains("1 at an unrecorded commit"),
-            "{mixed}"
-        );
     }
 
     /// The beyond grid has the three learning-from-scratch variants, each

@@ -22,9 +22,10 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context as _;
 
-use crate::demo::Demonstration;
+use crate::format::num;
+use crate::output::svg::{Panel, colour, heading, legend_entry, nice_ticks, range, svg_open, xml};
+use crate::plant::demo::Demonstration;
 use crate::record::{RunRecord, TrialKind, TrialRecord};
-use crate::svg::{Panel, colour, heading, legend_entry, nice_ticks, num, range, svg_open, xml};
 
 /// Header of a trial's CSV log.
 pub const TRIAL_CSV_HEADER: &str = "k,t,theta,theta_dot,x,x_dot,obs_theta,obs_theta_dot,obs_x,obs_x_dot,command,phase";
@@ -58,7 +59,10 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> anyhow::Result<()> {
     write_atomic(&dir.join("demonstration.csv"), &demonstration_csv(&run.demonstration))?;
     write_atomic(&dir.join("figure3.svg"), &figure3_svg(run))?;
     write_atomic(&dir.join("learning.svg"), &learning_svg(run))?;
-    write_atomic(&dir.join("diagnostics.svg"), &crate::diagnostics::diagnostics_svg(run))?;
+    write_atomic(
+        &dir.join("diagnostics.svg"),
+        &crate::output::diagnostics_report::diagnostics_svg(run),
+    )?;
     write_atomic(&dir.join("report.md"), &markdown(run))?;
     Ok(())
 }
@@ -385,7 +389,7 @@ pub fn markdown(run: &RunRecord) -> String {
         md.push('\n');
     }
 
-    md.push_str(&crate::diagnostics::markdown_section(run));
+    md.push_str(&crate::output::diagnostics_report::markdown_section(run));
 
     let _ = writeln!(md, "## Plots and files\n");
     let _ = writeln!(

@@ -1,7 +1,7 @@
 //! Planning the swing-up with DDP (the `ddp` crate's iLQR) instead of Eq. 3,
 //! for the planner-by-model comparison (claim C6).
 //!
-//! The task is the Eq. 3 planner's ([`crate::learn::build_problem`]):
+//! The task is the Eq. 3 planner's ([`crate::planning::eq3::build_problem`]):
 //! minimise
 //! $$J = \sum_{k<N} \Bigl[\sum_i q_i (s_{k,i} - s^d_{k,i})^2 + r (u_k - u^d_k)^2\Bigr] +
 //!   \sum_i q^f_i (s_{N,i} - s^\star_i)^2$$
@@ -10,7 +10,7 @@
 //! $s^\star = (\pi, 0, 0, 0)$ upright at rest with the hand home, over
 //! controls $|u_k| \le$ `u_max`, from hanging at rest, warm-started with the
 //! demonstration's controls, plus the soft bounds on $|x|$ and $|u|$ of
-//! [`crate::cost`]. It is the very stage cost the Eq. 3 planner uses
+//! [`crate::planning::cost`]. It is the very stage cost the Eq. 3 planner uses
 //! ([`SwingupCost`], residual form $c_k = \lVert r_k \rVert^2$, so weights
 //! enter as $w e^2$), wrapped as a `ddp` cost by [`ResidualCost`]: for a
 //! trajectory consistent with the model $J$ equals the Eq. 3 task cost.
@@ -30,11 +30,11 @@ use std::cell::{Cell, RefCell};
 use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, DdpStatus, Dynamics};
 use trajopt::StageCost;
 
-use crate::cost::SwingupCost;
+use crate::planning::cost::SwingupCost;
 
-use crate::demo::Demonstration;
-use crate::learn::Config;
-use crate::model::{KnownHand, PendulumRegression};
+use crate::config::Config;
+use crate::models::{KnownHand, PendulumRegression};
+use crate::plant::demo::Demonstration;
 use crate::record::PlanSummary;
 
 /// Largest $\lVert (\theta, \dot\theta, x, \dot x) \rVert_\infty$ a rollout
@@ -46,13 +46,13 @@ pub const MAX_STATE_NORM: f64 = 100.0;
 
 /// The Eq. 3 task cost of the swing-up as a `ddp` cost: the same
 /// [`SwingupCost`] (Eq. 5 tracking plus the soft bounds) that
-/// [`crate::learn::build_problem`] builds, made the same way.
+/// [`crate::planning::eq3::build_problem`] builds, made the same way.
 ///
 /// # Errors
 /// A demonstration with inconsistent lengths or non-finite values, or
 /// invalid weights or bounds.
 pub fn task_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<ResidualCost<SwingupCost>> {
-    let stage = crate::learn::swingup_cost(cfg, demo)?;
+    let stage = crate::planning::eq3::swingup_cost(cfg, demo)?;
     let n = demo.horizon();
     Ok(ResidualCost::new(stage, 4, 1, n))
 }
@@ -348,9 +348,9 @@ impl<C: Cost> Cost for Counted<C> {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::demo::demonstrate;
-    use crate::learn::build_problem;
-    use crate::truth::TrueRegression;
+    use crate::models::truth::TrueRegression;
+    use crate::planning::eq3::build_problem;
+    use crate::plant::demo::demonstrate;
     use faer::prelude::*;
     use splines::{BSplineBasis, TrajectoryBasis};
 

@@ -2,14 +2,14 @@
 //! velocity, for planning with a perfect pendulum model (the "true model"
 //! column of the planner-by-model experiment, claim C6).
 
-use crate::model::PendulumRegression;
+use crate::models::PendulumRegression;
 use crate::plant::{Plant, PlantParams, PlantState};
 
 /// The exact per-sample $\Delta\dot\theta$ of a plant: one sample of the
 /// plant's own RK4 integration ([`Plant::step`]) from
 /// $(\theta, \dot\theta, x, \dot x)$ under the command $u$, minus $\dot\theta$.
 ///
-/// Wrapped in [`KnownHand`](crate::model::KnownHand), the angular velocity
+/// Wrapped in [`KnownHand`](crate::models::KnownHand), the angular velocity
 /// and the hand are then exact; the angle follows by the trapezoid rule, an
 /// $O(\Delta t^3)$ error per sample. The hand's acceleration is taken to
 /// equal the command from the start of the sample, so for a plant with a
@@ -77,7 +77,7 @@ impl PendulumRegression for TrueRegression {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::model::KnownHand;
+    use crate::models::KnownHand;
 
     /// Through [`KnownHand`], the true model reproduces the plant's angular
     /// velocity and hand exactly, and its angle to the trapezoid rule's accuracy.

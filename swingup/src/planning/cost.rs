@@ -14,7 +14,7 @@ use std::sync::Arc;
 
 use trajopt::{StageCost, TrackingCost};
 
-use crate::support::DataSupport;
+use crate::planning::support::DataSupport;
 
 /// See the [module docs](self).
 #[derive(Debug, Clone)]

@@ -18,7 +18,7 @@ use std::path::{Path, PathBuf};
 
 use crate::config::Config;
 
-/// Is `name` a file a learning run writes ([`crate::report`]), or the
+/// Is `name` a file a learning run writes ([`crate::output::run_report`]), or the
 /// temporary file of one (`report.tmp` while `report.json` is written)?
 fn is_run_file(name: &str) -> bool {
     let (stem, ext) = name.split_once('.').unwrap_or((name, ""));

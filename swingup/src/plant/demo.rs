@@ -13,7 +13,7 @@
 
 use serde::{Deserialize, Serialize};
 
-use crate::lqr::Lqr;
+use crate::plant::lqr::Lqr;
 use crate::plant::{Plant, PlantParams, PlantState, from_upright};
 
 /// A recorded demonstration: states at $t_0, \dots, t_N$, commands at

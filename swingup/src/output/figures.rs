@@ -12,8 +12,8 @@
 use std::fmt::Write as _;
 
 use crate::experiments::{ExperimentsReport, RunSummary, VariantSummary};
-use crate::model::INPUTS;
-use crate::svg::{Panel, WIDTH, colour, heading, legend_entry, nice_ticks, range, svg_open_sized, xml};
+use crate::models::INPUTS;
+use crate::output::svg::{Panel, WIDTH, colour, heading, legend_entry, nice_ticks, range, svg_open_sized, xml};
 
 /// The figures of `report`: (file name, SVG text), for the experiments that ran.
 pub fn figures(report: &ExperimentsReport) -> Vec<(&'static str, String)> {

@@ -24,14 +24,17 @@ use std::fmt::Write as _;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::demo::demonstrate;
-use crate::learn::{Config, ModelKind, execute, learn_model, plan, run};
-use crate::lqr::Lqr;
-use crate::model::KnownHand;
-use crate::model::PendulumRegression;
+use crate::config::{Config, ModelKind};
+use crate::learn::{execute, run};
+use crate::models::KnownHand;
+use crate::models::PendulumRegression;
+use crate::models::learned::learn_model;
+use crate::models::truth::TrueRegression;
+use crate::planning::eq3::plan;
+use crate::plant::demo::demonstrate;
+use crate::plant::lqr::Lqr;
 use crate::plant::{Plant, PlantParams};
 use crate::record::TrialKind;
-use crate::truth::TrueRegression;
 
 /// Which parameter of the planning model is off.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -216,7 +219,7 @@ pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> anyho
     let signal_rms = rms(&points.iter().map(|z| truth.delta_omega(z, None)).collect::<Vec<_>>());
     let lwr = Config {
         max_trials,
-        model: crate::learn::ModelConfig {
+        model: crate::config::ModelConfig {
             kind: ModelKind::Lwr,
             ..cfg.model.clone()
         },
@@ -309,7 +312,7 @@ pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>,
                 r.factor,
                 r.successes,
                 r.seeds,
-                crate::svg::num(r.plan_cost)
+                crate::format::num(r.plan_cost)
             );
         }
         md.push('\n');
@@ -324,9 +327,9 @@ pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>,
              (rad/s), where the imitation trial has data (|θ| < {SEEN_ANGLE} rad) and beyond (the \
              final swing). Along the same plan the true change has rms {}, and a gravity off by \
              {} % (which fails most trials above) makes an error of rms {}.\n",
-            crate::svg::num(m.signal_rms),
+            crate::format::num(m.signal_rms),
             m.gravity_error * 100.0,
-            crate::svg::num(m.gravity_rms)
+            crate::format::num(m.gravity_rms)
         );
         let _ = writeln!(
             md,
@@ -339,9 +342,9 @@ pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>,
                 "| {} | {} | {} | {} | {} |",
                 r.trials,
                 r.runs,
-                crate::svg::num(r.rms_seen),
-                crate::svg::num(r.rms_beyond),
-                crate::svg::num(r.bias_beyond)
+                crate::format::num(r.rms_seen),
+                crate::format::num(r.rms_beyond),
+                crate::format::num(r.bias_beyond)
             );
         }
         md.push('\n');

@@ -40,8 +40,9 @@
 use faer::Mat;
 use faer::prelude::*;
 
-use crate::learn::{Config, training_data};
-use crate::model::{INPUTS, KnownHand, PendulumRegression};
+use crate::config::Config;
+use crate::models::{INPUTS, KnownHand, PendulumRegression};
+use crate::record::training_data;
 use crate::record::{ModelSummary, TrialRecord};
 
 /// Names of the features, in the order of [`ParametricRegression::coefficients`].
@@ -148,7 +149,7 @@ impl ParametricRegression {
     /// non-finite value, or data that do not determine the coefficients.
     ///
     /// ```
-    /// use swingup::parametric::ParametricRegression;
+    /// use swingup::models::parametric::ParametricRegression;
     /// // data exactly in the model: Δθ̇ = -0.27 sin θ - 0.003 θ̇ - 0.028 u cos θ
     /// let xs: Vec<[f64; 5]> = (0..50)
     ///     .map(|i| { let t = i as f64; [(0.37 * t).sin() * 3.0, (0.91 * t).cos() * 4.0, 0.0, 0.0, (0.53 * t).sin() * 10.0] })
@@ -370,7 +371,7 @@ impl PendulumRegression for ParametricRegression {
 }
 
 /// Fits the parametric model (midpoint features) to all trials so far, the
-/// counterpart of [`crate::learn::learn_model`] for `--model parametric`.
+/// counterpart of [`crate::models::learned::learn_model`] for `--model parametric`.
 ///
 /// # Errors
 /// No data, or the data do not determine the model ([`ParametricError`]).
@@ -493,7 +494,7 @@ mod tests {
     #[test]
     fn euler_damping_is_biased_on_swing_up_data() {
         let cfg = Config::default();
-        let (demo, _) = crate::demo::demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
+        let (demo, _) = crate::plant::demo::demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
         let robot = Plant::new(cfg.robot);
         let mut st = PlantState::hanging();
         let (mut xs, mut ys) = (Vec::new(), Vec::new());
@@ -637,7 +638,7 @@ mod tests {
         model.step(&[0.0; 4], &[0.0], &mut next).expect("step");
         assert_eq!(next, vec![0.0; 4]);
         let (x, u) = ([2.0, -3.0, 0.2, 0.5], [4.0]);
-        for (i, c, an, fd) in crate::model::jacobian_against_differences(&model, x, u) {
+        for (i, c, an, fd) in crate::models::jacobian_against_differences(&model, x, u) {
             assert!((fd - an).abs() < 1e-7, "d next[{i}] / d z[{c}]: {an} vs {fd}");
         }
     }

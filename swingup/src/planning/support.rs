@@ -20,7 +20,13 @@
 //! seen). Its gradient is exact; the tricube kernel is $C^1$ at the edge of
 //! its support, so the penalty is continuously differentiable.
 
+use std::sync::Arc;
+
 use lwr::Database;
+
+use crate::config::Config;
+use crate::record::TrialRecord;
+use crate::record::training_data;
 
 /// The data support and the penalty on leaving it; see the [module docs](self).
 #[derive(Debug, Clone)]
@@ -128,6 +134,23 @@ impl DataSupport {
     pub fn is_active(&self) -> bool {
         self.sqrt_weight > 0.0
     }
+}
+
+/// The support of the data of `trials` for the planner's penalty on
+/// leaving them ([`PlannerConfig::support_weight`](crate::config::PlannerConfig::support_weight)); `None` when it is off.
+pub fn data_support(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<Option<Arc<DataSupport>>> {
+    let p = &cfg.planner;
+    if p.support_weight == 0.0 {
+        return Ok(None);
+    }
+    let (xs, _) = training_data(trials);
+    Ok(Some(Arc::new(DataSupport::new(
+        &xs,
+        &p.support_scales,
+        p.support_bandwidth,
+        p.support_full,
+        p.support_weight,
+    )?)))
 }
 
 #[cfg(test)]

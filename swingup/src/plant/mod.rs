@@ -10,6 +10,9 @@
 //! $\dot a = (u - a) / \tau$. The equations are integrated by classic RK4
 //! with `substeps` steps per sample.
 
+pub mod demo;
+pub mod lqr;
+
 use serde::{Deserialize, Serialize};
 
 /// Physical parameters of a plant; see the [module docs](self).

@@ -144,8 +144,8 @@ mod tests {
     /// up to the model's trapezoid rule for the angle.
     #[test]
     fn tracking_gains_converge_to_the_stationary_lqr() {
-        use crate::model::KnownHand;
-        use crate::truth::TrueRegression;
+        use crate::models::KnownHand;
+        use crate::models::truth::TrueRegression;
         let params = PlantParams::robot();
         let (q, r) = ([10.0, 1.0, 1.0, 1.0], 0.1);
         let lqr = Lqr::design(&params, q, r).expect("converges");

@@ -1,0 +1,99 @@
+//! Learning a model from the trials: the training pairs, the LWR fitted
+//! and its metric tuned by leave-one-out cross-validation.
+
+use lwr::{LwrSettings, TuneSettings};
+
+use crate::config::{Config, ModelKind};
+use crate::models::{INPUTS, KnownHand, LearnedModel, LwrRegression};
+use crate::record::{ModelSummary, TrialRecord, training_data};
+
+/// Fits the LWR model to all trials so far and tunes its metric by
+/// leave-one-out cross-validation.
+pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(LearnedModel, ModelSummary)> {
+    let (xs, ys) = training_data(trials);
+    anyhow::ensure!(!xs.is_empty(), "no data to learn from");
+    // initial metric: each input divided by its spread
+    let spread: Vec<f64> = (0..5)
+        .map(|c| {
+            let mean = xs.iter().map(|x| x[c]).sum::<f64>() / xs.len() as f64;
+            let var = xs.iter().map(|x| (x[c] - mean).powi(2)).sum::<f64>() / xs.len() as f64;
+            var.sqrt().max(1e-6)
+        })
+        .collect();
+    let base_scales: Vec<f64> = spread.iter().map(|s| 1.0 / s).collect();
+    let settings = LwrSettings {
+        kernel: cfg.model.kernel,
+        bandwidth: cfg.model.bandwidth,
+        scales: base_scales
+            .iter()
+            .zip(&cfg.model.input_scales)
+            .map(|(b, r)| b * r)
+            .collect(),
+        ridge: cfg.model.ridge,
+        slope_ridge: cfg.model.slope_ridge,
+        intercept_ridge: cfg.model.prior_weight,
+        gaussian_cutoff: cfg.model.cutoff,
+        ..LwrSettings::default()
+    };
+    let mut model = if cfg.model.kind == ModelKind::LwrParametric {
+        let prior = crate::models::parametric::ParametricRegression::fit_midpoint(&xs, &ys, cfg.robot.dt)?;
+        LwrRegression::fit_with_prior(&xs, &ys, settings, Box::new(prior), "parametric")?
+    } else {
+        LwrRegression::fit(&xs, &ys, settings)?
+    };
+    let lwr = model.lwr_mut();
+    let (settings, loo_nmse) = if cfg.model.tune_evals > 0 {
+        let tuned = lwr.tune(&TuneSettings {
+            max_evals: cfg.model.tune_evals,
+            ..TuneSettings::default()
+        })?;
+        (tuned.settings, tuned.objective)
+    } else {
+        let loo = lwr.loo()?;
+        (lwr.settings().clone(), loo.normalized_mse)
+    };
+    lwr.set_settings(settings.clone())?;
+    // the LWR part against its prior: LOO MSE of prior + LWR over the prior's MSE
+    let resid: Vec<f64> = xs
+        .iter()
+        .zip(&ys)
+        .map(|(x, y)| y[0] - model.prior().delta_omega(x, None))
+        .collect();
+    let n = resid.len() as f64;
+    let mean = resid.iter().sum::<f64>() / n;
+    let variance = resid.iter().map(|r| (r - mean).powi(2)).sum::<f64>() / n;
+    let prior_mse = resid.iter().map(|r| r * r).sum::<f64>() / n;
+    let lwr_vs_prior = if prior_mse > 0.0 {
+        loo_nmse * variance / prior_mse
+    } else {
+        f64::NAN
+    };
+    let summary = ModelSummary {
+        kind: if cfg.model.kind == ModelKind::LwrParametric {
+            "lwr-parametric"
+        } else {
+            "lwr"
+        }
+        .into(),
+        n_points: xs.len(),
+        inputs: INPUTS.iter().map(|s| s.to_string()).collect(),
+        scales: settings.scales.iter().zip(&base_scales).map(|(s, b)| s / b).collect(),
+        bandwidth: settings.bandwidth,
+        loo_nmse,
+        lwr_vs_prior,
+    };
+    Ok((KnownHand::new(model, cfg.robot.dt), summary))
+}
+
+/// The summary of the true model (no data are fitted).
+pub fn true_model_summary(trials: &[TrialRecord]) -> ModelSummary {
+    ModelSummary {
+        kind: "true".into(),
+        n_points: trials.iter().map(|t| t.commands.len()).sum(),
+        inputs: INPUTS.iter().map(|s| s.to_string()).collect(),
+        scales: vec![],
+        bandwidth: f64::NAN,
+        loo_nmse: 0.0,
+        lwr_vs_prior: f64::NAN,
+    }
+}

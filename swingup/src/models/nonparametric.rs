@@ -1,0 +1,203 @@
+//! The paper's nonparametric model: locally weighted regression of the
+//! pendulum's change of angular velocity on all five inputs, on top of a
+//! prior (a global linear fit, or any [`PendulumRegression`]).
+
+use std::sync::atomic::{AtomicUsize, Ordering};
+
+use faer::Mat;
+use faer::prelude::*;
+use lwr::LwrModel;
+
+use crate::models::{KnownHand, PendulumRegression};
+
+/// The paper's nonparametric model: locally weighted regression of
+/// $\Delta\dot\theta$ on all five inputs, on top of a global linear fit.
+///
+/// Where the data run out, a local fit made from a few far points
+/// extrapolates wildly, and where they end entirely it has no answer. So
+/// the LWR fits the residuals of a global linear least-squares fit $\ell(z)$
+/// of the same data, with a ridge on its intercept as well as on its slopes
+/// (`intercept_ridge`, `ridge` of [`lwr::LwrSettings`]):
+/// $g(z) = \ell(z) + \hat r(z)$, and $\hat r \to 0$ smoothly as the total
+/// kernel weight $n_{lwr} = \sum_i k_i$ falls below the ridge. The model is
+/// the LWR where the data are dense and the crude global fit far from them,
+/// with no switch in between (a switch would stall the planner's
+/// Gauss-Newton steps on the jump). Where no stored point carries weight
+/// the residual is exactly 0 (counted in [`LwrRegression::fallbacks`]).
+///
+/// The prior need not be linear: [`LwrRegression::fit_with_prior`] takes
+/// any regression (e.g. the parametric model, which makes the LWR a
+/// semiparametric correction of it).
+pub struct LwrRegression {
+    lwr: LwrModel,
+    prior: Box<dyn PendulumRegression + Send + Sync>,
+    prior_name: &'static str,
+    fallbacks: AtomicUsize,
+}
+
+impl std::fmt::Debug for LwrRegression {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LwrRegression")
+            .field("points", &self.lwr.len())
+            .field("prior", &self.prior_name)
+            .finish()
+    }
+}
+
+/// A global linear fit $\ell(z) = c_0 + \sum_j c_j z_j$, the default prior
+/// of [`LwrRegression`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct LinearRegression {
+    /// $[c_0, c_1, \dots, c_5]$.
+    pub coefficients: [f64; 6],
+}
+
+impl LinearRegression {
+    /// Least squares of the output on $[1, z]$ (a tiny ridge keeps it
+    /// defined for degenerate data).
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<Self> {
+        Ok(Self {
+            coefficients: global_linear_fit(xs, ys)?,
+        })
+    }
+}
+
+impl PendulumRegression for LinearRegression {
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
+        if let Some(j) = jacobian {
+            *j = std::array::from_fn(|c| self.coefficients[c + 1]);
+        }
+        linear_value(&self.coefficients, z)
+    }
+}
+
+/// The LWR model of the robot with known hand kinematics.
+pub type LearnedModel = KnownHand<LwrRegression>;
+
+impl LwrRegression {
+    /// Fits the global linear model to `(xs, ys)`, then inserts the
+    /// residuals into an LWR model with `settings` (not yet tuned; see
+    /// [`lwr_mut`](Self::lwr_mut)).
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]], settings: lwr::LwrSettings) -> anyhow::Result<Self> {
+        let linear = LinearRegression::fit(xs, ys)?;
+        Self::fit_with_prior(xs, ys, settings, Box::new(linear), "linear")
+    }
+
+    /// [`fit`](Self::fit) on the residuals of a given `prior` (already
+    /// fitted), named `name` in reports.
+    pub fn fit_with_prior(
+        xs: &[[f64; 5]],
+        ys: &[[f64; 1]],
+        settings: lwr::LwrSettings,
+        prior: Box<dyn PendulumRegression + Send + Sync>,
+        name: &'static str,
+    ) -> anyhow::Result<Self> {
+        anyhow::ensure!(!xs.is_empty(), "the model has no data");
+        anyhow::ensure!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
+        let resid: Vec<[f64; 1]> = xs
+            .iter()
+            .zip(ys)
+            .map(|(x, y)| [y[0] - prior.delta_omega(x, None)])
+            .collect();
+        let mut lwr = LwrModel::new(5, 1, settings)?;
+        lwr.insert_many(xs, &resid)?;
+        Ok(Self {
+            lwr,
+            prior,
+            prior_name: name,
+            fallbacks: AtomicUsize::new(0),
+        })
+    }
+
+    /// The LWR model of the residuals.
+    pub fn lwr(&self) -> &LwrModel {
+        &self.lwr
+    }
+
+    /// The LWR model of the residuals, e.g. to tune its metric.
+    pub fn lwr_mut(&mut self) -> &mut LwrModel {
+        &mut self.lwr
+    }
+
+    /// The prior the LWR corrects.
+    pub fn prior(&self) -> &(dyn PendulumRegression + Send + Sync) {
+        self.prior.as_ref()
+    }
+
+    /// How many predictions had no weighted data (the global fit alone).
+    pub fn fallbacks(&self) -> usize {
+        self.fallbacks.load(Ordering::Relaxed)
+    }
+}
+
+fn linear_value(c: &[f64; 6], z: &[f64; 5]) -> f64 {
+    c[0] + (0..5).map(|j| c[j + 1] * z[j]).sum::<f64>()
+}
+
+impl PendulumRegression for LwrRegression {
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
+        let mut j_prior = [0.0; 5];
+        let prior = self.prior.delta_omega(z, jacobian.is_some().then_some(&mut j_prior));
+        let (resid, j_resid) = match jacobian.is_some() {
+            // the Jacobian costs a second pass over the neighbours: only when asked
+            true => match self.lwr.predict_with_jacobian(z) {
+                Ok((p, j)) => (p.mean[0], std::array::from_fn(|c| j[(0, c)])),
+                Err(_) => (f64::NAN, [0.0; 5]),
+            },
+            false => (self.lwr.predict_mean(z).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
+        };
+        let usable = resid.is_finite() && j_resid.iter().all(|v: &f64| v.is_finite());
+        let (resid, j_resid) = if usable {
+            (resid, j_resid)
+        } else {
+            self.fallbacks.fetch_add(1, Ordering::Relaxed);
+            (0.0, [0.0; 5])
+        };
+        if let Some(jac) = jacobian {
+            *jac = std::array::from_fn(|c| j_prior[c] + j_resid[c]);
+        }
+        prior + resid
+    }
+
+    fn support(&self, z: &[f64; 5]) -> Option<f64> {
+        Some(self.lwr.predict(z).map_or(0.0, |p| p.n_lwr))
+    }
+
+    /// The LWR's support and the standard error of its correction (the
+    /// prior is taken as exact); no weighted data: support 0, error NaN.
+    fn uncertainty(&self, z: &[f64; 5]) -> Option<(f64, f64)> {
+        Some(
+            self.lwr
+                .predict(z)
+                .map_or((0.0, f64::NAN), |p| (p.n_lwr, p.std_error[0])),
+        )
+    }
+}
+
+/// Least squares of the output on $[1, z]$ (a tiny ridge keeps it defined
+/// for degenerate data).
+fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<[f64; 6]> {
+    let mut ata = Mat::<f64>::zeros(6, 6);
+    let mut aty = Mat::<f64>::zeros(6, 1);
+    for (x, y) in xs.iter().zip(ys) {
+        anyhow::ensure!(
+            x.iter().chain(y).all(|v| v.is_finite()),
+            "a training point is not finite: {x:?} -> {y:?}"
+        );
+        let row: [f64; 6] = std::array::from_fn(|c| if c == 0 { 1.0 } else { x[c - 1] });
+        for a in 0..6 {
+            for b in 0..6 {
+                ata[(a, b)] += row[a] * row[b];
+            }
+            aty[(a, 0)] += row[a] * y[0];
+        }
+    }
+    for a in 0..6 {
+        ata[(a, a)] += 1e-9 * (1.0 + ata[(a, a)]);
+    }
+    let sol = ata
+        .llt(faer::Side::Lower)
+        .map_err(|e| anyhow::anyhow!("global linear fit failed: {e:?}"))?
+        .solve(&aty);
+    Ok(std::array::from_fn(|c| sol[(c, 0)]))
+}

@@ -1,0 +1,10 @@
+//! What a run leaves on disk: the run directory's rules (locks, no
+//! overwriting), the grid's files, the run report and the figures.
+
+pub mod diagnostics_report;
+pub mod figures;
+pub mod grid;
+pub mod grid_report;
+pub mod run_report;
+pub mod rundir;
+pub(crate) mod svg;

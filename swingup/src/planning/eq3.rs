@@ -1,0 +1,338 @@
+//! Planning a swing-up with the paper's Eq. 3: the task cost, the bases
+//! of the state and control trajectories (fitted to the demonstration,
+//! Eqs. 6-7), and the solve by Gauss-Newton or Powell with a continuation in
+//! $\lambda$.
+
+use std::sync::Arc;
+
+use faer::Mat;
+use faer::sparse::SparseRowMat;
+use splines::wavelet::{Boundary, Wavelet, WaveletBasis};
+use splines::{BSplineBasis, FitSettings, TrajectoryBasis};
+use trajopt::powell::{Powell, PowellSettings};
+use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, TrackingCost};
+
+use crate::config::{BasisKind, Config, Solver, Start};
+use crate::planning::cost::SwingupCost;
+use crate::planning::support::DataSupport;
+use crate::plant::demo::Demonstration;
+use crate::record::PlanSummary;
+
+/// The planner's stage cost: Eq. 5 tracking of the demonstration (with
+/// [`Start::Scratch`]: of upright at rest over the whole window, $u^d = 0$),
+/// a terminal target upright at rest with the hand home, and the soft bounds
+/// (shared by every planner, so that their costs compare).
+pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<SwingupCost> {
+    let p = &cfg.planner;
+    let n = demo.horizon();
+    anyhow::ensure!(n >= 1, "the demonstration has no controls");
+    anyhow::ensure!(
+        demo.states.len() == n + 1,
+        "the demonstration has {} states for {n} controls (need {})",
+        demo.states.len(),
+        n + 1
+    );
+    let upright = [std::f64::consts::PI, 0.0, 0.0, 0.0];
+    let (state_ref, control_ref) = match cfg.start {
+        Start::Demonstration => {
+            let mut state_ref = Mat::from_fn(n + 1, 4, |k, i| demo.states[k][i]);
+            for (i, v) in upright.into_iter().enumerate() {
+                state_ref[(n, i)] = v;
+            }
+            (state_ref, Mat::from_fn(n, 1, |k, _| demo.controls[k]))
+        }
+        Start::Scratch => (Mat::from_fn(n + 1, 4, |_, i| upright[i]), Mat::zeros(n, 1)),
+    };
+    let tracking = TrackingCost::new(
+        state_ref,
+        control_ref,
+        &p.state_weights,
+        &[p.control_weight],
+        &p.terminal_weights,
+    )?;
+    SwingupCost::new(tracking, p.x_max, p.u_max, p.bound_weight)
+}
+
+/// The bases of the state and control trajectories over the
+/// demonstration's window.
+fn bases(cfg: &Config, demo: &Demonstration) -> anyhow::Result<(PlanBasis, PlanBasis)> {
+    let n = demo.horizon();
+    let t_end = demo.dt * n as f64;
+    Ok(match cfg.planner.basis {
+        BasisKind::Bspline => (
+            PlanBasis::Bspline(BSplineBasis::clamped_uniform(cfg.planner.state_coeffs, 3, 0.0, t_end)?),
+            PlanBasis::Bspline(BSplineBasis::clamped_uniform(
+                cfg.planner.control_coeffs,
+                3,
+                0.0,
+                t_end,
+            )?),
+        ),
+        BasisKind::Wavelet => {
+            let w = |samples| WaveletBasis::new(Wavelet::Db4, Boundary::Periodization, samples, None, 0.0, demo.dt);
+            (
+                PlanBasis::Wavelet(Box::new(w(n + 1)?)),
+                PlanBasis::Wavelet(Box::new(w(n)?)),
+            )
+        }
+    })
+}
+
+/// One of the planner's bases.
+#[derive(Debug, Clone)]
+enum PlanBasis {
+    Bspline(BSplineBasis),
+    Wavelet(Box<WaveletBasis>),
+}
+
+impl TrajectoryBasis for PlanBasis {
+    fn n_coeffs(&self) -> usize {
+        match self {
+            Self::Bspline(b) => b.n_coeffs(),
+            Self::Wavelet(b) => b.n_coeffs(),
+        }
+    }
+
+    fn domain(&self) -> (f64, f64) {
+        match self {
+            Self::Bspline(b) => b.domain(),
+            Self::Wavelet(b) => b.domain(),
+        }
+    }
+
+    fn max_nonzeros(&self) -> usize {
+        match self {
+            Self::Bspline(b) => b.max_nonzeros(),
+            Self::Wavelet(b) => b.max_nonzeros(),
+        }
+    }
+
+    fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> splines::Result<()> {
+        match self {
+            Self::Bspline(b) => b.basis_row(t, order, row),
+            Self::Wavelet(b) => b.basis_row(t, order, row),
+        }
+    }
+
+    fn design_matrix_rows(&self, times: &[f64], order: usize) -> splines::Result<SparseRowMat<usize, f64>> {
+        match self {
+            Self::Bspline(b) => b.design_matrix_rows(times, order),
+            Self::Wavelet(b) => b.design_matrix_rows(times, order),
+        }
+    }
+}
+
+/// The Eq. 3 problem of planning a swing-up with `model`, and its starting
+/// point: the demonstration fitted by the bases (Eqs. 6-7).
+pub fn build_problem<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: M,
+    support: Option<Arc<DataSupport>>,
+) -> anyhow::Result<(Eq3Problem<M, SwingupCost>, Vec<f64>)> {
+    let p = &cfg.planner;
+    let cost = swingup_cost(cfg, demo)?.with_support(support);
+    let (state_basis, control_basis) = bases(cfg, demo)?;
+    let problem = Eq3Problem::new(
+        model,
+        cost,
+        &state_basis,
+        &control_basis,
+        &demo.times(),
+        Lambda::Constant(p.lambda),
+    )?
+    .with_consistency_scale(1.0 / demo.dt)?
+    .with_initial_state(&[0.0; 4], p.initial_state_weight)?;
+    // Eqs. 6-7: the knot points fitted to the demonstration
+    let theta0 = fit_coefficients(cfg, demo, &problem, &demo.states, &demo.controls)?;
+    Ok((problem, theta0))
+}
+
+/// The coefficients of `problem` that best fit (least squares) a trajectory
+/// of `horizon + 1` states and `horizon` controls at the sample times.
+pub fn fit_coefficients<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    problem: &Eq3Problem<M, SwingupCost>,
+    states: &[[f64; 4]],
+    controls: &[f64],
+) -> anyhow::Result<Vec<f64>> {
+    let n = demo.horizon();
+    anyhow::ensure!(
+        states.len() == n + 1 && controls.len() == n,
+        "a trajectory of {} states and {} controls does not fit a horizon of {n}",
+        states.len(),
+        controls.len()
+    );
+    let times = demo.times();
+    let (state_basis, control_basis) = bases(cfg, demo)?;
+    let xs = Mat::from_fn(n + 1, 4, |k, i| states[k][i]);
+    let us = Mat::from_fn(n, 1, |k, _| controls[k]);
+    // periodised wavelets on an odd number of samples have more coefficients
+    // than samples: a tiny ridge picks the smallest fit
+    let fit = FitSettings {
+        ridge: if cfg.planner.basis == BasisKind::Wavelet {
+            1e-10
+        } else {
+            0.0
+        },
+        ..FitSettings::default()
+    };
+    let cx = splines::fit_matrix(&state_basis, &times, xs.as_ref(), &fit)?;
+    let cu = splines::fit_matrix(&control_basis, &times[..n], us.as_ref(), &fit)?;
+    Ok(problem.pack(&cx, &cu)?)
+}
+
+/// Plans a swing-up with Eq. 3 and `model` by Gauss-Newton or Powell (as
+/// [`PlannerConfig::solver`](crate::config::PlannerConfig::solver) says; DDP is [`crate::planning::ddp::plan_ddp`]),
+/// starting from the demonstration fitted by the bases (Eqs. 6-7), with a
+/// continuation in $\lambda$ ([`PlannerConfig::lambda_start`](crate::config::PlannerConfig::lambda_start)).
+pub fn plan<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: M,
+    support: Option<Arc<DataSupport>>,
+) -> anyhow::Result<PlanSummary> {
+    let p = &cfg.planner;
+    let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
+    let solver = GaussNewton::new(GaussNewtonSettings {
+        max_iters: p.max_iters,
+        tol_cost: p.tol_cost,
+        ..GaussNewtonSettings::default()
+    })?;
+    let powell = Powell::new(PowellSettings {
+        max_evals: Some(p.powell_evals),
+        ..PowellSettings::default()
+    })?;
+    let mut lambda = if p.lambda_start > 0.0 && p.lambda_start < p.lambda {
+        p.lambda_start
+    } else {
+        p.lambda
+    };
+    // the criterion at the start, with the final lambda
+    let initial_cost = problem.cost(&theta0)?;
+    let mut theta = theta0;
+    let (mut iterations, mut evaluations, mut seconds) = (0, 0, 0.0);
+    let (status, cost) = loop {
+        let weights = if p.confidence_floor > 0.0 {
+            let (xs, us) = problem.trajectory(&theta)?;
+            let full = p.confidence_full;
+            let floor = p.confidence_floor.min(1.0);
+            Lambda::from_confidence(problem.model(), &xs, &us, lambda, |n| {
+                lambda * (n / full).clamp(floor, 1.0)
+            })
+        } else {
+            Lambda::Constant(lambda)
+        };
+        problem.set_lambda(weights)?;
+        let (status, cost) = if p.solver == Solver::Powell {
+            let r = powell.solve(&problem, &theta)?;
+            iterations += r.iterations;
+            evaluations += r.cost_evals;
+            seconds += r.elapsed.as_secs_f64();
+            theta.clone_from(&r.x);
+            (format!("{:?}", r.status), r.cost)
+        } else {
+            let r = solver.solve(&problem, &theta)?;
+            iterations += r.iterations;
+            evaluations += r.residual_evals;
+            seconds += r.elapsed.as_secs_f64();
+            theta.clone_from(&r.theta);
+            (format!("{:?}", r.status), r.cost)
+        };
+        if lambda >= p.lambda {
+            break (status, cost);
+        }
+        lambda = (lambda * 10.0).min(p.lambda);
+    };
+    let parts = problem.cost_breakdown(&theta)?;
+    let (xs, us) = problem.trajectory(&theta)?;
+    Ok(PlanSummary {
+        planner: if p.solver == Solver::Powell {
+            "powell"
+        } else {
+            "gauss-newton"
+        }
+        .into(),
+        status,
+        cost,
+        initial_cost,
+        task: parts.task,
+        inconsistency: parts.inconsistency,
+        max_mismatch: parts.max_mismatch,
+        iterations,
+        evaluations,
+        seconds,
+        states: (0..xs.nrows()).map(|k| std::array::from_fn(|i| xs[(k, i)])).collect(),
+        controls: (0..us.nrows()).map(|k| us[(k, 0)]).collect(),
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use trajopt::StageCost;
+
+    use crate::models::KnownHand;
+    use crate::models::truth::TrueRegression;
+    use crate::plant::demo::demonstrate;
+
+    fn demo(cfg: &Config) -> Demonstration {
+        demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+            .expect("lqr")
+            .0
+    }
+
+    /// From scratch the task cost's tracking part is zero upright at rest
+    /// with no command, at every step; with the demonstration it is zero
+    /// on the demonstration (but its last state, where the target is
+    /// upright) and not upright.
+    #[test]
+    fn scratch_cost_tracks_upright() {
+        let cfg = Config {
+            start: Start::Scratch,
+            ..Config::default()
+        };
+        let d = demo(&cfg);
+        let up = [std::f64::consts::PI, 0.0, 0.0, 0.0];
+        let mut r = vec![0.0; 7];
+        let scratch = swingup_cost(&cfg, &d).expect("cost");
+        for k in [0, 40, d.horizon() - 1] {
+            scratch.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
+            assert!(r.iter().all(|v| v.abs() < 1e-12), "step {k}: {r:?}");
+        }
+        let with_demo = swingup_cost(&Config::default(), &d).expect("cost");
+        let k = 40;
+        with_demo
+            .residuals(k, &d.states[k], Some(&[d.controls[k]]), &mut r)
+            .expect("residuals");
+        assert!(r.iter().all(|v| v.abs() < 1e-12), "{r:?}");
+        with_demo.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
+        assert!(r.iter().any(|v| v.abs() > 1e-3), "upright is not the demonstration");
+    }
+
+    /// `planner.tol_cost` reaches the solver: a loose tolerance ends every
+    /// stage by `ConvergedCost` in fewer iterations than the tight one, at a
+    /// criterion close to the tight one's.
+    #[test]
+    fn plans_stop_at_the_configured_cost_tolerance() {
+        let mut cfg = Config::default();
+        cfg.planner.lambda_start = cfg.planner.lambda;
+        let d = demo(&cfg);
+        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let plan_at = |tol: f64| {
+            let mut c = cfg.clone();
+            c.planner.tol_cost = tol;
+            plan(&c, &d, &model, None).expect("plan")
+        };
+        let (tight, loose) = (plan_at(1e-14), plan_at(1e-3));
+        assert_eq!(loose.status, "ConvergedCost");
+        assert!(
+            loose.iterations < tight.iterations,
+            "{} iterations at 1e-3, {} at 1e-14",
+            loose.iterations,
+            tight.iterations
+        );
+        assert!(loose.cost <= tight.cost * 1.05, "{} against {}", loose.cost, tight.cost);
+    }
+}

@@ -1,0 +1,50 @@
+//! Planning: the swing-up's task cost, the penalty on leaving the data,
+//! and the planners (Eq. 3 by Gauss-Newton or Powell, and DDP).
+
+pub mod cost;
+pub mod ddp;
+pub mod eq3;
+pub mod support;
+
+use std::sync::Arc;
+
+use crate::config::{Config, Solver};
+use crate::models::{KnownHand, PendulumRegression};
+use crate::planning::support::DataSupport;
+use crate::plant::demo::Demonstration;
+use crate::record::PlanSummary;
+
+/// Plans with the configured planner, and with
+/// [`Config::feedback`] the time-varying LQR gains along the plan (from
+/// the same model).
+pub fn plan_and_gains<G: PendulumRegression>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: &KnownHand<G>,
+    support: Option<Arc<DataSupport>>,
+) -> anyhow::Result<(PlanSummary, Option<Vec<[f64; 4]>>)> {
+    let plan = plan_with(cfg, demo, model, support)?;
+    let gains = match cfg.feedback {
+        [q0, q1, q2, q3, r]
+            if [q0, q1, q2, q3].iter().any(|&q| q > 0.0) && plan.states.len() == plan.controls.len() + 1 =>
+        {
+            crate::plant::lqr::tracking_gains(model, &plan.states, &plan.controls, [q0, q1, q2, q3], r)
+        }
+        _ => None,
+    };
+    Ok((plan, gains))
+}
+
+/// Plans with the configured planner ([`PlannerConfig::solver`](crate::config::PlannerConfig::solver)); the
+/// Eq. 3 planners with the penalty on leaving `support` (DDP without).
+pub fn plan_with<G: PendulumRegression>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: &KnownHand<G>,
+    support: Option<Arc<DataSupport>>,
+) -> anyhow::Result<PlanSummary> {
+    match cfg.planner.solver {
+        Solver::GaussNewton | Solver::Powell => eq3::plan(cfg, demo, model, support),
+        Solver::Ddp => ddp::plan_ddp(cfg, demo, model),
+    }
+}
