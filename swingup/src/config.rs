@@ -6,6 +6,8 @@
 use lwr::Kernel;
 use serde::{Deserialize, Serialize};
 
+use crate::error::ensure_config;
+
 use crate::plant::PlantParams;
 use crate::plant::demo::HumanSwingup;
 
@@ -311,13 +313,14 @@ impl Default for ModelConfig {
 
 impl Config {
     /// Checks the configuration.
-    pub fn validate(&self) -> anyhow::Result<()> {
-        self.human.validate().map_err(anyhow::Error::msg)?;
-        self.robot.validate().map_err(anyhow::Error::msg)?;
-        anyhow::ensure!(self.max_trials >= 1, "max_trials must be at least 1");
-        anyhow::ensure!(self.horizon >= 10, "horizon must be at least 10 samples");
+    pub fn validate(&self) -> crate::Result<()> {
+        self.human.validate().map_err(|e| crate::Error::config("human", e))?;
+        self.robot.validate().map_err(|e| crate::Error::config("robot", e))?;
+        ensure_config!("max_trials", self.max_trials >= 1, "max_trials must be at least 1");
+        ensure_config!("horizon", self.horizon >= 10, "horizon must be at least 10 samples");
         let p = &self.planner;
-        anyhow::ensure!(
+        ensure_config!(
+            "horizon",
             self.horizon >= p.control_coeffs && self.horizon + 1 >= p.state_coeffs,
             "horizon ({}) must be at least planner.control_coeffs ({}) and planner.state_coeffs - 1 ({}): \
              the plan's B-splines are fitted to the horizon's samples",
@@ -338,7 +341,11 @@ impl Config {
             ("model.cutoff", self.model.cutoff),
         ];
         for (key, v) in positive {
-            anyhow::ensure!(v.is_finite() && v > 0.0, "{key} must be finite and positive, got {v}");
+            ensure_config!(
+                key,
+                v.is_finite() && v > 0.0,
+                "{key} must be finite and positive, got {v}"
+            );
         }
         let nonnegative = [
             ("planner.lambda_start", p.lambda_start),
@@ -351,7 +358,8 @@ impl Config {
             ("model.prior_weight", self.model.prior_weight),
         ];
         for (key, v) in nonnegative {
-            anyhow::ensure!(
+            ensure_config!(
+                key,
                 v.is_finite() && v >= 0.0,
                 "{key} must be finite and nonnegative, got {v}"
             );
@@ -363,70 +371,87 @@ impl Config {
             ("planner.terminal_weights", &p.terminal_weights),
         ];
         for (key, v) in arrays {
-            anyhow::ensure!(
+            ensure_config!(
+                key,
                 v.iter().all(|x| x.is_finite() && *x >= 0.0),
                 "{key} must be finite and nonnegative, got {v:?}"
             );
         }
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.max_iters",
             p.max_iters >= 1 && p.powell_evals >= 1,
             "planner.max_iters and planner.powell_evals must be at least 1, got {} and {}",
             p.max_iters,
             p.powell_evals
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "balance",
             self.balance as f64 * self.robot.dt >= self.success_seconds,
             "balance ({} samples, {} s) must cover success_seconds ({} s): success is judged on the balancing",
             self.balance,
             self.balance as f64 * self.robot.dt,
             self.success_seconds
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "sensor_noise",
             self.sensor_noise.iter().all(|s| s.is_finite() && *s >= 0.0),
             "sensor noise must be finite and nonnegative"
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.lambda",
             self.planner.lambda.is_finite() && self.planner.lambda >= 0.0,
             "lambda must be finite and nonnegative"
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.lambda_growth",
             self.planner.lambda_growth.is_finite()
                 && self.planner.lambda_growth > 0.0
                 && (self.planner.lambda * self.planner.lambda_growth.powi(self.max_trials as i32)).is_finite(),
             "lambda_growth must be positive and keep lambda finite over max_trials"
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.state_coeffs",
             self.planner.state_coeffs >= 4 && self.planner.control_coeffs >= 4,
             "need at least 4 B-spline coefficients per channel"
         );
-        anyhow::ensure!(self.model.bandwidth > 0.0, "the bandwidth must be positive");
-        anyhow::ensure!(
+        ensure_config!(
+            "model.bandwidth",
+            self.model.bandwidth > 0.0,
+            "the bandwidth must be positive"
+        );
+        ensure_config!(
+            "model.input_scales",
             self.model.input_scales.iter().all(|m| m.is_finite() && *m >= 0.0)
                 && self.model.input_scales.iter().any(|m| *m > 0.0),
             "model.input_scales must be finite and nonnegative, and not all 0, got {:?}",
             self.model.input_scales
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.support_weight",
             p.support_weight.is_finite() && p.support_weight >= 0.0,
             "planner.support_weight must be finite and nonnegative, got {}",
             p.support_weight
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.support_bandwidth",
             p.support_bandwidth.is_finite() && p.support_bandwidth > 0.0,
             "planner.support_bandwidth must be finite and positive, got {}",
             p.support_bandwidth
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.support_full",
             p.support_full.is_finite() && p.support_full > 0.0,
             "planner.support_full must be finite and positive, got {}",
             p.support_full
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "planner.support_scales",
             p.support_scales.iter().all(|m| m.is_finite() && *m >= 0.0) && p.support_scales.iter().any(|m| *m > 0.0),
             "planner.support_scales must be finite and nonnegative, and not all 0, got {:?}",
             p.support_scales
         );
-        anyhow::ensure!(
+        ensure_config!(
+            "exploration",
             self.exploration.is_finite() && self.exploration >= 0.0,
             "exploration must be finite and nonnegative"
         );

@@ -637,6 +637,7 @@ fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPredictio
     }
     // through a temporary file: a failed write leaves any old file whole
     crate::output::run_report::write_atomic(out, &text)
+        .map_err(|e| std::io::Error::other(e.to_string()))
         .with_context(|| format!("{}: writing the predictions", out.display()))
 }
 

@@ -39,7 +39,7 @@
 use std::sync::Arc;
 use std::time::Instant;
 
-use anyhow::Context;
+use crate::error::ResultExt as _;
 use rand::SeedableRng;
 use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
@@ -64,7 +64,7 @@ pub trait Progress {
     ///
     /// # Errors
     /// Whatever the caller could not do with the trial.
-    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()>;
+    fn trial(&mut self, trial: &TrialRecord) -> crate::Result<()>;
 
     /// Trial `index` starts a long phase (`"learning the model"`,
     /// `"planning"`), for a progress display; nothing by default.
@@ -75,7 +75,7 @@ pub trait Progress {
 
 /// Any closure taking a trial reports progress and never fails.
 impl<F: FnMut(&TrialRecord)> Progress for F {
-    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()> {
+    fn trial(&mut self, trial: &TrialRecord) -> crate::Result<()> {
         self(trial);
         Ok(())
     }
@@ -85,15 +85,14 @@ impl<F: FnMut(&TrialRecord)> Progress for F {
 /// they are kept as they are, their data rebuilds the model, and learning
 /// continues after them. Each new trial is passed to `progress` as soon as
 /// it is done (to be saved).
-pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress) -> anyhow::Result<RunRecord> {
+pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress) -> crate::Result<RunRecord> {
     cfg.validate()?;
     let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or_else(|| anyhow::anyhow!("the human's balancing controller could not be designed"))?;
-    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1)
-        .ok_or_else(|| anyhow::anyhow!("the robot's balancing controller could not be designed"))?;
+        .ok_or(crate::Error::Controller { plant: "human" })?;
+    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })?;
     let robot = Plant::new(cfg.robot);
     let mut trials = previous;
-    anyhow::ensure!(
+    crate::error::ensure_data!(
         trials.iter().enumerate().all(|(i, t)| t.index == i + 1),
         "resumed trials must be numbered 1, 2, ... in order"
     );
@@ -189,7 +188,7 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
 /// uniform cubic B-spline over the window with `control_coeffs`
 /// coefficients drawn uniformly in $\pm$ `exploration`, seeded by the run's
 /// seed, sampled at the demonstration's times.
-pub fn exploration_commands(cfg: &Config, demo: &Demonstration) -> anyhow::Result<Vec<f64>> {
+pub fn exploration_commands(cfg: &Config, demo: &Demonstration) -> crate::Result<Vec<f64>> {
     let n = demo.horizon();
     let basis = BSplineBasis::clamped_uniform(cfg.planner.control_coeffs, 3, 0.0, demo.dt * n as f64)?;
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(7_919).wrapping_add(17));
@@ -219,8 +218,8 @@ pub fn exploration_commands(cfg: &Config, demo: &Demonstration) -> anyhow::Resul
 
 /// The first `horizon + 1` observed states and `horizon` commands of a
 /// trial, as a trajectory for the planner to start from.
-pub fn observed_window(trial: &TrialRecord, horizon: usize) -> anyhow::Result<Demonstration> {
-    anyhow::ensure!(
+pub fn observed_window(trial: &TrialRecord, horizon: usize) -> crate::Result<Demonstration> {
+    crate::error::ensure_data!(
         trial.observed.len() > horizon && trial.commands.len() >= horizon,
         "trial {} is shorter than the planning window of {horizon} samples",
         trial.index
@@ -337,7 +336,7 @@ impl PlannedTrial<'_> {
         model: &KnownHand<G>,
         summary: ModelSummary,
         tuning: f64,
-    ) -> anyhow::Result<TrialRecord> {
+    ) -> crate::Result<TrialRecord> {
         let started = Instant::now();
         let (plan, gains) = plan_and_gains(self.cfg, self.demo, model, self.support)?;
         let planning = self.support_seconds + started.elapsed().as_secs_f64();

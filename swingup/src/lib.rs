@@ -17,6 +17,7 @@
 //!
 //! | layer | modules | what |
 //! |---|---|---|
+//! | base | [`error`], [`format`](mod@format) | the library's error type; numbers as the reports print them |
 //! | plant | [`plant`], [`plant::lqr`], [`plant::demo`] | the simulated pendulum on a hand, the LQR catch, the human's demonstration |
 //! | config | [`config`] | every setting of a run, validated |
 //! | records | [`record`] | what a trial and a run saw, and the training pairs drawn from it |
@@ -54,6 +55,7 @@
 
 pub mod config;
 pub mod diagnostics;
+pub mod error;
 pub mod experiments;
 pub mod fit_cmd;
 pub mod format;
@@ -63,3 +65,5 @@ pub mod output;
 pub mod planning;
 pub mod plant;
 pub mod record;
+
+pub use error::{Error, Result};

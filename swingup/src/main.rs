@@ -339,7 +339,7 @@ struct SaveAndShow<'a> {
 }
 
 impl swingup::learn::Progress for SaveAndShow<'_> {
-    fn trial(&mut self, trial: &TrialRecord) -> anyhow::Result<()> {
+    fn trial(&mut self, trial: &TrialRecord) -> swingup::Result<()> {
         print_trial(trial);
         run_report::write_trial(self.out, trial)
     }

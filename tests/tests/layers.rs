@@ -1,6 +1,6 @@
 //! The workspace's module structure: no import cycle between the source
 //! files of any crate, and `swingup`'s modules in layers whose imports run
-//! one way (plant, config, records, models, planning, learning,
+//! one way (base, plant, config, records, models, planning, learning,
 //! experiments, output).
 //!
 //! A file's imports are its `crate::...` and `super::...` paths outside
@@ -175,8 +175,9 @@ fn no_crate_has_an_import_cycle_between_its_files() {
 
 /// `swingup`'s layers, lowest first; a module may import only from its own
 /// layer or lower ones.
-const LAYERS: [(&str, &[&str]); 8] = [
-    ("plant", &["plant", "format"]),
+const LAYERS: [(&str, &[&str]); 9] = [
+    ("base", &["error", "format"]),
+    ("plant", &["plant"]),
     ("config", &["config"]),
     ("records", &["record"]),
     ("models", &["models"]),

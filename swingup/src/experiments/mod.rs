@@ -414,7 +414,7 @@ pub fn run_experiments(
     run_missing: bool,
     shard: Option<Shard>,
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
-) -> anyhow::Result<ExperimentsReport> {
+) -> crate::Result<ExperimentsReport> {
     let start = Instant::now();
     let version = crate::experiments::sensitivity::code_version();
     let all: Vec<Job> = jobs(which, settings)
@@ -461,7 +461,9 @@ pub fn run_experiments(
         })
         .collect();
     let errors = errors.into_inner().unwrap_or_default();
-    anyhow::ensure!(errors.is_empty(), "runs failed:\n{}", errors.join("\n"));
+    if !errors.is_empty() {
+        return Err(crate::Error::RunsFailed(errors));
+    }
     let ran = runs.len();
     runs.extend(previous);
     runs.sort_by(|a, b| (&a.experiment, &a.variant, a.seed).cmp(&(&b.experiment, &b.variant, b.seed)));
@@ -479,7 +481,7 @@ pub fn run_experiments(
     })
 }
 
-fn run_one(job: &Job, version: &str) -> anyhow::Result<RunSummary> {
+fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
     let start = Instant::now();
     let record = run(&job.cfg, vec![], &mut |_: &TrialRecord| {})?;
     let rollouts = if job.rollouts {
@@ -522,7 +524,7 @@ fn run_one(job: &Job, version: &str) -> anyhow::Result<RunSummary> {
 /// C8: the models learned after trials 1, 2, 3 integrated forward from
 /// hanging at rest under the commands the robot sent in the next trial,
 /// against what the robot did.
-pub fn rollouts(cfg: &Config, record: &RunRecord) -> anyhow::Result<Vec<Rollout>> {
+pub fn rollouts(cfg: &Config, record: &RunRecord) -> crate::Result<Vec<Rollout>> {
     let mut out = Vec::new();
     for after in 1..=3usize {
         let Some(next) = record.trials.get(after) else { break };

@@ -112,18 +112,17 @@ pub fn open_loop_tolerance(
     cfg: &Config,
     perturbations: &[(Parameter, f64)],
     seeds: u64,
-) -> anyhow::Result<Vec<SensitivityRow>> {
+) -> crate::Result<Vec<SensitivityRow>> {
     cfg.validate()?;
-    anyhow::ensure!(seeds >= 1, "sensitivity needs at least one seed");
+    crate::error::ensure_data!(seeds >= 1, "sensitivity needs at least one seed");
     let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or_else(|| anyhow::anyhow!("the human's balancing controller could not be designed"))?;
-    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1)
-        .ok_or_else(|| anyhow::anyhow!("the robot's balancing controller could not be designed"))?;
+        .ok_or(crate::Error::Controller { plant: "human" })?;
+    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })?;
     let robot = Plant::new(cfg.robot);
     perturbations
         .par_iter()
         .map(|&(parameter, factor)| {
-            anyhow::ensure!(
+            crate::error::ensure_data!(
                 factor.is_finite() && (factor > 0.0 || (parameter == Parameter::Damping && factor == 0.0)),
                 "the factor of {} must be finite and positive, got {factor}",
                 parameter.name()
@@ -196,11 +195,11 @@ pub struct ModelErrorReport {
 ///
 /// # Errors
 /// An invalid configuration or a failed run.
-pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> anyhow::Result<ModelErrorReport> {
+pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> crate::Result<ModelErrorReport> {
     cfg.validate()?;
-    anyhow::ensure!(seeds >= 1 && max_trials >= 1, "need at least one seed and one trial");
+    crate::error::ensure_data!(seeds >= 1 && max_trials >= 1, "need at least one seed and one trial");
     let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or_else(|| anyhow::anyhow!("the human's balancing controller could not be designed"))?;
+        .ok_or(crate::Error::Controller { plant: "human" })?;
     let truth = TrueRegression::new(cfg.robot)?;
     let exact = plan(cfg, &demo, KnownHand::new(truth, cfg.robot.dt), None)?;
     let points: Vec<[f64; 5]> = exact
@@ -229,7 +228,7 @@ pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> anyho
     type Errors = Vec<(usize, Vec<f64>, Vec<f64>)>;
     let per_seed: Vec<Errors> = (1..=seeds)
         .into_par_iter()
-        .map(|seed| -> anyhow::Result<Errors> {
+        .map(|seed| -> crate::Result<Errors> {
             let c = Config { seed, ..lwr.clone() };
             let record = run(&c, vec![], &mut |_: &crate::record::TrialRecord| {})?;
             (1..=record.trials.len())
@@ -248,7 +247,7 @@ pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> anyho
                 })
                 .collect()
         })
-        .collect::<anyhow::Result<_>>()?;
+        .collect::<crate::Result<_>>()?;
     let rows = (1..=max_trials)
         .map(|n| {
             let these: Vec<&(usize, Vec<f64>, Vec<f64>)> = per_seed.iter().flatten().filter(|e| e.0 == n).collect();

@@ -9,9 +9,9 @@ use crate::record::{ModelSummary, TrialRecord, training_data};
 
 /// Fits the LWR model to all trials so far and tunes its metric by
 /// leave-one-out cross-validation.
-pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<(LearnedModel, ModelSummary)> {
+pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(LearnedModel, ModelSummary)> {
     let (xs, ys) = training_data(trials);
-    anyhow::ensure!(!xs.is_empty(), "no data to learn from");
+    crate::error::ensure_data!(!xs.is_empty(), "no data to learn from");
     // initial metric: each input divided by its spread
     let spread: Vec<f64> = (0..5)
         .map(|c| {

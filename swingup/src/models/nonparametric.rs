@@ -55,7 +55,7 @@ pub struct LinearRegression {
 impl LinearRegression {
     /// Least squares of the output on $[1, z]$ (a tiny ridge keeps it
     /// defined for degenerate data).
-    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<Self> {
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<Self> {
         Ok(Self {
             coefficients: global_linear_fit(xs, ys)?,
         })
@@ -78,7 +78,7 @@ impl LwrRegression {
     /// Fits the global linear model to `(xs, ys)`, then inserts the
     /// residuals into an LWR model with `settings` (not yet tuned; see
     /// [`lwr_mut`](Self::lwr_mut)).
-    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]], settings: lwr::LwrSettings) -> anyhow::Result<Self> {
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]], settings: lwr::LwrSettings) -> crate::Result<Self> {
         let linear = LinearRegression::fit(xs, ys)?;
         Self::fit_with_prior(xs, ys, settings, Box::new(linear), "linear")
     }
@@ -91,9 +91,9 @@ impl LwrRegression {
         settings: lwr::LwrSettings,
         prior: Box<dyn PendulumRegression + Send + Sync>,
         name: &'static str,
-    ) -> anyhow::Result<Self> {
-        anyhow::ensure!(!xs.is_empty(), "the model has no data");
-        anyhow::ensure!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
+    ) -> crate::Result<Self> {
+        crate::error::ensure_data!(!xs.is_empty(), "the model has no data");
+        crate::error::ensure_data!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
         let resid: Vec<[f64; 1]> = xs
             .iter()
             .zip(ys)
@@ -176,11 +176,11 @@ impl PendulumRegression for LwrRegression {
 
 /// Least squares of the output on $[1, z]$ (a tiny ridge keeps it defined
 /// for degenerate data).
-fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<[f64; 6]> {
+fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<[f64; 6]> {
     let mut ata = Mat::<f64>::zeros(6, 6);
     let mut aty = Mat::<f64>::zeros(6, 1);
     for (x, y) in xs.iter().zip(ys) {
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             x.iter().chain(y).all(|v| v.is_finite()),
             "a training point is not finite: {x:?} -> {y:?}"
         );
@@ -197,7 +197,7 @@ fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<[f64; 6
     }
     let sol = ata
         .llt(faer::Side::Lower)
-        .map_err(|e| anyhow::anyhow!("global linear fit failed: {e:?}"))?
+        .map_err(|e| crate::Error::data(format!("global linear fit failed: {e:?}")))?
         .solve(&aty);
     Ok(std::array::from_fn(|c| sol[(c, 0)]))
 }

@@ -53,55 +53,7 @@ pub const FEATURES: [&str; 3] = ["sin(theta_m)", "theta_dot", "u cos(theta_m)"];
 /// the three coefficients.
 pub const MIN_SINGULAR_RATIO: f64 = 1e-8;
 
-/// Why a parametric fit was refused.
-#[derive(Debug, Clone, PartialEq, thiserror::Error)]
-#[non_exhaustive]
-pub enum ParametricError {
-    /// Fewer data points than coefficients.
-    #[error("need at least {needed} data points for {needed} coefficients, got {actual}")]
-    TooFewPoints {
-        /// Points needed.
-        needed: usize,
-        /// Points given.
-        actual: usize,
-    },
-    /// Inputs and outputs of different lengths.
-    #[error("{inputs} inputs but {outputs} outputs")]
-    LengthMismatch {
-        /// Number of inputs.
-        inputs: usize,
-        /// Number of outputs.
-        outputs: usize,
-    },
-    /// A NaN or infinite value in the data.
-    #[error("{what}[{index}] is not finite ({value})")]
-    NotFinite {
-        /// `inputs` or `outputs`.
-        what: &'static str,
-        /// Index of the data point.
-        index: usize,
-        /// The offending value.
-        value: f64,
-    },
-    /// The features do not vary independently in the data (for example the
-    /// pendulum never moved, or the hand never accelerated).
-    #[error("the features are (nearly) linearly dependent in the data: singular value ratio {ratio:e}")]
-    RankDeficient {
-        /// Smallest over largest singular value of the column-normalised design matrix.
-        ratio: f64,
-    },
-    /// Invalid sample period or angle lead.
-    #[error("invalid {name}: {reason}")]
-    InvalidParameter {
-        /// Parameter name.
-        name: &'static str,
-        /// Why it is invalid.
-        reason: String,
-    },
-    /// The linear algebra failed (should not happen after the rank check).
-    #[error("least-squares solve failed: {0}")]
-    Solve(String),
-}
+pub use crate::error::ParametricError;
 
 /// Physical parameters read off the fitted coefficients; see
 /// [`ParametricRegression::physical`].
@@ -162,9 +114,9 @@ impl ParametricRegression {
     /// let c = model.coefficients();
     /// assert!((c[0] + 0.27).abs() < 1e-12 && (c[1] + 0.003).abs() < 1e-12 && (c[2] + 0.028).abs() < 1e-12);
     /// assert!(model.residual_rms() < 1e-12);
-    /// # Ok::<(), anyhow::Error>(())
+    /// # Ok::<(), swingup::Error>(())
     /// ```
-    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> anyhow::Result<Self> {
+    pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<Self> {
         Ok(Self::fit_with_lead(xs, ys, 0.0)?)
     }
 
@@ -173,7 +125,7 @@ impl ParametricRegression {
     ///
     /// # Errors
     /// As [`fit`](Self::fit), and a `dt` that is not finite and positive.
-    pub fn fit_midpoint(xs: &[[f64; 5]], ys: &[[f64; 1]], dt: f64) -> anyhow::Result<Self> {
+    pub fn fit_midpoint(xs: &[[f64; 5]], ys: &[[f64; 1]], dt: f64) -> crate::Result<Self> {
         if !(dt.is_finite() && dt > 0.0) {
             return Err(ParametricError::InvalidParameter {
                 name: "dt",
@@ -378,7 +330,7 @@ impl PendulumRegression for ParametricRegression {
 pub fn learn_parametric(
     cfg: &Config,
     trials: &[TrialRecord],
-) -> anyhow::Result<(KnownHand<ParametricRegression>, ModelSummary)> {
+) -> crate::Result<(KnownHand<ParametricRegression>, ModelSummary)> {
     let (xs, ys) = training_data(trials);
     let model = ParametricRegression::fit_midpoint(&xs, &ys, cfg.robot.dt)?;
     let summary = model.summary();
@@ -557,10 +509,11 @@ mod tests {
 
     #[test]
     fn bad_input_is_an_error() {
-        let err = |r: anyhow::Result<ParametricRegression>| -> ParametricError {
-            r.expect_err("must fail")
-                .downcast::<ParametricError>()
-                .expect("typed error")
+        let err = |r: crate::Result<ParametricRegression>| -> ParametricError {
+            match r.expect_err("must fail") {
+                crate::Error::Parametric(e) => e,
+                other => panic!("not a parametric error: {other}"),
+            }
         };
         let (xs, ys) = plant_data(PlantParams::robot(), 20, 5);
         assert!(matches!(

@@ -30,8 +30,8 @@ impl TrueRegression {
     ///
     /// # Errors
     /// Invalid plant parameters.
-    pub fn new(params: PlantParams) -> anyhow::Result<Self> {
-        params.validate().map_err(anyhow::Error::msg)?;
+    pub fn new(params: PlantParams) -> crate::Result<Self> {
+        params.validate().map_err(crate::Error::Data)?;
         Ok(Self { params })
     }
 

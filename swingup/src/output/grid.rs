@@ -19,15 +19,15 @@ pub fn check_grid_settings(
     dir: &std::path::Path,
     settings: &ExperimentSettings,
     resume: bool,
-) -> anyhow::Result<Option<String>> {
+) -> crate::Result<Option<String>> {
     let path = dir.join(SETTINGS_FILE);
     if !resume {
         // a temporary name of this process's own: the shards of a job
         // array may start in one directory at once
         let tmp = dir.join(format!("settings.{}.tmp", std::process::id()));
         std::fs::write(&tmp, serde_json::to_string_pretty(settings)?)
-            .map_err(|e| anyhow::anyhow!("writing {}: {e}", tmp.display()))?;
-        std::fs::rename(&tmp, &path).map_err(|e| anyhow::anyhow!("renaming to {}: {e}", path.display()))?;
+            .map_err(|e| crate::Error::io("writing", &tmp, e))?;
+        std::fs::rename(&tmp, &path).map_err(|e| crate::Error::io("renaming to", &path, e))?;
         return Ok(None);
     }
     let Ok(text) = std::fs::read_to_string(&path) else {
@@ -37,7 +37,7 @@ pub fn check_grid_settings(
         )));
     };
     let saved: serde_json::Value =
-        serde_json::from_str(&text).map_err(|e| anyhow::anyhow!("parsing {}: {e}", path.display()))?;
+        serde_json::from_str(&text).map_err(|e| crate::Error::parse(&path, Some(e.line()), e))?;
     let now = serde_json::to_value(settings)?;
     let differ: Vec<String> = match (saved.as_object(), now.as_object()) {
         (Some(a), Some(b)) => b
@@ -47,7 +47,7 @@ pub fn check_grid_settings(
             .collect(),
         _ => vec!["(all)".into()],
     };
-    anyhow::ensure!(
+    crate::error::ensure_refused!(
         differ.is_empty(),
         "the runs saved in {} were made with other settings ({} differ{}); resume with the same options, \
          or start a fresh grid in another --out (or here with --force, losing those runs)",
@@ -66,10 +66,9 @@ pub fn check_grid_settings(
 ///
 /// # Errors
 /// `dir` or a file cannot be read, or a complete line does not parse.
-pub fn read_saved_runs(dir: &std::path::Path) -> anyhow::Result<(Vec<RunSummary>, Vec<String>)> {
-    use anyhow::Context as _;
+pub fn read_saved_runs(dir: &std::path::Path) -> crate::Result<(Vec<RunSummary>, Vec<String>)> {
     let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
-        .with_context(|| format!("reading {}", dir.display()))?
+        .map_err(|e| crate::Error::io("reading", dir, e))?
         .filter_map(|e| e.ok().map(|e| e.path()))
         .filter(|p| {
             p.file_name()
@@ -81,7 +80,7 @@ pub fn read_saved_runs(dir: &std::path::Path) -> anyhow::Result<(Vec<RunSummary>
     let mut runs: Vec<RunSummary> = Vec::new();
     let mut warnings = Vec::new();
     for file in files {
-        let text = std::fs::read_to_string(&file).with_context(|| format!("reading {}", file.display()))?;
+        let text = std::fs::read_to_string(&file).map_err(|e| crate::Error::io("reading", &file, e))?;
         let lines: Vec<&str> = text.split('\n').collect();
         for (i, line) in lines.iter().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
             let run: RunSummary = match serde_json::from_str(line) {
@@ -95,7 +94,13 @@ pub fn read_saved_runs(dir: &std::path::Path) -> anyhow::Result<(Vec<RunSummary>
                     ));
                     continue;
                 }
-                Err(e) => anyhow::bail!("{} line {}: not a saved run: {e}", file.display(), i + 1),
+                Err(e) => {
+                    return Err(crate::Error::parse(
+                        &file,
+                        Some(i + 1),
+                        format_args!("not a saved run: {e}"),
+                    ));
+                }
             };
             let same =
                 |r: &RunSummary| (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed);

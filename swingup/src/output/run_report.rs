@@ -20,7 +20,7 @@ use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use anyhow::Context as _;
+use crate::error::ResultExt as _;
 
 use crate::format::num;
 use crate::output::svg::{Panel, colour, heading, legend_entry, nice_ticks, range, svg_open, xml};
@@ -50,8 +50,8 @@ pub fn trial_csv_name(index: usize) -> String {
 ///
 /// # Errors
 /// A file cannot be written; the error names it.
-pub fn write_run(dir: &Path, run: &RunRecord) -> anyhow::Result<()> {
-    fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
+    fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
     for trial in &run.trials {
         write_trial(dir, trial)?;
     }
@@ -72,13 +72,12 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> anyhow::Result<()> {
 ///
 /// Each file is written to a temporary name and then renamed, so an
 /// interrupted run never leaves a half-written record behind.
-pub fn write_trial(dir: &Path, trial: &TrialRecord) -> anyhow::Result<()> {
-    fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
-    write_atomic(&dir.join(trial_csv_name(trial.index)), &trial_csv(trial))
-        .map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
-    let json = to_json(trial).map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
-    write_atomic(&dir.join(trial_json_name(trial.index)), &json)
-        .map_err(|e| anyhow::anyhow!("saving trial {}: {e}", trial.index))?;
+pub fn write_trial(dir: &Path, trial: &TrialRecord) -> crate::Result<()> {
+    fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    let saving = || format!("saving trial {}", trial.index);
+    write_atomic(&dir.join(trial_csv_name(trial.index)), &trial_csv(trial)).with_context(saving)?;
+    let json = to_json(trial).with_context(saving)?;
+    write_atomic(&dir.join(trial_json_name(trial.index)), &json).with_context(saving)?;
     Ok(())
 }
 
@@ -87,16 +86,19 @@ pub fn write_trial(dir: &Path, trial: &TrialRecord) -> anyhow::Result<()> {
 ///
 /// # Errors
 /// The file cannot be read or written, or lacks the marker lines.
-pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str) -> anyhow::Result<()> {
-    let old = std::fs::read_to_string(path).map_err(|e| anyhow::anyhow!("reading {}: {e}", path.display()))?;
+pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str) -> crate::Result<()> {
+    let old = std::fs::read_to_string(path).map_err(|e| crate::Error::io("reading", path, e))?;
     let (Some(a), Some(b)) = (old.find(start), old.find(end)) else {
-        anyhow::bail!("{} has no {start} ... {end} lines", path.display());
+        return Err(crate::Error::data(format!(
+            "{} has no {start} ... {end} lines",
+            path.display()
+        )));
     };
-    anyhow::ensure!(a < b, "{}: {end} comes before {start}", path.display());
+    crate::error::ensure_data!(a < b, "{}: {end} comes before {start}", path.display());
     let new = format!("{}{start}\n{text}{}", &old[..a], &old[b..]);
     let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, new).map_err(|e| anyhow::anyhow!("writing {}: {e}", tmp.display()))?;
-    std::fs::rename(&tmp, path).map_err(|e| anyhow::anyhow!("renaming to {}: {e}", path.display()))?;
+    std::fs::write(&tmp, new).map_err(|e| crate::Error::io("writing", &tmp, e))?;
+    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io("renaming to", path, e))?;
     Ok(())
 }
 
@@ -107,18 +109,18 @@ pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str
 /// # Errors
 /// A file that cannot be read or parsed, or whose trial number is not the
 /// one in its name; the error names the file.
-pub fn read_trials(dir: &Path) -> anyhow::Result<Vec<TrialRecord>> {
+pub fn read_trials(dir: &Path) -> crate::Result<Vec<TrialRecord>> {
     let mut trials = Vec::new();
     for index in 1.. {
         let path = dir.join(trial_json_name(index));
         let text = match fs::read_to_string(&path) {
             Ok(text) => text,
             Err(e) if e.kind() == io::ErrorKind::NotFound => break,
-            Err(e) => return Err(e).with_context(|| format!("reading {}", path.display())),
+            Err(e) => return Err(crate::Error::io("reading", path, e)),
         };
-        let trial: TrialRecord =
-            serde_json::from_str(&text).with_context(|| format!("parsing trial record {}", path.display()))?;
-        anyhow::ensure!(
+        let trial: TrialRecord = serde_json::from_str(&text)
+            .map_err(|e| crate::Error::parse(&path, Some(e.line()), format_args!("not a trial record: {e}")))?;
+        crate::error::ensure_data!(
             trial.index == index,
             "trial record {} holds trial {}, expected {index}",
             path.display(),
@@ -129,8 +131,8 @@ pub fn read_trials(dir: &Path) -> anyhow::Result<Vec<TrialRecord>> {
     Ok(trials)
 }
 
-fn to_json<T: serde::Serialize>(value: &T) -> io::Result<String> {
-    let mut text = serde_json::to_string_pretty(value).map_err(io::Error::other)?;
+fn to_json<T: serde::Serialize>(value: &T) -> crate::Result<String> {
+    let mut text = serde_json::to_string_pretty(value)?;
     text.push('\n');
     Ok(text)
 }
@@ -142,20 +144,18 @@ fn to_json<T: serde::Serialize>(value: &T) -> io::Result<String> {
 ///
 /// # Errors
 /// The temporary file cannot be written or renamed.
-pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
+pub fn write_atomic(path: &Path, contents: &str) -> crate::Result<()> {
     let mut tmp: PathBuf = path.to_path_buf();
     let mut name = path.file_name().unwrap_or_default().to_os_string();
     name.push(".tmp");
     tmp.set_file_name(name);
-    let named =
-        |e: io::Error, what: &str, file: &Path| io::Error::new(e.kind(), format!("{what} {}: {e}", file.display()));
     if let Err(e) = fs::write(&tmp, contents) {
         let _ = fs::remove_file(&tmp);
-        return Err(named(e, "writing", &tmp));
+        return Err(crate::Error::io("writing", tmp, e));
     }
     fs::rename(&tmp, path).map_err(|e| {
         let _ = fs::remove_file(&tmp);
-        named(e, "renaming into place", path)
+        crate::Error::io("renaming into place", path, e)
     })
 }
 

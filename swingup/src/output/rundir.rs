@@ -17,6 +17,7 @@
 use std::path::{Path, PathBuf};
 
 use crate::config::Config;
+use crate::error::ensure_refused;
 
 /// Is `name` a file a learning run writes ([`crate::output::run_report`]), or the
 /// temporary file of one (`report.tmp` while `report.json` is written)?
@@ -61,23 +62,23 @@ pub struct DirLock {
 /// # Errors
 /// Another process holds the lock (the error names the directory and the
 /// ways on), or a file system error naming the path.
-pub fn lock_dir(dir: &Path, name: &str) -> anyhow::Result<DirLock> {
-    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+pub fn lock_dir(dir: &Path, name: &str) -> crate::Result<DirLock> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
     let path = dir.join(name);
     let file = std::fs::OpenOptions::new()
         .create(true)
         .truncate(false)
         .write(true)
         .open(&path)
-        .map_err(|e| anyhow::anyhow!("opening the lock file {}: {e}", path.display()))?;
+        .map_err(|e| crate::Error::io("opening the lock file", &path, e))?;
     match file.try_lock() {
         Ok(()) => Ok(DirLock { _file: file }),
-        Err(std::fs::TryLockError::WouldBlock) => anyhow::bail!(
+        Err(std::fs::TryLockError::WouldBlock) => Err(crate::Error::Refused(format!(
             "another swingup program is working in {} (it holds {}); wait for it to finish, or choose another --out",
             dir.display(),
             path.display()
-        ),
-        Err(std::fs::TryLockError::Error(e)) => anyhow::bail!("locking {}: {e}", path.display()),
+        ))),
+        Err(std::fs::TryLockError::Error(e)) => Err(crate::Error::io("locking", &path, e)),
     }
 }
 
@@ -87,13 +88,13 @@ pub fn lock_dir(dir: &Path, name: &str) -> anyhow::Result<DirLock> {
 /// # Errors
 /// Another run's files without `force` (the error names the directory and
 /// the ways on), or a file system error naming the path.
-pub fn prepare_fresh(dir: &Path, force: bool) -> anyhow::Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| anyhow::anyhow!("creating {}: {e}", dir.display()))?;
+pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
     let files = run_files(dir);
     if files.is_empty() {
         return Ok(());
     }
-    anyhow::ensure!(
+    ensure_refused!(
         force,
         "{} holds another run ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
          or pass --force to delete that run's files first",
@@ -102,7 +103,7 @@ pub fn prepare_fresh(dir: &Path, force: bool) -> anyhow::Result<()> {
         files[0].file_name().and_then(|n| n.to_str()).unwrap_or("?")
     );
     for f in files {
-        std::fs::remove_file(&f).map_err(|e| anyhow::anyhow!("deleting {}: {e}", f.display()))?;
+        std::fs::remove_file(&f).map_err(|e| crate::Error::io("deleting", &f, e))?;
     }
     Ok(())
 }
@@ -144,21 +145,21 @@ pub fn config_differences(a: &Config, b: &Config, ignore_cap: bool) -> Vec<Strin
 /// No or an unreadable `config.toml` (the run cannot be continued as it
 /// was made), or overrides that change anything but `max_trials` (the
 /// error names the keys and the way on).
-pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> anyhow::Result<Config> {
+pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> crate::Result<Config> {
     let path = dir.join("config.toml");
     let text = std::fs::read_to_string(&path).map_err(|e| {
-        anyhow::anyhow!(
+        crate::Error::Refused(format!(
             "cannot resume {}: its configuration {} cannot be read ({e}); without it the run cannot be \
              continued as it was made (start a fresh run instead)",
             dir.display(),
             path.display()
-        )
+        ))
     })?;
-    let saved: Config = toml::from_str(&text).map_err(|e| anyhow::anyhow!("parsing {}: {e}", path.display()))?;
+    let saved: Config = toml::from_str(&text).map_err(|e| crate::Error::parse(&path, None, e))?;
     let mut cfg = saved.clone();
     overrides(&mut cfg);
     let changed = config_differences(&saved, &cfg, true);
-    anyhow::ensure!(
+    ensure_refused!(
         changed.is_empty(),
         "{} was made with other settings: {} differ{} from its config.toml; resume without changing them \
          (only --max-trials may change), or start a fresh run in another --out",

@@ -29,16 +29,16 @@ pub struct SwingupCost {
 impl SwingupCost {
     /// Eq. 5 `tracking` (4 states, 1 control) with soft bounds $|x| \le$
     /// `x_max`, $|u| \le$ `u_max` of weight `weight` (infinite bounds are off).
-    pub fn new(tracking: TrackingCost, x_max: f64, u_max: f64, weight: f64) -> anyhow::Result<Self> {
-        anyhow::ensure!(
+    pub fn new(tracking: TrackingCost, x_max: f64, u_max: f64, weight: f64) -> crate::Result<Self> {
+        crate::error::ensure_data!(
             x_max > 0.0 && u_max > 0.0,
             "the soft bounds must be positive, got x_max = {x_max}, u_max = {u_max}"
         );
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             weight.is_finite() && weight >= 0.0,
             "the bound weight must be finite and nonnegative, got {weight}"
         );
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             tracking.n_residuals() == 5,
             "the tracking cost must have 4 states and 1 control"
         );

@@ -51,7 +51,7 @@ pub const MAX_STATE_NORM: f64 = 100.0;
 /// # Errors
 /// A demonstration with inconsistent lengths or non-finite values, or
 /// invalid weights or bounds.
-pub fn task_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<ResidualCost<SwingupCost>> {
+pub fn task_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<ResidualCost<SwingupCost>> {
     let stage = crate::planning::eq3::swingup_cost(cfg, demo)?;
     let n = demo.horizon();
     Ok(ResidualCost::new(stage, 4, 1, n))
@@ -209,14 +209,14 @@ pub fn plan_ddp<G: PendulumRegression>(
     cfg: &Config,
     demo: &Demonstration,
     model: &KnownHand<G>,
-) -> anyhow::Result<PlanSummary> {
+) -> crate::Result<PlanSummary> {
     cfg.validate()?;
     let u_max = cfg.planner.u_max;
-    anyhow::ensure!(
+    crate::error::ensure_data!(
         u_max.is_finite() && u_max > 0.0,
         "planner u_max must be finite and positive, got {u_max}"
     );
-    anyhow::ensure!(
+    crate::error::ensure_data!(
         (model.dt - demo.dt).abs() <= 1e-12 * demo.dt.abs(),
         "the model's sample period {} differs from the demonstration's {}",
         model.dt,

@@ -22,11 +22,11 @@ use crate::record::PlanSummary;
 /// [`Start::Scratch`]: of upright at rest over the whole window, $u^d = 0$),
 /// a terminal target upright at rest with the hand home, and the soft bounds
 /// (shared by every planner, so that their costs compare).
-pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<SwingupCost> {
+pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<SwingupCost> {
     let p = &cfg.planner;
     let n = demo.horizon();
-    anyhow::ensure!(n >= 1, "the demonstration has no controls");
-    anyhow::ensure!(
+    crate::error::ensure_data!(n >= 1, "the demonstration has no controls");
+    crate::error::ensure_data!(
         demo.states.len() == n + 1,
         "the demonstration has {} states for {n} controls (need {})",
         demo.states.len(),
@@ -55,7 +55,7 @@ pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> anyhow::Result<Swingu
 
 /// The bases of the state and control trajectories over the
 /// demonstration's window.
-fn bases(cfg: &Config, demo: &Demonstration) -> anyhow::Result<(PlanBasis, PlanBasis)> {
+fn bases(cfg: &Config, demo: &Demonstration) -> crate::Result<(PlanBasis, PlanBasis)> {
     let n = demo.horizon();
     let t_end = demo.dt * n as f64;
     Ok(match cfg.planner.basis {
@@ -129,7 +129,7 @@ pub fn build_problem<M: trajopt::Model>(
     demo: &Demonstration,
     model: M,
     support: Option<Arc<DataSupport>>,
-) -> anyhow::Result<(Eq3Problem<M, SwingupCost>, Vec<f64>)> {
+) -> crate::Result<(Eq3Problem<M, SwingupCost>, Vec<f64>)> {
     let p = &cfg.planner;
     let cost = swingup_cost(cfg, demo)?.with_support(support);
     let (state_basis, control_basis) = bases(cfg, demo)?;
@@ -156,9 +156,9 @@ pub fn fit_coefficients<M: trajopt::Model>(
     problem: &Eq3Problem<M, SwingupCost>,
     states: &[[f64; 4]],
     controls: &[f64],
-) -> anyhow::Result<Vec<f64>> {
+) -> crate::Result<Vec<f64>> {
     let n = demo.horizon();
-    anyhow::ensure!(
+    crate::error::ensure_data!(
         states.len() == n + 1 && controls.len() == n,
         "a trajectory of {} states and {} controls does not fit a horizon of {n}",
         states.len(),
@@ -192,7 +192,7 @@ pub fn plan<M: trajopt::Model>(
     demo: &Demonstration,
     model: M,
     support: Option<Arc<DataSupport>>,
-) -> anyhow::Result<PlanSummary> {
+) -> crate::Result<PlanSummary> {
     let p = &cfg.planner;
     let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
     let solver = GaussNewton::new(GaussNewtonSettings {

@@ -22,7 +22,7 @@ pub fn plan_and_gains<G: PendulumRegression>(
     demo: &Demonstration,
     model: &KnownHand<G>,
     support: Option<Arc<DataSupport>>,
-) -> anyhow::Result<(PlanSummary, Option<Vec<[f64; 4]>>)> {
+) -> crate::Result<(PlanSummary, Option<Vec<[f64; 4]>>)> {
     let plan = plan_with(cfg, demo, model, support)?;
     let gains = match cfg.feedback {
         [q0, q1, q2, q3, r]
@@ -42,7 +42,7 @@ pub fn plan_with<G: PendulumRegression>(
     demo: &Demonstration,
     model: &KnownHand<G>,
     support: Option<Arc<DataSupport>>,
-) -> anyhow::Result<PlanSummary> {
+) -> crate::Result<PlanSummary> {
     match cfg.planner.solver {
         Solver::GaussNewton | Solver::Powell => eq3::plan(cfg, demo, model, support),
         Solver::Ddp => ddp::plan_ddp(cfg, demo, model),

@@ -48,21 +48,21 @@ impl DataSupport {
         bandwidth: f64,
         full: f64,
         weight: f64,
-    ) -> anyhow::Result<Self> {
-        anyhow::ensure!(!inputs.is_empty(), "the data support needs at least one point");
-        anyhow::ensure!(
+    ) -> crate::Result<Self> {
+        crate::error::ensure_data!(!inputs.is_empty(), "the data support needs at least one point");
+        crate::error::ensure_data!(
             bandwidth.is_finite() && bandwidth > 0.0,
             "support_bandwidth must be finite and positive, got {bandwidth}"
         );
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             full.is_finite() && full > 0.0,
             "support_full must be finite and positive, got {full}"
         );
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             weight.is_finite() && weight >= 0.0,
             "support_weight must be finite and nonnegative, got {weight}"
         );
-        anyhow::ensure!(
+        crate::error::ensure_data!(
             relative.iter().all(|m| m.is_finite() && *m >= 0.0) && relative.iter().any(|m| *m > 0.0),
             "support_scales must be finite and nonnegative, and not all 0, got {relative:?}"
         );
@@ -138,7 +138,7 @@ impl DataSupport {
 
 /// The support of the data of `trials` for the planner's penalty on
 /// leaving them ([`PlannerConfig::support_weight`](crate::config::PlannerConfig::support_weight)); `None` when it is off.
-pub fn data_support(cfg: &Config, trials: &[TrialRecord]) -> anyhow::Result<Option<Arc<DataSupport>>> {
+pub fn data_support(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<Option<Arc<DataSupport>>> {
     let p = &cfg.planner;
     if p.support_weight == 0.0 {
         return Ok(None);
