@@ -15,8 +15,9 @@
 //!   $|\theta^{obs}_k - \theta^{plan}_k|$, from which the sample where plan
 //!   and robot split is read.
 //!
-//! [`crate::output::diagnostics_report`] turns them into the
-//! report's "Plan against reality" section and `diagnostics.svg`.
+//! [`crate::output::diagnostics_report`] turns them into the report's
+//! "Plan against reality" section, [`crate::output::plot::diagnostics`]
+//! into `diagnostics.svg` (and `.png`).
 
 use crate::models::{KnownHand, PendulumRegression};
 use crate::record::{PlanSummary, TrialDiagnostics, TrialRecord};

@@ -25,7 +25,7 @@
 //! | planning | [`planning`] ([`planning::cost`], [`planning::support`], [`planning::eq3`], [`planning::ddp`]) | the task cost, the penalty on leaving the data, Eq. 3 by Gauss-Newton or Powell, and DDP |
 //! | learning | [`learn`], [`diagnostics`] | the trial loop; each plan against what the robot then did |
 //! | experiments | [`experiments`] ([`experiments::claims`], [`experiments::sensitivity`]) | the grid behind the paper's claims, and how much model error an open-loop swing-up tolerates |
-//! | output | [`output`] ([`output::run_report`], [`output::figures`], [`output::plot`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk (figures as SVG and PNG), and the rules that keep runs from overwriting or mixing |
+//! | output | [`output`] ([`output::run_report`], [`output::plot`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk (figures as SVG and PNG), and the rules that keep runs from overwriting or mixing |
 //!
 //! [`fit_cmd`] is the `swingup fit` subcommand (locally weighted regression
 //! on a CSV file); it uses nothing else of this crate.

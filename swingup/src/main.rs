@@ -322,7 +322,7 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     run_report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;
     println!("{}", run_report::result_line(&record));
     println!(
-        "report: {}, plots: {}, {} ({:.1} s)",
+        "report: {}, plots: {}, {} (and .png) ({:.1} s)",
         out.join("report.md").display(),
         out.join("figure3.svg").display(),
         out.join("learning.svg").display(),
@@ -477,9 +477,9 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         &out.join("experiments.md"),
         &swingup::output::grid_report::markdown(&report),
     )?;
-    let figures = swingup::output::figures::figures(&report);
-    for (name, svg) in &figures {
-        write_atomic(&out.join(name), svg)?;
+    let figures = swingup::output::plot::experiment_figures(&report)?;
+    for (stem, plot) in &figures {
+        plot.write(out, stem)?;
     }
     let table = swingup::output::grid_report::claims_table(&report.claims);
     println!("\n{table}");
@@ -489,7 +489,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         println!("updated the claims table in {}", readme.display());
     }
     println!(
-        "wrote {}, {} and {} figure(s) ({}) ({:.0} s)",
+        "wrote {}, {} and {} figure(s) ({}; .svg and .png) ({:.0} s)",
         out.join("experiments.json").display(),
         out.join("experiments.md").display(),
         figures.len(),

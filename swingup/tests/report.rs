@@ -311,8 +311,10 @@ fn markdown_has_the_trial_table_and_the_result() -> Result<(), Box<dyn std::erro
     );
     for link in [
         "figure3.svg",
+        "figure3.png",
         "learning.svg",
         "diagnostics.svg",
+        "diagnostics.png",
         "demonstration.csv",
         "trial_01.csv",
         "trial_03.json",
@@ -370,15 +372,59 @@ fn count(text: &str, pattern: &str) -> usize {
     text.matches(pattern).count()
 }
 
+/// The text content of every `<text>` element, trimmed.
+fn texts(svg: &str) -> Vec<String> {
+    svg.split("<text")
+        .skip(1)
+        .filter_map(|s| s.split_once('>').and_then(|(_, rest)| rest.split_once("</text>")))
+        .map(|(t, _)| t.trim().to_string())
+        .collect()
+}
+
+/// The elements `<tag .../>` (one per line) whose attributes include `attr`.
+fn elements<'a>(svg: &'a str, tag: &str, attr: &str) -> Vec<&'a str> {
+    svg.lines()
+        .filter(|l| l.starts_with(&format!("<{tag} ")) && l.contains(attr))
+        .collect()
+}
+
+/// The stroke attribute of series colour `i`.
+fn stroke(i: usize) -> String {
+    let (r, g, b) = swingup::output::plot::PALETTE[i];
+    format!("stroke=\"#{r:02X}{g:02X}{b:02X}\"")
+}
+
+/// The y coordinates of a polyline's points.
+fn ys(polyline: &str) -> Vec<f64> {
+    polyline
+        .split("points=\"")
+        .nth(1)
+        .and_then(|p| p.split('"').next())
+        .unwrap_or_default()
+        .split_whitespace()
+        .filter_map(|p| p.split(',').nth(1)?.parse().ok())
+        .collect()
+}
+
+/// The width and height in a PNG file's header, if it is one.
+fn png_size(png: &[u8]) -> Option<(u32, u32)> {
+    let be = |i: usize| Some(u32::from_be_bytes(png.get(i..i + 4)?.try_into().ok()?));
+    (png.starts_with(b"\x89PNG\r\n\x1a\n") && png.get(12..16) == Some(b"IHDR")).then_some((be(16)?, be(20)?))
+}
+
 #[test]
-fn plots_are_svg_with_a_line_per_trial() -> Result<(), Box<dyn std::error::Error>> {
+fn plots_are_svg_and_png_with_a_line_per_trial() -> Result<(), Box<dyn std::error::Error>> {
     let dir = TempDir::new("svg");
     let mut run = run();
     run.trials[0].failure = "x < 0 & \"lost\"".into();
     write_run(dir.path(), &run)?;
     let n = run.trials.len();
-    for name in ["figure3.svg", "learning.svg", "diagnostics.svg"] {
-        let svg = read(dir.path(), name)?;
+    for (name, size) in [
+        ("figure3", (800, 500)),
+        ("learning", (800, 500)),
+        ("diagnostics", (820, 645)),
+    ] {
+        let svg = read(dir.path(), &format!("{name}.svg"))?;
         assert!(svg.starts_with("<svg"), "{name}");
         assert!(svg.trim_end().ends_with("</svg>"), "{name}");
         assert_eq!(count(&svg, "<"), count(&svg, ">"), "{name}: unbalanced brackets");
@@ -390,28 +436,38 @@ fn plots_are_svg_with_a_line_per_trial() -> Result<(), Box<dyn std::error::Error
             !svg.contains("href") && !svg.contains("url("),
             "{name}: external resource"
         );
+        let png = fs::read(dir.path().join(format!("{name}.png")))?;
+        assert_eq!(png_size(&png), Some(size), "{name}.png");
     }
     let fig = read(dir.path(), "figure3.svg")?;
-    // two panels, each with a line per trial and the demonstration
-    assert_eq!(count(&fig, "<polyline"), 2 * (n + 1));
-    assert_eq!(
-        count(&fig, "stroke-dasharray=\"2 3\""),
-        3,
-        "demonstration dotted in both panels and the legend"
-    );
+    // two panels, each with a line per trial, and the legend's
+    for i in 0..n {
+        assert_eq!(elements(&fig, "polyline", &stroke(i)).len(), 3, "trial {}", i + 1);
+    }
+    // the demonstration dotted (many short black dashes) in both panels
+    // (the top one ends at y = 225) and the legend (right of x = 645)
+    let dots = elements(&fig, "polyline", "stroke=\"#000000\"");
+    assert!(dots.len() > 10, "{} dashes", dots.len());
+    let dot_ys: Vec<f64> = dots.iter().flat_map(|d| ys(d)).collect();
+    assert!(dot_ys.iter().any(|y| *y < 225.0) && dot_ys.iter().any(|y| *y > 250.0));
+    assert!(dots.iter().any(|d| d.contains("points=\"665,")), "dotted legend entry");
+    let labels = texts(&fig);
     for t in &run.trials {
         assert!(
-            fig.contains(&format!(">trial {}", t.index)),
+            labels.iter().any(|l| l.starts_with(&format!("trial {}", t.index))),
             "no legend for trial {}",
             t.index
         );
     }
-    assert!(fig.contains("upright"));
+    assert!(labels.iter().any(|l| l == "upright"));
     let learning = read(dir.path(), "learning.svg")?;
-    assert_eq!(count(&learning, "class=\"trial\""), n);
-    assert!(learning.contains("halfway") && learning.contains("upright"));
-    // max angle and inconsistency
-    assert_eq!(count(&learning, "<polyline"), 2);
+    // a marker per trial, and the legend's success and failure
+    assert_eq!(elements(&learning, "circle", "r=\"5\"").len(), n + 2);
+    let labels = texts(&learning);
+    assert!(labels.iter().any(|l| l == "halfway") && labels.iter().any(|l| l == "upright"));
+    // max angle and inconsistency: one line each
+    assert_eq!(elements(&learning, "polyline", &stroke(0)).len(), 1);
+    assert_eq!(elements(&learning, "polyline", &stroke(3)).len(), 1);
     // 0 and 3e-4: not spanning decades among the positive values, linear
     assert!(!learning.contains("log scale"));
     Ok(())
@@ -430,7 +486,11 @@ fn inconsistency_spanning_decades_is_on_a_log_scale() -> Result<(), Box<dyn std:
     write_run(dir.path(), &run)?;
     let learning = read(dir.path(), "learning.svg")?;
     assert!(learning.contains("log scale"));
-    assert!(learning.contains(">1e-3<") && learning.contains(">1e1<"), "{learning}");
+    let labels = texts(&learning);
+    assert!(
+        labels.iter().any(|l| l == "1e-3") && labels.iter().any(|l| l == "1e1"),
+        "{labels:?}"
+    );
     Ok(())
 }
 

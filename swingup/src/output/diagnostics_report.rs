@@ -1,13 +1,12 @@
-//! The run report's "Plan against reality" section and the diagnostics
-//! figure, from the diagnostics each planned trial recorded
-//! ([`crate::diagnostics`]).
+//! The run report's "Plan against reality" section, from the diagnostics
+//! each planned trial recorded ([`crate::diagnostics`]); the figure is
+//! [`crate::output::plot::diagnostics`].
 
 use std::fmt::Write as _;
 
 use crate::diagnostics::{OUTSIDE_SUPPORT, SPLIT_ANGLE, median, outside, rms, split_sample};
 use crate::format::num;
-use crate::output::svg::{Panel, colour, legend_entry, nice_ticks, range, svg_open_sized, xml};
-use crate::record::{RunRecord, TrialDiagnostics, TrialRecord};
+use crate::record::{RunRecord, TrialRecord};
 
 /// A count, `—` when there is none.
 fn count(v: f64) -> String {
@@ -74,131 +73,6 @@ pub fn markdown_section(run: &RunRecord) -> String {
     md
 }
 
-/// `diagnostics.svg`: per planned trial (one colour each), the model's
-/// support along the plan (top, log scale), the model's error against the
-/// observed next angular velocity along what the robot did (middle), and
-/// the plan's per-step inconsistency (bottom), against the sample index.
-pub fn diagnostics_svg(run: &RunRecord) -> String {
-    let trials: Vec<(&TrialRecord, &TrialDiagnostics)> = run
-        .trials
-        .iter()
-        .filter_map(|t| t.diagnostics.as_ref().map(|d| (t, d)))
-        .collect();
-    let n = trials
-        .iter()
-        .map(|(_, d)| d.plan_support.len().max(d.executed_error.len()))
-        .max()
-        .unwrap_or(1)
-        .max(1);
-    let (left, width, height) = (80.0, 620.0, 150.0);
-    let x = (0.0, n as f64);
-    let positive = |v: &[f64]| {
-        v.iter()
-            .copied()
-            .filter(|x| x.is_finite() && *x > 0.0)
-            .collect::<Vec<_>>()
-    };
-    let supports: Vec<f64> = trials.iter().flat_map(|(_, d)| positive(&d.plan_support)).collect();
-    let (smin, smax) = supports
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
-    let support_y = if supports.is_empty() {
-        (0.1, 10.0)
-    } else {
-        (
-            10f64.powf(smin.max(1e-3).log10().floor()),
-            10f64.powf(smax.max(10.0).log10().ceil()),
-        )
-    };
-    let panels = [
-        Panel {
-            left,
-            top: 40.0,
-            width,
-            height,
-            x,
-            y: support_y,
-            log_y: true,
-        },
-        Panel {
-            left,
-            top: 40.0 + height + 45.0,
-            width,
-            height,
-            x,
-            y: range(
-                trials.iter().flat_map(|(_, d)| d.executed_error.iter().copied()),
-                &[0.0],
-                0.05,
-            ),
-            log_y: false,
-        },
-        Panel {
-            left,
-            top: 40.0 + 2.0 * (height + 45.0),
-            width,
-            height,
-            x,
-            y: range(
-                trials.iter().flat_map(|(_, d)| d.plan_inconsistency.iter().copied()),
-                &[0.0],
-                0.05,
-            ),
-            log_y: false,
-        },
-    ];
-    let (ticks, step) = nice_ticks(x.0, x.1, 8);
-    let mut svg = String::new();
-    svg_open_sized(
-        &mut svg,
-        "The plan against reality",
-        820.0,
-        40.0 + 3.0 * (height + 45.0) + 20.0,
-    );
-    let titles = [
-        "model support along the plan (points)",
-        "model error along the robot's trajectory (rad/s per sample)",
-        "plan inconsistency per step (rate units)",
-    ];
-    for (p, title) in panels.iter().zip(titles) {
-        p.axes(&mut svg, &ticks, step, true);
-        let _ = writeln!(
-            svg,
-            r#"<text x="{:.1}" y="{:.1}" font-size="13" text-anchor="middle">{}</text>"#,
-            left + width / 2.0,
-            p.top - 8.0,
-            xml(title)
-        );
-    }
-    panels[0].reference(&mut svg, OUTSIDE_SUPPORT, "outside");
-    for (i, (t, d)) in trials.iter().enumerate() {
-        let style = format!(r#"fill="none" stroke="{}" stroke-width="1.4""#, colour(i));
-        let series: [&[f64]; 3] = [&d.plan_support, &d.executed_error, &d.plan_inconsistency];
-        for (p, v) in panels.iter().zip(series) {
-            let pts = p.points(
-                v.iter()
-                    .enumerate()
-                    .filter(|(_, y)| y.is_finite() && (!p.log_y || **y > 0.0))
-                    .map(|(k, y)| (k as f64, *y)),
-            );
-            let _ = writeln!(
-                svg,
-                r#"<polyline class="trial" {style} points="{pts}"><title>trial {}</title></polyline>"#,
-                t.index
-            );
-        }
-        legend_entry(
-            &mut svg,
-            left + width + 15.0,
-            50.0 + 18.0 * i as f64,
-            &style,
-            &format!("trial {}", t.index),
-        );
-    }
-    svg.push_str("</svg>\n");
-    svg
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -237,8 +111,14 @@ mod tests {
             "{md}"
         );
         assert!(md.lines().any(|l| l.starts_with("| 2 |")), "{md}");
-        let svg = diagnostics_svg(&run);
-        assert_eq!(svg.matches(r#"<polyline class="trial""#).count(), 3);
-        assert!(svg.ends_with("</svg>\n"));
+        let plot = crate::output::plot::diagnostics(&run).expect("figure");
+        let (r, g, b) = crate::output::plot::PALETTE[0];
+        let trial_line = format!("stroke=\"#{r:02X}{g:02X}{b:02X}\"");
+        let lines = plot
+            .svg
+            .lines()
+            .filter(|l| l.starts_with("<polyline") && l.contains(&trial_line));
+        assert_eq!(lines.count(), 3 + 1, "a line per panel, and the legend's");
+        assert!(plot.svg.ends_with("</svg>\n"));
     }
 }

@@ -3,7 +3,7 @@
 
 use crate::experiments::claims::describe;
 use crate::experiments::{Claim, ExperimentsReport, VariantSummary, demonstration_worth};
-use crate::output::figures::figures;
+use crate::output::plot::experiment_figure_stems;
 
 /// Which code made the runs and how long the grid took: one line, for the
 /// report and above the README's claims table. Runs of more than one code
@@ -65,11 +65,11 @@ pub fn markdown(report: &ExperimentsReport) -> String {
     ));
     md.push_str(&format!("{}\n\n", provenance(report)));
     md.push_str(&claims_table(&report.claims));
-    let figures = figures(report);
+    let figures = experiment_figure_stems(report);
     if !figures.is_empty() {
-        md.push_str("\n## Figures\n\n");
-        for (name, _) in &figures {
-            md.push_str(&format!("![{}]({name})\n\n", name.trim_end_matches(".svg")));
+        md.push_str("\n## Figures\n\nEach figure is also written as a PNG image of the same name.\n\n");
+        for stem in figures {
+            md.push_str(&format!("![{stem}]({stem}.svg) ([PNG]({stem}.png))\n\n"));
         }
     }
     md.push_str("\n## Variants\n\n| experiment | variant | runs | successes | median trial of success | range | median robot seconds to success |\n|---|---|---|---|---|---|---|\n");

@@ -3,10 +3,8 @@
 //! ([`plot`], as SVG and PNG).
 
 pub mod diagnostics_report;
-pub mod figures;
 pub mod grid;
 pub mod grid_report;
 pub mod plot;
 pub mod run_report;
 pub mod rundir;
-pub(crate) mod svg;

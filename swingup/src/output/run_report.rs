@@ -1,5 +1,5 @@
 //! The run directory: the report (JSON and Markdown), per-trial logs (CSV and
-//! JSON), and plots like the paper's Figure 3, written as plain SVG.
+//! JSON), and plots like the paper's Figure 3, as SVG and PNG ([`crate::output::plot`]).
 //!
 //! | file | written by | content |
 //! |---|---|---|
@@ -8,9 +8,9 @@
 //! | `trial_NN.json` | [`write_trial`] (and [`write_run`]) | one [`TrialRecord`]; [`read_trials`] reads them back to resume a run |
 //! | `trial_NN.csv` | [`write_trial`] (and [`write_run`]) | states, observations, commands and phase per sample |
 //! | `demonstration.csv` | [`write_run`] | the demonstration's states and commands |
-//! | `figure3.svg` | [`write_run`] | hand position and pendulum angle per trial, the demonstration dotted (the paper's Figure 3) |
-//! | `learning.svg` | [`write_run`] | largest angle per trial, and the plan's inconsistency |
-//! | `diagnostics.svg` | [`write_run`] | the plan against reality per trial ([`crate::diagnostics`]) |
+//! | `figure3.svg`, `.png` | [`write_run`] | hand position and pendulum angle per trial, the demonstration dotted (the paper's Figure 3) |
+//! | `learning.svg`, `.png` | [`write_run`] | largest angle per trial, and the plan's inconsistency |
+//! | `diagnostics.svg`, `.png` | [`write_run`] | the plan against reality per trial ([`crate::diagnostics`]) |
 //!
 //! `NN` is the trial number ([`TrialRecord::index`], from 1), two digits.
 //! Non-finite numbers are written as `null` in JSON and read back as NaN.
@@ -23,7 +23,7 @@ use std::path::{Path, PathBuf};
 use crate::error::ResultExt as _;
 
 use crate::format::num;
-use crate::output::svg::{Panel, colour, heading, legend_entry, nice_ticks, range, svg_open, xml};
+use crate::output::plot;
 use crate::plant::demo::Demonstration;
 use crate::record::{RunRecord, TrialKind, TrialRecord};
 
@@ -44,9 +44,9 @@ pub fn trial_csv_name(index: usize) -> String {
 }
 
 /// Writes the whole run into `dir` (created if needed): `report.json`,
-/// `report.md`, `demonstration.csv`, `figure3.svg`, `learning.svg`, and for
-/// `diagnostics.svg`, and for each trial `trial_NN.json` and
-/// `trial_NN.csv` (as [`write_trial`]).
+/// `report.md`, `demonstration.csv`, the figures `figure3`, `learning` and
+/// `diagnostics` (each as `.svg` and `.png`, [`plot`]), and for each trial
+/// `trial_NN.json` and `trial_NN.csv` (as [`write_trial`]).
 ///
 /// # Errors
 /// A file cannot be written; the error names it.
@@ -57,12 +57,9 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
     }
     write_atomic(&dir.join("report.json"), &to_json(run)?)?;
     write_atomic(&dir.join("demonstration.csv"), &demonstration_csv(&run.demonstration))?;
-    write_atomic(&dir.join("figure3.svg"), &figure3_svg(run))?;
-    write_atomic(&dir.join("learning.svg"), &learning_svg(run))?;
-    write_atomic(
-        &dir.join("diagnostics.svg"),
-        &crate::output::diagnostics_report::diagnostics_svg(run),
-    )?;
+    plot::figure3(run)?.write(dir, "figure3")?;
+    plot::learning(run)?.write(dir, "learning")?;
+    plot::diagnostics(run)?.write(dir, "diagnostics")?;
     write_atomic(&dir.join("report.md"), &markdown(run))?;
     Ok(())
 }
@@ -394,15 +391,18 @@ pub fn markdown(run: &RunRecord) -> String {
     let _ = writeln!(md, "## Plots and files\n");
     let _ = writeln!(
         md,
-        "- [figure3.svg](figure3.svg): hand position and pendulum angle per trial, the demonstration dotted"
+        "- [figure3.svg](figure3.svg) ([PNG](figure3.png)): hand position and pendulum angle per trial, \
+         the demonstration dotted"
     );
     let _ = writeln!(
         md,
-        "- [learning.svg](learning.svg): largest angle per trial and the plan's inconsistency"
+        "- [learning.svg](learning.svg) ([PNG](learning.png)): largest angle per trial and the plan's \
+         inconsistency"
     );
     let _ = writeln!(
         md,
-        "- [diagnostics.svg](diagnostics.svg): the model's support along each plan, its error along \
+        "- [diagnostics.svg](diagnostics.svg) ([PNG](diagnostics.png)): the model's support along each \
+         plan, its error along \
          what the robot did, and the plan's inconsistency per step"
     );
     let _ = writeln!(md, "- [report.json](report.json): the whole run record");
@@ -414,258 +414,4 @@ pub fn markdown(run: &RunRecord) -> String {
     }
     let _ = writeln!(md, "\n![Figure 3](figure3.svg)\n\n![Learning](learning.svg)");
     md
-}
-
-// ---------------------------------------------------------------- SVG
-
-fn trial_style(i: usize) -> String {
-    format!(r#"fill="none" stroke="{}" stroke-width="1.6""#, colour(i))
-}
-
-const DEMO_STYLE: &str = r##"fill="none" stroke="#000" stroke-width="2" stroke-dasharray="2 3""##;
-
-/// The paper's Figure 3: hand position $x(t)$ (top) and pendulum angle
-/// $\theta(t)$ in degrees (bottom) for every trial, the demonstration dotted
-/// black, on a shared time axis covering the longest trial. Each panel has
-/// one `<polyline>` per trial and one for the demonstration.
-pub fn figure3_svg(run: &RunRecord) -> String {
-    let demo = &run.demonstration;
-    let t_end = run
-        .trials
-        .iter()
-        .map(|t| duration(t.states.len(), t.dt))
-        .chain(std::iter::once(duration(demo.states.len(), demo.dt)))
-        .filter(|d| d.is_finite())
-        .fold(0.0, f64::max);
-    let t_end = if t_end > 0.0 { t_end } else { 1.0 };
-    let all_states = || {
-        run.trials
-            .iter()
-            .flat_map(|t| t.states.iter())
-            .chain(demo.states.iter())
-    };
-    let hand = range(all_states().map(|s| s[2]), &[0.0], 0.05);
-    let angle = range(all_states().map(|s| s[0].to_degrees()), &[0.0, 180.0], 0.05);
-
-    let (left, plot_w) = (75.0, 570.0);
-    let top = Panel {
-        left,
-        top: 40.0,
-        width: plot_w,
-        height: 185.0,
-        x: (0.0, t_end),
-        y: hand,
-        log_y: false,
-    };
-    let bottom = Panel {
-        left,
-        top: 250.0,
-        width: plot_w,
-        height: 195.0,
-        x: (0.0, t_end),
-        y: angle,
-        log_y: false,
-    };
-    let (x_ticks, x_step) = nice_ticks(0.0, t_end, 8);
-
-    let mut svg = String::new();
-    svg_open(&mut svg, "Hand and pendulum motion per trial");
-    heading(
-        &mut svg,
-        left + plot_w / 2.0,
-        "Hand and pendulum motion per trial (demonstration dotted)",
-    );
-    top.axes(&mut svg, &x_ticks, x_step, false);
-    top.y_title(&mut svg, "hand position x (m)");
-    bottom.axes(&mut svg, &x_ticks, x_step, true);
-    bottom.y_title(&mut svg, "pendulum angle θ (°)");
-    bottom.reference(&mut svg, 180.0, "upright");
-    bottom.reference(&mut svg, -180.0, "upright");
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="13">time (s)</text>"#,
-        left + plot_w / 2.0,
-        bottom.bottom() + 38.0
-    );
-
-    for (panel, channel, degrees) in [(&top, 2, false), (&bottom, 0, true)] {
-        let value = |s: &[f64; 4]| if degrees { s[channel].to_degrees() } else { s[channel] };
-        for (i, t) in run.trials.iter().enumerate() {
-            let pts = panel.points(t.states.iter().enumerate().map(|(k, s)| (k as f64 * t.dt, value(s))));
-            let _ = writeln!(svg, r#"<polyline {} points="{pts}"/>"#, trial_style(i));
-        }
-        let pts = panel.points(
-            demo.states
-                .iter()
-                .enumerate()
-                .map(|(k, s)| (k as f64 * demo.dt, value(s))),
-        );
-        let _ = writeln!(svg, r#"<polyline {DEMO_STYLE} points="{pts}"/>"#);
-    }
-
-    let lx = left + plot_w + 20.0;
-    let mut ly = 50.0;
-    legend_entry(&mut svg, lx, ly, DEMO_STYLE, "demonstration");
-    for (i, t) in run.trials.iter().enumerate() {
-        ly += 18.0;
-        let label = if t.success {
-            format!("trial {} ✓", t.index)
-        } else {
-            format!("trial {}", t.index)
-        };
-        legend_entry(&mut svg, lx, ly, &trial_style(i), &label);
-    }
-    svg.push_str("</svg>\n");
-    svg
-}
-
-/// Learning progress: the largest angle reached per trial (degrees; filled
-/// markers for successes, dashed lines at 90°, halfway, and 180°, upright),
-/// and below it the inconsistency of each planned trial's plan (log scale if
-/// the values span two decades or more; zero and non-finite values are
-/// left out). One `<circle>` per trial in the top panel.
-pub fn learning_svg(run: &RunRecord) -> String {
-    let n = run.trials.len();
-    let trial_x = |t: &TrialRecord| t.index as f64;
-    let x_range = match (run.trials.first(), run.trials.last()) {
-        (Some(a), Some(b)) if b.index > a.index => (a.index as f64 - 0.5, b.index as f64 + 0.5),
-        (Some(a), _) => (a.index as f64 - 0.5, a.index as f64 + 0.5),
-        _ => (0.5, 1.5),
-    };
-    let angles = range(run.trials.iter().map(|t| t.max_angle.to_degrees()), &[0.0, 180.0], 0.05);
-    let (left, plot_w) = (75.0, 600.0);
-    let top = Panel {
-        left,
-        top: 40.0,
-        width: plot_w,
-        height: 260.0,
-        x: x_range,
-        y: angles,
-        log_y: false,
-    };
-
-    let incons: Vec<(f64, f64)> = run
-        .trials
-        .iter()
-        .filter_map(|t| t.plan.as_ref().map(|p| (trial_x(t), p.inconsistency)))
-        .collect();
-    let finite: Vec<f64> = incons.iter().map(|p| p.1).filter(|v| v.is_finite()).collect();
-    let positive: Vec<f64> = finite.iter().copied().filter(|v| *v > 0.0).collect();
-    let (pmin, pmax) = positive
-        .iter()
-        .fold((f64::INFINITY, 0.0f64), |(a, b), v| (a.min(*v), b.max(*v)));
-    let log_y = positive.len() >= 2 && pmax / pmin >= 100.0;
-    let y = if log_y {
-        (10f64.powf(pmin.log10().floor()), 10f64.powf(pmax.log10().ceil()))
-    } else {
-        range(finite.iter().copied(), &[0.0], 0.1)
-    };
-    let bottom = Panel {
-        left,
-        top: 345.0,
-        width: plot_w,
-        height: 105.0,
-        x: x_range,
-        y,
-        log_y,
-    };
-
-    let x_ticks: Vec<f64> = {
-        let (a, b) = (x_range.0.ceil() as usize, x_range.1.floor() as usize);
-        let every = (b.saturating_sub(a) / 15 + 1).max(1);
-        (a..=b).step_by(every).map(|i| i as f64).collect()
-    };
-
-    let mut svg = String::new();
-    svg_open(&mut svg, "Learning progress per trial");
-    heading(&mut svg, left + plot_w / 2.0, "Largest pendulum angle per trial");
-    top.axes(&mut svg, &x_ticks, 1.0, true);
-    top.y_title(&mut svg, "max angle |θ| (°)");
-    top.reference(&mut svg, 90.0, "halfway");
-    top.reference(&mut svg, 180.0, "upright");
-    let pts = top.points(run.trials.iter().map(|t| (trial_x(t), t.max_angle.to_degrees())));
-    let _ = writeln!(svg, r#"<polyline {} points="{pts}"/>"#, trial_style(0));
-    for t in &run.trials {
-        let v = t.max_angle.to_degrees();
-        if !v.is_finite() {
-            continue;
-        }
-        let fill = if t.success { colour(0) } else { "white" };
-        let _ = writeln!(
-            svg,
-            r#"<circle class="trial" cx="{:.1}" cy="{:.1}" r="5" fill="{fill}" stroke="{}" stroke-width="1.6"><title>{}</title></circle>"#,
-            top.px(trial_x(t)),
-            top.py(v),
-            colour(0),
-            xml(&format!(
-                "trial {}: {:.1}°{}",
-                t.index,
-                v,
-                if t.success { ", success" } else { "" }
-            )),
-        );
-    }
-
-    bottom.axes(&mut svg, &x_ticks, 1.0, true);
-    bottom.y_title(&mut svg, "inconsistency");
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="13">trial</text>"#,
-        left + plot_w / 2.0,
-        bottom.bottom() + 36.0
-    );
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="{:.1}" font-size="12">plan inconsistency{}</text>"#,
-        left + 6.0,
-        bottom.top - 6.0,
-        if log_y { " (log scale)" } else { "" }
-    );
-    if incons.is_empty() {
-        let _ = writeln!(
-            svg,
-            r##"<text x="{:.1}" y="{:.1}" text-anchor="middle" font-size="12" fill="#555">no planned trials</text>"##,
-            left + plot_w / 2.0,
-            bottom.top + bottom.height / 2.0
-        );
-    } else {
-        let pts = bottom.points(incons.iter().copied());
-        let _ = writeln!(svg, r#"<polyline {} points="{pts}"/>"#, trial_style(3));
-        for &(x, v) in &incons {
-            if v.is_finite() && (!log_y || v > 0.0) {
-                let _ = writeln!(
-                    svg,
-                    r#"<rect x="{:.1}" y="{:.1}" width="6" height="6" fill="{}"/>"#,
-                    bottom.px(x) - 3.0,
-                    bottom.py(v) - 3.0,
-                    colour(3)
-                );
-            }
-        }
-    }
-
-    let lx = left + plot_w + 15.0;
-    let _ = writeln!(
-        svg,
-        r#"<circle cx="{:.1}" cy="54" r="5" fill="{}" stroke="{}"/><text x="{:.1}" y="58" font-size="12">success</text>"#,
-        lx + 6.0,
-        colour(0),
-        colour(0),
-        lx + 16.0
-    );
-    let _ = writeln!(
-        svg,
-        r#"<circle cx="{:.1}" cy="74" r="5" fill="white" stroke="{}"/><text x="{:.1}" y="78" font-size="12">failure</text>"#,
-        lx + 6.0,
-        colour(0),
-        lx + 16.0
-    );
-    let _ = writeln!(
-        svg,
-        r#"<text x="{:.1}" y="98" font-size="12">{n} trial{}</text>"#,
-        lx,
-        if n == 1 { "" } else { "s" }
-    );
-    svg.push_str("</svg>\n");
-    svg
 }

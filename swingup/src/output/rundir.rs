@@ -27,7 +27,11 @@ fn is_run_file(name: &str) -> bool {
         stem,
         "config" | "report" | "demonstration" | "figure3" | "learning" | "diagnostics"
     ) || (stem.starts_with("trial_") && stem[6..].chars().all(|c| c.is_ascii_digit()));
-    known && matches!(ext, "toml" | "json" | "md" | "csv" | "svg" | "tmp" | "json.tmp")
+    known
+        && matches!(
+            ext,
+            "toml" | "json" | "md" | "csv" | "svg" | "png" | "tmp" | "json.tmp" | "svg.tmp" | "png.tmp"
+        )
 }
 
 /// The files of a learning run in `dir` (none if it does not exist), sorted.

@@ -10,25 +10,40 @@ use super::{Figure, Plot, PlotError, Result, render};
 use crate::experiments::{ExperimentsReport, RunSummary, VariantSummary};
 use crate::models::INPUTS;
 
+/// The file stems of the figures [`experiment_figures`] draws for
+/// `report`, without drawing them: `variants`, `lambda`, `relevance`, for
+/// the experiments that ran.
+pub fn experiment_figure_stems(report: &ExperimentsReport) -> Vec<&'static str> {
+    let mut out = Vec::new();
+    if !report.variants.is_empty() {
+        out.push("variants");
+    }
+    if !lambda_sweep(report).is_empty() {
+        out.push("lambda");
+    }
+    if !relevance_means(&report.runs).is_empty() {
+        out.push("relevance");
+    }
+    out
+}
+
 /// The figures of `report` for the experiments that ran, as (file stem,
-/// plot): `variants`, `lambda`, `relevance`.
+/// plot), in the order of [`experiment_figure_stems`].
 ///
 /// # Errors
-/// [`PlotError`] if drawing fails; a figure with no data is left out.
+/// [`PlotError`] if drawing fails.
 pub fn experiment_figures(report: &ExperimentsReport) -> Result<Vec<(&'static str, Plot)>> {
-    let mut out = Vec::new();
-    for (stem, plot) in [
-        ("variants", variants(&report.variants)),
-        ("lambda", lambda(report)),
-        ("relevance", relevance(&report.runs)),
-    ] {
-        match plot {
-            Ok(p) => out.push((stem, p)),
-            Err(PlotError::NoData(_)) => {}
-            Err(e) => return Err(e),
-        }
-    }
-    Ok(out)
+    experiment_figure_stems(report)
+        .into_iter()
+        .map(|stem| {
+            let plot = match stem {
+                "variants" => variants(&report.variants),
+                "lambda" => lambda(report),
+                _ => relevance(&report.runs),
+            };
+            plot.map(|p| (stem, p))
+        })
+        .collect()
 }
 
 /// The share of `v`'s runs that succeeded (0 for no runs).
@@ -484,6 +499,7 @@ mod tests {
         let r = report(vec![variant("lambda", "lambda=1e3", 2, 1)]);
         let stems: Vec<&str> = experiment_figures(&r).expect("figures").iter().map(|f| f.0).collect();
         assert_eq!(stems, ["variants", "lambda"]);
+        assert_eq!(experiment_figure_stems(&r), stems);
         assert!(experiment_figures(&report(vec![])).expect("figures").is_empty());
     }
 }

@@ -36,7 +36,7 @@ use plotters::prelude::{
 };
 
 pub use axis::{PALETTE, colour};
-pub use experiments::{experiment_figures, lambda, relevance, variants};
+pub use experiments::{experiment_figure_stems, experiment_figures, lambda, relevance, variants};
 pub use run::{diagnostics, figure3, learning};
 
 /// DejaVu Sans 2.37 (Debian's `fonts-dejavu-core`), for the PNG's text.
