@@ -81,6 +81,9 @@ pub enum Error {
     /// The parametric model could not be fitted.
     #[error(transparent)]
     Parametric(#[from] ParametricError),
+    /// A figure could not be drawn or written ([`crate::output::plot`]).
+    #[error(transparent)]
+    Plot(#[from] PlotError),
     /// What the library was doing when `source` occurred.
     #[error("{context}")]
     Context {
@@ -258,6 +261,32 @@ macro_rules! ensure_refused {
     };
 }
 pub(crate) use ensure_refused;
+
+/// Why a figure was not drawn or written ([`crate::output::plot`]).
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum PlotError {
+    /// The embedded font did not load.
+    #[error("the embedded font does not load")]
+    Font,
+    /// The figure has nothing to show (its experiment did not run).
+    #[error("{0}: nothing to plot")]
+    NoData(&'static str),
+    /// `plotters` failed to draw.
+    #[error("drawing: {0}")]
+    Draw(String),
+    /// The PNG encoder failed.
+    #[error("encoding PNG: {0}")]
+    Png(String),
+    /// A figure's file could not be written.
+    #[error("writing {path}: {source}")]
+    Io {
+        /// The file.
+        path: PathBuf,
+        /// What went wrong.
+        source: std::io::Error,
+    },
+}
 
 #[cfg(test)]
 mod tests {

@@ -27,7 +27,7 @@ mod axis;
 mod experiments;
 mod run;
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::OnceLock;
 
 use plotters::coord::Shift;
@@ -35,6 +35,7 @@ use plotters::prelude::{
     BitMapBackend, DrawingArea, DrawingAreaErrorKind, DrawingBackend, IntoDrawingArea, SVGBackend,
 };
 
+pub use crate::error::PlotError;
 pub use axis::{PALETTE, colour};
 pub use experiments::{experiment_figure_stems, experiment_figures, lambda, relevance, variants};
 pub use run::{diagnostics, figure3, learning};
@@ -44,32 +45,6 @@ const FONT: &[u8] = include_bytes!("../../../assets/fonts/DejaVuSans.ttf");
 
 /// The font family every figure's text uses; [`register_font`] maps it to [`FONT`].
 pub(crate) const FAMILY: &str = "sans-serif";
-
-/// Errors of drawing or writing a figure.
-#[derive(Debug, thiserror::Error)]
-#[non_exhaustive]
-pub enum PlotError {
-    /// The embedded font did not load.
-    #[error("the embedded font does not load")]
-    Font,
-    /// The figure has nothing to show (its experiment did not run).
-    #[error("{0}: nothing to plot")]
-    NoData(&'static str),
-    /// `plotters` failed to draw.
-    #[error("drawing: {0}")]
-    Draw(String),
-    /// The PNG encoder failed.
-    #[error("encoding PNG: {0}")]
-    Png(String),
-    /// A figure's file could not be written.
-    #[error("writing {path}: {source}")]
-    Io {
-        /// The file.
-        path: PathBuf,
-        /// What went wrong.
-        source: std::io::Error,
-    },
-}
 
 impl<E: std::error::Error + Send + Sync> From<DrawingAreaErrorKind<E>> for PlotError {
     fn from(e: DrawingAreaErrorKind<E>) -> Self {
