@@ -94,19 +94,21 @@
 //! ```
 #![warn(missing_docs)]
 
-mod cv;
 mod database;
 mod error;
 mod fit;
 mod kdtree;
+mod loo;
 mod metric;
 mod model;
 mod settings;
 #[cfg(feature = "proptest")]
 pub mod strategies;
+mod tune;
 
-pub use cv::{LooResult, TuneResult, TuneSettings, TuneStatus, TuneStep};
 pub use database::{Database, Neighbor};
 pub use error::{LwrError, Result};
+pub use loo::LooResult;
 pub use model::{FitStatus, LwrModel, Prediction, t_quantile};
 pub use settings::{Degree, Kernel, LwrSettings};
+pub use tune::{TuneResult, TuneSettings, TuneStatus, TuneStep};

@@ -1,0 +1,391 @@
+//! Tuning of the bandwidth and metric scales by a compass search that
+//! minimises the leave-one-out error of [`LwrModel::loo`].
+
+use std::collections::HashMap;
+
+use crate::error::{LwrError, Result};
+use crate::loo::{BOUND_MARGIN, Objective};
+use crate::model::LwrModel;
+use crate::settings::LwrSettings;
+
+/// Smallest relative decrease of the objective that counts as a move.
+const MIN_IMPROVEMENT: f64 = 1e-9;
+
+/// Settings of [`LwrModel::tune`].
+///
+/// | name | default | meaning |
+/// |---|---|---|
+/// | `tune_bandwidth` | true | search over $h$ |
+/// | `tune_scales` | true | search over each $m_j$ |
+/// | `try_zero` | true | also try $m_j = 0$ (drop input $j$ from the metric) |
+/// | `zero_tolerance` | $10^{-6}$ | drop an input if that raises the objective by less than this, relatively |
+/// | `initial_factor` | 4 | first multiplicative step |
+/// | `min_factor` | 1.05 | stop when the step falls below this factor |
+/// | `max_evals` | 300 | budget of leave-one-out evaluations |
+/// | `stop_early` | true | stop an evaluation once it certainly cannot be accepted |
+/// | `search_points` | 0 (all) | cross-validate only about this many points during the search |
+#[derive(Debug, Clone, PartialEq)]
+pub struct TuneSettings {
+    /// Search over the bandwidth.
+    pub tune_bandwidth: bool,
+    /// Search over the metric scales.
+    pub tune_scales: bool,
+    /// Also try a zero scale for each input.
+    pub try_zero: bool,
+    /// Largest relative increase of the objective accepted for dropping an
+    /// input (a simpler metric wins near-ties), $\ge 0$.
+    pub zero_tolerance: f64,
+    /// First multiplicative step, $> 1$.
+    pub initial_factor: f64,
+    /// Smallest multiplicative step, in $(1, $ `initial_factor` $]$.
+    pub min_factor: f64,
+    /// Largest number of objective evaluations.
+    pub max_evals: usize,
+    /// Stop an evaluation as soon as the partial sum of its leave-one-out
+    /// errors exceeds what the search would accept (the search takes the
+    /// same path and returns the same result either way; only the history
+    /// records lower bounds for the stopped evaluations, see
+    /// [`TuneStep::complete`]). Bad trial metrics, which are often the ones
+    /// with the widest neighbourhoods, then cost a fraction of a full pass.
+    pub stop_early: bool,
+    /// With $0 <$ `search_points` $< n$, the search compares settings by the
+    /// leave-one-out errors of about `search_points` of the points only (the
+    /// points $i$ with $i \bmod s = 0$, $s = \lceil n /$ `search_points`
+    /// $\rceil$; their fits still use every point), which makes each
+    /// evaluation $n /$ `search_points` times cheaper. The result's
+    /// `objective` and `initial_objective` are then evaluated over all the
+    /// points once the search ends (and if the tuned settings are worse than
+    /// the initial ones over all the points, the initial ones are returned);
+    /// the history's objectives are those of the subset. 0 (the default):
+    /// every point, the exact search.
+    pub search_points: usize,
+}
+
+impl Default for TuneSettings {
+    fn default() -> Self {
+        Self {
+            tune_bandwidth: true,
+            tune_scales: true,
+            try_zero: true,
+            zero_tolerance: 1e-6,
+            initial_factor: 4.0,
+            min_factor: 1.05,
+            max_evals: 300,
+            stop_early: true,
+            search_points: 0,
+        }
+    }
+}
+
+impl TuneSettings {
+    /// Checks every field.
+    pub fn validate(&self) -> Result<()> {
+        if !(self.initial_factor.is_finite() && self.initial_factor > 1.0) {
+            return Err(LwrError::InvalidParameter {
+                name: "initial_factor",
+                reason: format!("must be finite and > 1, got {}", self.initial_factor),
+            });
+        }
+        if !(self.min_factor > 1.0 && self.min_factor <= self.initial_factor) {
+            return Err(LwrError::InvalidParameter {
+                name: "min_factor",
+                reason: format!(
+                    "must be in (1, initial_factor = {}], got {}",
+                    self.initial_factor, self.min_factor
+                ),
+            });
+        }
+        if !(self.zero_tolerance.is_finite() && self.zero_tolerance >= 0.0) {
+            return Err(LwrError::InvalidParameter {
+                name: "zero_tolerance",
+                reason: format!("must be finite and >= 0, got {}", self.zero_tolerance),
+            });
+        }
+        if self.max_evals == 0 {
+            return Err(LwrError::InvalidParameter {
+                name: "max_evals",
+                reason: "must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+}
+
+/// Why tuning stopped.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[non_exhaustive]
+pub enum TuneStatus {
+    /// The step fell below `min_factor` with no improving move.
+    Converged,
+    /// The evaluation budget ran out.
+    MaxEvals,
+}
+
+/// One evaluated point of the search.
+#[derive(Debug, Clone, PartialEq)]
+pub struct TuneStep {
+    /// Bandwidth tried.
+    pub bandwidth: f64,
+    /// Scales tried.
+    pub scales: Vec<f64>,
+    /// Its normalised leave-one-out MSE (infinite if the evaluation failed);
+    /// a lower bound when `complete` is false; over the subset of points
+    /// with [`TuneSettings::search_points`].
+    pub objective: f64,
+    /// Whether the search moved there.
+    pub accepted: bool,
+    /// Whether `objective` is the full leave-one-out MSE. False for an
+    /// evaluation stopped early (see [`TuneSettings::stop_early`]) because
+    /// it was certainly too high to be accepted: `objective` is then a lower
+    /// bound that already exceeds the acceptance threshold.
+    pub complete: bool,
+}
+
+/// The outcome of [`LwrModel::tune`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TuneResult {
+    /// The tuned settings (the input settings with `bandwidth` and `scales`
+    /// replaced).
+    pub settings: LwrSettings,
+    /// Normalised leave-one-out MSE at the tuned settings.
+    pub objective: f64,
+    /// Normalised leave-one-out MSE at the initial settings.
+    pub initial_objective: f64,
+    /// Every evaluation, in order.
+    pub history: Vec<TuneStep>,
+    /// Number of evaluations.
+    pub evals: usize,
+    /// Why the search stopped.
+    pub status: TuneStatus,
+}
+
+impl LwrModel {
+    /// Tunes the bandwidth $h$ and the metric scales $m_j$ by minimising the
+    /// normalised leave-one-out MSE ([`LooResult::normalized_mse`](crate::LooResult::normalized_mse)).
+    ///
+    /// Method: a compass (coordinate pattern) search in log space. Each
+    /// sweep visits $h, m_1, \dots, m_d$; a coordinate is multiplied and
+    /// divided by the current factor and keeps moving while that improves;
+    /// with `try_zero` a nonzero scale is also tried at 0 (the input dropped
+    /// from the metric; accepted if the objective rises by less than
+    /// `zero_tolerance`, relatively), and a zero scale is tried back at its
+    /// last nonzero value (accepted only if better by more than
+    /// `zero_tolerance`, so the search cannot cycle). Moves must lower the
+    /// objective by a relative $10^{-9}$ at least. A sweep with no improvement takes the
+    /// square root of the factor; the search stops below `min_factor` or
+    /// after `max_evals` evaluations. Deterministic; finds a local minimum
+    /// along the coordinates.
+    ///
+    /// Speed: each evaluation is a full leave-one-out pass, fitted group by
+    /// group of a tree over the scaled coordinates (see [`loo`](Self::loo)). With `stop_early` (the
+    /// default) a trial is abandoned as soon as the partial sum of its
+    /// leave-one-out errors, over blocks of points spread across the data,
+    /// exceeds what the search would accept; this changes neither the path
+    /// nor the result (only the history of the abandoned trials, see
+    /// [`TuneStep::complete`]) and makes the bad trials, which tend to be the
+    /// ones with the widest neighbourhoods, cheap.
+    ///
+    /// With [`TuneSettings::search_points`] the search cross-validates only a
+    /// fixed subset of the points (spread over the insertion order), each
+    /// evaluation being that much cheaper, and evaluates its start and end
+    /// over every point; the path then differs from the exact search's.
+    ///
+    /// Only $m_j / h$ matters, so the result is one of a family of equivalent
+    /// settings. Returns the tuned settings and the history; the model is not
+    /// changed (apply with [`set_settings`](Self::set_settings)).
+    ///
+    /// ```
+    /// # use lwr::{LwrModel, LwrSettings, TuneSettings};
+    /// // y depends on x0 only; x1 is a pure-noise input
+    /// let mut m = LwrModel::new(2, 1, LwrSettings { bandwidth: 0.3, ..Default::default() })?;
+    /// for i in 0..200 {
+    ///     let x0 = (i as f64 * 0.618).fract() * 2.0 - 1.0;
+    ///     let x1 = (i as f64 * 0.377).fract() * 2.0 - 1.0;
+    ///     m.insert(&[x0, x1], &[(3.0 * x0).sin()])?;
+    /// }
+    /// let tuned = m.tune(&TuneSettings::default())?;
+    /// assert_eq!(tuned.settings.scales[1], 0.0); // x1 dropped from the metric
+    /// assert!(tuned.settings.scales[0] > 0.0);
+    /// # Ok::<(), lwr::LwrError>(())
+    /// ```
+    pub fn tune(&self, tune: &TuneSettings) -> Result<TuneResult> {
+        tune.validate()?;
+        let d = self.database().n_inputs();
+        let base = self.settings().clone();
+        let mut x: Vec<f64> = std::iter::once(base.bandwidth).chain(base.scales_for(d)).collect();
+        let mut last_nonzero: Vec<f64> = x.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect();
+        let mut history = Vec::new();
+        // evaluates at x; with `stop_early`, stops once the objective is
+        // certainly above `bound`, the largest value the caller would accept.
+        // The search revisits some settings (a dropped input tried back on,
+        // a coordinate retried after the others moved back): the outcomes
+        // are kept, keyed by the exact bits of x, and reused when they still
+        // answer the question (an exact value, or a lower bound above the
+        // new bound); a revisit still counts as an evaluation, so the path
+        // is the same with or without the cache.
+        let mut cache: HashMap<Vec<u64>, Objective> = HashMap::new();
+        let n = self.database().len();
+        let stride = if tune.search_points == 0 || tune.search_points >= n {
+            1
+        } else {
+            n.div_ceil(tune.search_points)
+        };
+        let x_initial = x.clone();
+        let mut eval = |x: &[f64], bound: f64, history: &mut Vec<TuneStep>| -> f64 {
+            let bound = if tune.stop_early { bound } else { f64::INFINITY };
+            let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+            let known = match cache.get(&key) {
+                Some(&Objective::Exact(f)) => Some(Objective::Exact(f)),
+                Some(&Objective::Above(f)) if f > bound * (1.0 + BOUND_MARGIN) => Some(Objective::Above(f)),
+                _ => None,
+            };
+            let outcome = known.unwrap_or_else(|| {
+                let s = LwrSettings {
+                    bandwidth: x[0],
+                    scales: x[1..].to_vec(),
+                    ..base.clone()
+                };
+                let outcome = match self.loo_objective(&s, bound, stride) {
+                    Ok(Objective::Exact(f)) if !f.is_nan() => Objective::Exact(f),
+                    Ok(Objective::Above(f)) => Objective::Above(f),
+                    Ok(Objective::Exact(_)) | Err(_) => Objective::Exact(f64::INFINITY),
+                };
+                cache.insert(key, outcome);
+                outcome
+            });
+            let (f, complete) = match outcome {
+                Objective::Exact(f) => (f, true),
+                Objective::Above(f) => (f, false),
+            };
+            history.push(TuneStep {
+                bandwidth: x[0],
+                scales: x[1..].to_vec(),
+                objective: f,
+                accepted: false,
+                complete,
+            });
+            f
+        };
+        let mut f = eval(&x, f64::INFINITY, &mut history);
+        if let Some(h) = history.last_mut() {
+            h.accepted = true;
+        }
+        let initial = f;
+        let mut coords = Vec::new();
+        if tune.tune_bandwidth {
+            coords.push(0);
+        }
+        if tune.tune_scales {
+            coords.extend(1..=d);
+        }
+        let mut factor = tune.initial_factor;
+        let mut status = TuneStatus::Converged;
+        let budget_left = |history: &Vec<TuneStep>| history.len() < tune.max_evals;
+        'search: while factor >= tune.min_factor {
+            let mut improved = false;
+            for &c in &coords {
+                if !budget_left(&history) {
+                    status = TuneStatus::MaxEvals;
+                    break 'search;
+                }
+                if x[c] == 0.0 {
+                    // try turning a dropped input back on
+                    let mut y = x.clone();
+                    y[c] = last_nonzero[c];
+                    let fy = eval(&y, f * (1.0 - tune.zero_tolerance), &mut history);
+                    if fy < f * (1.0 - tune.zero_tolerance) {
+                        x = y;
+                        f = fy;
+                        improved = true;
+                        if let Some(h) = history.last_mut() {
+                            h.accepted = true;
+                        }
+                    }
+                    continue;
+                }
+                let mut moved = false;
+                for dir in [factor, 1.0 / factor] {
+                    loop {
+                        if !budget_left(&history) {
+                            status = TuneStatus::MaxEvals;
+                            break 'search;
+                        }
+                        let mut y = x.clone();
+                        y[c] *= dir;
+                        let fy = eval(&y, f * (1.0 - MIN_IMPROVEMENT), &mut history);
+                        if fy < f * (1.0 - MIN_IMPROVEMENT) {
+                            x = y;
+                            f = fy;
+                            moved = true;
+                            if let Some(h) = history.last_mut() {
+                                h.accepted = true;
+                            }
+                        } else {
+                            break;
+                        }
+                    }
+                    if moved {
+                        break;
+                    }
+                }
+                improved |= moved;
+                if c > 0 && tune.try_zero {
+                    if !budget_left(&history) {
+                        status = TuneStatus::MaxEvals;
+                        break 'search;
+                    }
+                    let mut y = x.clone();
+                    y[c] = 0.0;
+                    let fy = eval(&y, f * (1.0 + tune.zero_tolerance), &mut history);
+                    if fy <= f * (1.0 + tune.zero_tolerance) {
+                        last_nonzero[c] = x[c];
+                        x = y;
+                        improved |= fy < f * (1.0 - MIN_IMPROVEMENT);
+                        f = fy;
+                        if let Some(h) = history.last_mut() {
+                            h.accepted = true;
+                        }
+                    }
+                }
+            }
+            if !improved {
+                factor = factor.sqrt();
+            }
+        }
+        let evals = history.len();
+        let (mut f, mut initial) = (f, initial);
+        if stride > 1 {
+            // the search's objectives are over a subset: evaluate the ends
+            // over every point, and never return worse than the start
+            let exact = |x: &[f64]| {
+                let s = LwrSettings {
+                    bandwidth: x[0],
+                    scales: x[1..].to_vec(),
+                    ..base.clone()
+                };
+                match self.loo_objective(&s, f64::INFINITY, 1) {
+                    Ok(Objective::Exact(f)) if !f.is_nan() => f,
+                    _ => f64::INFINITY,
+                }
+            };
+            initial = exact(&x_initial);
+            f = if x == x_initial { initial } else { exact(&x) };
+            if f > initial {
+                x = x_initial;
+                f = initial;
+            }
+        }
+        Ok(TuneResult {
+            settings: LwrSettings {
+                bandwidth: x[0],
+                scales: x[1..].to_vec(),
+                ..base
+            },
+            objective: f,
+            initial_objective: initial,
+            history,
+            evals,
+            status,
+        })
+    }
+}
