@@ -1,9 +1,10 @@
 //! The weighted least-squares fit at one query: weights, normal equations,
-//! a scaled Cholesky factorisation with a regularised fallback, confidence
+//! the scaled Cholesky factorisation (`factor.rs`), confidence
 //! sums and the exact query Jacobian.
 
 use crate::database::Database;
 use crate::error::{LwrError, Result};
+use crate::factor::{Factor, factorise};
 use crate::metric::Metric;
 use crate::settings::{Degree, Kernel, LwrSettings};
 
@@ -89,125 +90,6 @@ fn dz_dot(degree: Degree, delta: &[f64], j: usize, v: &[f64], stride: usize) -> 
         }
     }
     s
-}
-
-/// In-place Cholesky $A = L L^\top$ of a row-major $p \times p$ matrix (lower
-/// triangle used and overwritten). Returns the smallest and largest pivots
-/// $L_{aa}$, or `None` if a pivot is not positive.
-fn cholesky(a: &mut [f64], p: usize) -> Option<(f64, f64)> {
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for j in 0..p {
-        let mut djj = a[j * p + j];
-        for k in 0..j {
-            djj -= a[j * p + k] * a[j * p + k];
-        }
-        if !(djj > 0.0 && djj.is_finite()) {
-            return None;
-        }
-        let ljj = djj.sqrt();
-        lo = lo.min(ljj);
-        hi = hi.max(ljj);
-        a[j * p + j] = ljj;
-        for i in j + 1..p {
-            let mut v = a[i * p + j];
-            for k in 0..j {
-                v -= a[i * p + k] * a[j * p + k];
-            }
-            a[i * p + j] = v / ljj;
-        }
-    }
-    Some((lo, hi))
-}
-
-/// Solves $L L^\top x = b$ in place.
-fn chol_solve(l: &[f64], p: usize, b: &mut [f64]) {
-    for i in 0..p {
-        let mut v = b[i];
-        for k in 0..i {
-            v -= l[i * p + k] * b[k];
-        }
-        b[i] = v / l[i * p + i];
-    }
-    for i in (0..p).rev() {
-        let mut v = b[i];
-        for k in i + 1..p {
-            v -= l[k * p + i] * b[k];
-        }
-        b[i] = v / l[i * p + i];
-    }
-}
-
-/// A factorised $P = (Z^\top K Z + \Lambda)^{-1}$: $P = D^{-1} (L L^\top)^{-1} D^{-1}$
-/// with the diagonal scaling $D$.
-#[derive(Debug, Default)]
-struct Factor {
-    p: usize,
-    l: Vec<f64>,
-    scale: Vec<f64>,
-}
-
-impl Factor {
-    /// $x = P b$ in place.
-    fn apply(&self, b: &mut [f64]) {
-        for (v, s) in b.iter_mut().zip(&self.scale) {
-            *v /= s;
-        }
-        chol_solve(&self.l, self.p, b);
-        for (v, s) in b.iter_mut().zip(&self.scale) {
-            *v /= s;
-        }
-    }
-}
-
-/// Factorises the normal matrix `a` ($p \times p$, full, symmetric) with
-/// diagonal equilibration; adds the fallback ridge to the non-intercept
-/// diagonal when the factorisation fails or the condition estimate exceeds
-/// the limit. Writes the factor into `factor` (its buffers reused, `scaled`
-/// a work buffer) and returns the condition estimate and whether the
-/// fallback was used.
-fn factorise(
-    a: &[f64],
-    p: usize,
-    settings: &LwrSettings,
-    factor: &mut Factor,
-    scaled: &mut Vec<f64>,
-) -> Result<(f64, bool)> {
-    factor.p = p;
-    let Factor { l, scale, .. } = factor;
-    scale.clear();
-    scale.extend((0..p).map(|i| {
-        let v = a[i * p + i];
-        if v > 0.0 && v.is_finite() { v.sqrt() } else { 1.0 }
-    }));
-    scaled.clear();
-    scaled.resize(p * p, 0.0);
-    for i in 0..p {
-        for j in 0..p {
-            scaled[i * p + j] = a[i * p + j] / (scale[i] * scale[j]);
-        }
-    }
-    l.clear();
-    l.extend_from_slice(scaled);
-    let condition = match cholesky(l, p) {
-        Some((lo, hi)) => (hi / lo) * (hi / lo),
-        None => f64::INFINITY,
-    };
-    if condition <= settings.max_condition {
-        return Ok((condition, false));
-    }
-    l.copy_from_slice(scaled);
-    for i in 1..p {
-        l[i * p + i] += settings.fallback_ridge;
-    }
-    match cholesky(l, p) {
-        Some(_) => Ok((condition, true)),
-        None => Err(LwrError::SingularFit {
-            reason: format!(
-                "not positive definite even with the fallback ridge {} (condition estimate {condition:e})",
-                settings.fallback_ridge
-            ),
-        }),
-    }
 }
 
 /// The length in input units over which coefficient `c` ($\ge 1$) of the
@@ -667,19 +549,6 @@ pub(crate) fn fit_found(
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn cholesky_solves_and_reports_pivots() {
-        let mut a = vec![4.0, 2.0, 2.0, 3.0];
-        let (lo, hi) = cholesky(&mut a, 2).expect("positive definite");
-        assert!(lo > 0.0 && hi >= lo);
-        let mut b = vec![2.0, 1.0];
-        chol_solve(&a, 2, &mut b);
-        // [4 2; 2 3] x = [2 1] -> x = [0.5, 0]
-        assert!((b[0] - 0.5).abs() < 1e-15 && b[1].abs() < 1e-15);
-        let mut singular = vec![1.0, 1.0, 1.0, 1.0];
-        assert!(cholesky(&mut singular, 2).is_none());
-    }
 
     #[test]
     fn weights_from_squared_distances_equal_the_kernels() {

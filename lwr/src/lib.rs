@@ -96,6 +96,7 @@
 
 mod database;
 mod error;
+mod factor;
 mod fit;
 mod kdtree;
 mod loo;
