@@ -41,7 +41,9 @@
 //!   [`predict_batch_with_jacobian`](LwrModel::predict_batch_with_jacobian)
 //!   (rayon), [`loo`](LwrModel::loo), [`tune`](LwrModel::tune), save and load
 //!   (serde JSON).
-//! - `strategies` (feature `proptest`): proptest strategies for data sets.
+//! - `strategies` (feature `proptest`): proptest strategies for data sets,
+//!   and `check_jacobian`, the worst relative error of a Jacobian against
+//!   central differences and where it is.
 //!
 //! Errors are a typed [`LwrError`]; nothing panics on user input. A query
 //! where no point carries weight is an error ([`LwrError::NoWeightedData`]),
