@@ -44,6 +44,10 @@
 //! - `strategies` (feature `proptest`): proptest strategies for data sets,
 //!   and `check_jacobian`, the worst relative error of a Jacobian against
 //!   central differences and where it is.
+//! - Feature `nalgebra`: `Database::from_matrices` and
+//!   `LwrModel::from_matrices` (one point per row of nalgebra's `DMatrix`),
+//!   queries as `DVector`s and the Jacobian as a `DMatrix`
+//!   (`LwrModel::predict_with_jacobian_dmatrix`).
 //!
 //! Errors are a typed [`LwrError`]; nothing panics on user input. A query
 //! where no point carries weight is an error ([`LwrError::NoWeightedData`]),
@@ -104,6 +108,8 @@ mod kdtree;
 mod loo;
 mod metric;
 mod model;
+#[cfg(feature = "nalgebra")]
+mod nalgebra_interop;
 mod settings;
 #[cfg(feature = "proptest")]
 pub mod strategies;
