@@ -48,6 +48,9 @@
 //!   `LwrModel::from_matrices` (one point per row of nalgebra's `DMatrix`),
 //!   queries as `DVector`s and the Jacobian as a `DMatrix`
 //!   (`LwrModel::predict_with_jacobian_dmatrix`).
+//! - `csv_fit` (feature `cli`): the CSV fit tool, with typed errors naming
+//!   the file, line, row and column; the binary `lwr-fit` runs it
+//!   (`cargo run -p lwr --features cli --bin lwr-fit -- --help`).
 //!
 //! Errors are a typed [`LwrError`]; nothing panics on user input. A query
 //! where no point carries weight is an error ([`LwrError::NoWeightedData`]),
@@ -100,6 +103,8 @@
 //! ```
 #![warn(missing_docs)]
 
+#[cfg(feature = "cli")]
+pub mod csv_fit;
 mod database;
 mod error;
 mod factor;

@@ -1,0 +1,34 @@
+//! `lwr-fit`: fit a locally weighted regression model to a CSV file, tune
+//! its metric by leave-one-out cross-validation, report the tuned scale of
+//! each input and, with a test file, the test error and predictions (see
+//! [`lwr::csv_fit`]).
+//!
+//! ```text
+//! cargo run -p lwr --features cli --bin lwr-fit -- --train train.csv --target y
+//! ```
+
+use std::process::ExitCode;
+
+use clap::Parser;
+use lwr::csv_fit::{FitArgs, error_chain, fit_command};
+
+/// Fit a locally weighted regression model to a CSV file: tune its metric
+/// by leave-one-out cross-validation, report the tuned scale of each input
+/// and, with a test file, the test error and predictions.
+#[derive(Debug, Parser)]
+#[command(name = "lwr-fit", version)]
+struct Cli {
+    #[command(flatten)]
+    fit: FitArgs,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match fit_command(&cli.fit) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {}", error_chain(&e));
+            ExitCode::FAILURE
+        }
+    }
+}

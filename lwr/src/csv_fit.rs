@@ -1,0 +1,619 @@
+//! The CSV fit tool (feature `cli`): locally weighted regression on a CSV
+//! file, with the metric tuned by cross-validation. The binary `lwr-fit`
+//! runs it, and so does `swingup fit`.
+//!
+//! ```text
+//! lwr-fit --train TRAIN.csv [--test TEST.csv] --target NAME [--target NAME ...]
+//!         [--out PRED.csv] [--json] [--kernel K] [--degree D] [--bandwidth H]
+//!         [--tune-evals N] [--level L]
+//! ```
+//!
+//! The files are comma-separated numbers under a header row of column names,
+//! read with the `csv` crate (fields may be quoted; blank lines are skipped). The inputs are every training column that is not a
+//! target. Each input $j$ starts with the metric scale $m_j = 1 / s_j$, $s_j$
+//! its standard deviation over the training rows, so that all inputs start
+//! equally important; [`LwrModel::tune`] then tunes the bandwidth $h$
+//! and every $m_j$ by minimising the leave-one-out error on the training
+//! data (a compass search in log space that can set $m_j = 0$).
+//!
+//! The summary ([`FitReport`], printed as text or with `--json` as JSON)
+//! gives the leave-one-out normalised MSE
+//! $\sum_i e_{(-i)}^2 / (n \operatorname{var} y)$ (1 is as good as predicting
+//! the mean), the tuned scale of each input relative to its normalisation,
+//! $m_j s_j$ (0: the weights ignore the input), the bandwidth, and, when the
+//! test file has target columns, the test normalised MSE
+//! $\sum_i (y_i - \hat y_i)^2 / (n \operatorname{var} y)$ with the variance
+//! over the test rows.
+//!
+//! With `--out` it writes one row per test row with, for each target `NAME`,
+//! the columns `NAME_pred,NAME_std,NAME_lo,NAME_hi`: the prediction, the
+//! standard error of the mean $\sqrt{\sigma^2 |l|^2}$
+//! ([`Prediction::std_error`]) and the prediction interval of a new
+//! observation at level `--level` (95 % by default),
+//! $\hat y \pm t \sqrt{\sigma^2 (1 + |l|^2)}$. A row the model cannot predict
+//! (no training point carries weight there) gets `NaN` in every column and is
+//! listed in the summary; a fit without degrees of freedom for a noise
+//! estimate gets `NaN` standard errors and infinite (`-inf`, `inf`) bounds.
+//!
+//! Bad files (missing columns, non-numeric, empty or non-finite cells, rows of
+//! the wrong length, no rows) give a [`FitError`] naming the file, the line,
+//! the data row and the column; so do the arguments, and a model that
+//! cannot be built or tuned from the data. The predictions file is written
+//! through a temporary file and a rename, so a failed write leaves any old
+//! file whole, and never over the training or test file.
+//!
+//! ```no_run
+//! use lwr::csv_fit::{FitArgs, fit_report};
+//!
+//! let mut args = FitArgs::new("train.csv", &["y"]);
+//! args.test = Some("test.csv".into());
+//! args.out = Some("pred.csv".into());
+//! let report = fit_report(&args)?;
+//! print!("{report}");
+//! # Ok::<(), lwr::csv_fit::FitError>(())
+//! ```
+
+use std::fs;
+use std::io;
+use std::path::{Path, PathBuf};
+
+use serde::Serialize;
+
+use crate::{Degree, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneSettings, TuneStatus};
+
+mod error;
+mod report;
+mod table;
+
+pub use error::FitError;
+pub use report::{FitReport, InputScale, TargetError, TestReport};
+pub use table::Table;
+
+/// Arguments of the fit tool (`lwr-fit`, `swingup fit`).
+#[derive(Debug, Clone, clap::Args)]
+pub struct FitArgs {
+    /// Training data: CSV with a header row of column names.
+    #[arg(long, value_name = "TRAIN.csv")]
+    pub train: PathBuf,
+    /// Test data: CSV with (at least) the input columns; where it also has
+    /// the target columns the test error is reported.
+    #[arg(long, value_name = "TEST.csv")]
+    pub test: Option<PathBuf>,
+    /// A column to predict (repeat for several); every other training column
+    /// is an input.
+    #[arg(long = "target", value_name = "NAME", required = true)]
+    pub targets: Vec<String>,
+    /// Write the predictions for the test rows here: per target
+    /// `NAME_pred,NAME_std,NAME_lo,NAME_hi`.
+    #[arg(long, value_name = "PRED.csv", requires = "test")]
+    pub out: Option<PathBuf>,
+    /// Print the summary as JSON instead of text.
+    #[arg(long)]
+    pub json: bool,
+    /// Weighting kernel.
+    #[arg(long, value_enum, default_value_t = KernelArg::Gaussian)]
+    pub kernel: KernelArg,
+    /// Degree of the local polynomial.
+    #[arg(long, value_enum, default_value_t = DegreeArg::Linear)]
+    pub degree: DegreeArg,
+    /// Initial bandwidth in units of the inputs' standard deviations
+    /// (default 0.5 for the Gaussian, 1.5 for the compact kernels).
+    #[arg(long, value_name = "H")]
+    pub bandwidth: Option<f64>,
+    /// Budget of leave-one-out evaluations for tuning the bandwidth and
+    /// metric (0: no tuning, use the initial metric).
+    #[arg(long, value_name = "N", default_value_t = 300)]
+    pub tune_evals: usize,
+    /// Level of the prediction intervals written with `--out`.
+    #[arg(long, value_name = "L", default_value_t = 0.95)]
+    pub level: f64,
+}
+
+impl FitArgs {
+    /// Arguments with the command line's defaults for a training file and
+    /// targets.
+    pub fn new(train: impl Into<PathBuf>, targets: &[&str]) -> Self {
+        Self {
+            train: train.into(),
+            test: None,
+            targets: targets.iter().map(|t| (*t).to_owned()).collect(),
+            out: None,
+            json: false,
+            kernel: KernelArg::Gaussian,
+            degree: DegreeArg::Linear,
+            bandwidth: None,
+            tune_evals: 300,
+            level: 0.95,
+        }
+    }
+}
+
+/// The kernels of [`Kernel`], as command-line values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum KernelArg {
+    /// $e^{-u^2/2}$, truncated at 5 bandwidths.
+    Gaussian,
+    /// $(1 - u^3)^3$ on $u < 1$.
+    Tricube,
+    /// $1 - u^2$ on $u < 1$.
+    Epanechnikov,
+    /// $(1 - u^2)^2$ on $u < 1$.
+    Bisquare,
+}
+
+impl From<KernelArg> for Kernel {
+    fn from(k: KernelArg) -> Self {
+        match k {
+            KernelArg::Gaussian => Kernel::Gaussian,
+            KernelArg::Tricube => Kernel::Tricube,
+            KernelArg::Epanechnikov => Kernel::Epanechnikov,
+            KernelArg::Bisquare => Kernel::Bisquare,
+        }
+    }
+}
+
+/// The degrees of [`Degree`], as command-line values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum DegreeArg {
+    /// Local constant (Nadaraya-Watson).
+    Constant,
+    /// Local linear.
+    Linear,
+    /// Local quadratic.
+    Quadratic,
+}
+
+impl From<DegreeArg> for Degree {
+    fn from(d: DegreeArg) -> Self {
+        match d {
+            DegreeArg::Constant => Degree::Constant,
+            DegreeArg::Linear => Degree::Linear,
+            DegreeArg::Quadratic => Degree::Quadratic,
+        }
+    }
+}
+
+fn mean_var(values: impl Iterator<Item = f64> + Clone) -> (f64, f64) {
+    let n = values.clone().count() as f64;
+    let mean = values.clone().sum::<f64>() / n;
+    let var = values.map(|v| (v - mean) * (v - mean)).sum::<f64>() / n;
+    (mean, var)
+}
+
+fn check_args(args: &FitArgs) -> Result<(), FitError> {
+    if args.targets.is_empty() {
+        return Err(FitError::InvalidArgument {
+            name: "--target",
+            reason: "give at least one target column".into(),
+        });
+    }
+    for (i, t) in args.targets.iter().enumerate() {
+        if args.targets[..i].contains(t) {
+            return Err(FitError::InvalidArgument {
+                name: "--target",
+                reason: format!("'{t}' is given twice"),
+            });
+        }
+    }
+    if let Some(h) = args.bandwidth
+        && !(h.is_finite() && h > 0.0)
+    {
+        return Err(FitError::InvalidArgument {
+            name: "--bandwidth",
+            reason: format!("must be finite and positive, got {h}"),
+        });
+    }
+    if !(args.level > 0.0 && args.level < 1.0) {
+        return Err(FitError::InvalidArgument {
+            name: "--level",
+            reason: format!("must be in (0, 1), got {}", args.level),
+        });
+    }
+    if args.out.is_some() && args.test.is_none() {
+        return Err(FitError::InvalidArgument {
+            name: "--out",
+            reason: "needs --test (the predictions are for the test rows)".into(),
+        });
+    }
+    if let Some(out) = &args.out {
+        for (flag, input) in [("--train", Some(&args.train)), ("--test", args.test.as_ref())] {
+            if input.is_some_and(|input| same_file(out, input)) {
+                return Err(FitError::InvalidArgument {
+                    name: "--out",
+                    reason: format!(
+                        "{} is also the {flag} file; writing the predictions would destroy it",
+                        out.display()
+                    ),
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// Whether `a` and `b` name one existing file (through links and `..`).
+fn same_file(a: &Path, b: &Path) -> bool {
+    match (fs::canonicalize(a), fs::canonicalize(b)) {
+        (Ok(a), Ok(b)) => a == b,
+        _ => false,
+    }
+}
+
+/// The most coefficients a local fit may have: its normal matrix is
+/// $p^2$ numbers per query (2000: 32 MB).
+const MAX_COEFFICIENTS: usize = 2000;
+
+/// Refuses training data a local fit of `degree` cannot be made from:
+/// identical rows, fewer rows than coefficients plus one, or a local
+/// polynomial too large to hold.
+fn check_size(train: &Table, degree: DegreeArg, inputs: usize) -> Result<(), FitError> {
+    let rows = train.rows.len();
+    if rows > 1 && train.rows.windows(2).all(|w| w[0] == w[1]) {
+        return Err(FitError::IdenticalRows {
+            file: train.file.clone(),
+            rows,
+        });
+    }
+    let coefficients = Degree::from(degree).n_coeffs(inputs);
+    let reason = if coefficients > MAX_COEFFICIENTS {
+        format!("at most {MAX_COEFFICIENTS} are supported (a normal matrix of {coefficients}^2 numbers per query)")
+    } else if rows <= coefficients {
+        format!(
+            "it needs at least {} training rows, and {} has {rows}",
+            coefficients + 1,
+            train.file.display()
+        )
+    } else {
+        return Ok(());
+    };
+    Err(FitError::ModelTooLarge {
+        file: train.file.clone(),
+        degree: match degree {
+            DegreeArg::Constant => "constant",
+            DegreeArg::Linear => "linear",
+            DegreeArg::Quadratic => "quadratic",
+        },
+        inputs,
+        coefficients,
+        reason,
+    })
+}
+
+/// Fits, tunes and tests as the fit tool does, writes `--out` if given, and
+/// returns the summary without printing it.
+///
+/// # Errors
+/// A [`FitError`]: bad arguments or files, a model that cannot be built or
+/// tuned ([`FitError::Model`]), or `--out` that cannot be written
+/// ([`FitError::Write`]).
+pub fn fit_report(args: &FitArgs) -> Result<FitReport, FitError> {
+    fit_report_with(args, &mut |_: &str| {})
+}
+
+/// [`fit_report`], telling `progress` each long phase as it starts
+/// (the command prints them on stderr).
+///
+/// # Errors
+/// As [`fit_report`].
+pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result<FitReport, FitError> {
+    check_args(args)?;
+    let train = Table::read(&args.train)?;
+    let target_cols = args
+        .targets
+        .iter()
+        .map(|t| train.column(t, "target"))
+        .collect::<Result<Vec<_>, _>>()?;
+    let input_cols: Vec<usize> = (0..train.names.len()).filter(|j| !target_cols.contains(j)).collect();
+    if input_cols.is_empty() {
+        return Err(FitError::NoInputs {
+            file: train.file.clone(),
+        });
+    }
+    check_size(&train, args.degree, input_cols.len())?;
+    for &j in &target_cols {
+        if train.rows.iter().all(|r| r[j] == train.rows[0][j]) {
+            return Err(FitError::ConstantTarget {
+                file: train.file.clone(),
+                column: j + 1,
+                name: train.names[j].clone(),
+                value: train.rows[0][j],
+            });
+        }
+    }
+    let xs: Vec<Vec<f64>> = train
+        .rows
+        .iter()
+        .map(|r| input_cols.iter().map(|&j| r[j]).collect())
+        .collect();
+    let ys: Vec<Vec<f64>> = train
+        .rows
+        .iter()
+        .map(|r| target_cols.iter().map(|&j| r[j]).collect())
+        .collect();
+
+    let mut spreads = Vec::with_capacity(input_cols.len());
+    for &j in &input_cols {
+        let (_, var) = mean_var(train.rows.iter().map(|r| r[j]));
+        let sd = var.sqrt();
+        if !(sd > 0.0 && sd.is_finite()) {
+            return Err(FitError::ConstantInput {
+                file: train.file.clone(),
+                column: j + 1,
+                name: train.names[j].clone(),
+                value: train.rows[0][j],
+            });
+        }
+        spreads.push(sd);
+    }
+
+    let kernel = Kernel::from(args.kernel);
+    let bandwidth = args.bandwidth.unwrap_or(match kernel {
+        Kernel::Gaussian => 0.5,
+        _ => 1.5,
+    });
+    let settings = LwrSettings {
+        kernel,
+        degree: args.degree.into(),
+        bandwidth,
+        scales: spreads.iter().map(|s| 1.0 / s).collect(),
+        confidence_level: args.level,
+        ..Default::default()
+    };
+    let model_error = |task: &'static str| {
+        let file = train.file.clone();
+        move |source: LwrError| FitError::Model { file, task, source }
+    };
+    let mut model =
+        LwrModel::new(input_cols.len(), target_cols.len(), settings).map_err(model_error("building the model"))?;
+    model
+        .insert_many(&xs, &ys)
+        .map_err(model_error("storing the training rows"))?;
+
+    let (initial_loo_nmse, tune_evals, tune_converged) = if args.tune_evals > 0 {
+        progress(&format!(
+            "tuning the metric: up to {} leave-one-out evaluations over {} rows",
+            args.tune_evals,
+            train.rows.len()
+        ));
+        let tuned = model
+            .tune(&TuneSettings {
+                max_evals: args.tune_evals,
+                ..Default::default()
+            })
+            .map_err(model_error("tuning the metric"))?;
+        let converged = tuned.status == TuneStatus::Converged;
+        model
+            .set_settings(tuned.settings)
+            .map_err(model_error("tuning the metric"))?;
+        (tuned.initial_objective, tuned.evals, Some(converged))
+    } else {
+        (f64::NAN, 0, None)
+    };
+    progress("leave-one-out cross-validation of the final model");
+    let loo = model.loo().map_err(model_error("leave-one-out cross-validation"))?;
+    let n = train.rows.len() as f64;
+    let loo_nmse_per_target: Vec<f64> = (0..target_cols.len())
+        .map(|o| {
+            let (_, var) = mean_var(ys.iter().map(|y| y[o]));
+            loo.press[o] / (n * var)
+        })
+        .collect();
+    let initial_loo_nmse = if initial_loo_nmse.is_nan() {
+        loo.normalized_mse
+    } else {
+        initial_loo_nmse
+    };
+    let tuned = model.settings();
+    let scales = tuned.scales_for(input_cols.len());
+    let inputs = input_cols
+        .iter()
+        .zip(&spreads)
+        .zip(&scales)
+        .map(|((&j, &spread), &m)| InputScale {
+            name: train.names[j].clone(),
+            spread,
+            scale: m * spread,
+            metric_scale: m,
+        })
+        .collect();
+
+    let mut report = FitReport {
+        train_file: train.file.clone(),
+        n_train: train.rows.len(),
+        targets: args.targets.clone(),
+        inputs,
+        kernel: args.kernel,
+        degree: args.degree,
+        bandwidth: tuned.bandwidth,
+        initial_loo_nmse,
+        loo_nmse: loo.normalized_mse,
+        loo_nmse_per_target,
+        tune_evals,
+        tune_converged,
+        test: None,
+        out_file: None,
+        level: args.level,
+    };
+
+    if let Some(test_path) = &args.test {
+        let test = Table::read(test_path)?;
+        progress(&format!("predicting {} test rows", test.rows.len()));
+        let (report_test, predictions) = run_test(&model, &train, &input_cols, &args.targets, &test)?;
+        if let Some(out) = &args.out {
+            write_predictions(out, &args.targets, &predictions)?;
+            report.out_file = Some(out.clone());
+        }
+        report.test = Some(report_test);
+    }
+    Ok(report)
+}
+
+type RowPrediction = Result<Prediction, String>;
+
+fn run_test(
+    model: &LwrModel,
+    train: &Table,
+    input_cols: &[usize],
+    targets: &[String],
+    test: &Table,
+) -> Result<(TestReport, Vec<RowPrediction>), FitError> {
+    let test_inputs = input_cols
+        .iter()
+        .map(|&j| test.column(&train.names[j], "input"))
+        .collect::<Result<Vec<_>, _>>()?;
+    // target index in the model, column in the test file
+    let test_targets: Vec<(usize, usize)> = targets
+        .iter()
+        .enumerate()
+        .filter_map(|(o, t)| test.names.iter().position(|n| n == t).map(|j| (o, j)))
+        .collect();
+    for (j, name) in test.names.iter().enumerate() {
+        if !test_inputs.contains(&j) && !test_targets.iter().any(|&(_, c)| c == j) {
+            return Err(FitError::UnknownColumn {
+                file: test.file.clone(),
+                line: test.header_line,
+                column: j + 1,
+                name: name.clone(),
+                train: train.file.clone(),
+            });
+        }
+    }
+    let queries: Vec<Vec<f64>> = test
+        .rows
+        .iter()
+        .map(|r| test_inputs.iter().map(|&j| r[j]).collect())
+        .collect();
+    let predictions: Vec<RowPrediction> = model
+        .predict_batch(&queries)
+        .into_iter()
+        .map(|p| p.map_err(|e| e.to_string()))
+        .collect();
+    let unpredicted: Vec<(usize, String)> = predictions
+        .iter()
+        .enumerate()
+        .filter_map(|(i, p)| p.as_ref().err().map(|e| (i + 1, e.clone())))
+        .collect();
+    let predicted: Vec<(&Vec<f64>, &Prediction)> = test
+        .rows
+        .iter()
+        .zip(&predictions)
+        .filter_map(|(r, p)| p.as_ref().ok().map(|p| (r, p)))
+        .collect();
+    let mut errors = Vec::new();
+    if !predicted.is_empty() {
+        for &(o, j) in &test_targets {
+            let (_, var) = mean_var(predicted.iter().map(|(r, _)| r[j]));
+            let m = predicted.len() as f64;
+            let sse: f64 = predicted.iter().map(|(r, p)| (r[j] - p.mean[o]).powi(2)).sum();
+            let inside = predicted
+                .iter()
+                .filter(|(r, p)| {
+                    p.prediction_interval(o)
+                        .is_some_and(|(lo, hi)| lo <= r[j] && r[j] <= hi)
+                })
+                .count();
+            errors.push(TargetError {
+                name: targets[o].clone(),
+                nmse: if var > 0.0 { sse / (m * var) } else { f64::NAN },
+                rmse: (sse / m).sqrt(),
+                coverage: inside as f64 / m,
+            });
+        }
+    }
+    let nmse = (!errors.is_empty()).then(|| errors.iter().map(|e| e.nmse).sum::<f64>() / errors.len() as f64);
+    let report = TestReport {
+        file: test.file.clone(),
+        n_rows: test.rows.len(),
+        n_predicted: predicted.len(),
+        n_without_interval: predicted
+            .iter()
+            .filter(|(_, p)| p.prediction_half_width.iter().any(|w| !w.is_finite()))
+            .count(),
+        unpredicted,
+        nmse,
+        targets: errors,
+    };
+    Ok((report, predictions))
+}
+
+fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPrediction]) -> Result<(), FitError> {
+    let mut text = String::new();
+    let header: Vec<String> = targets
+        .iter()
+        .map(|t| format!("{t}_pred,{t}_std,{t}_lo,{t}_hi"))
+        .collect();
+    text.push_str(&header.join(","));
+    text.push('\n');
+    for p in predictions {
+        let cells: Vec<String> = (0..targets.len())
+            .map(|o| match p {
+                Ok(p) => {
+                    let (mean, half) = (p.mean[o], p.prediction_half_width[o]);
+                    format!("{mean},{},{},{}", p.std_error[o], mean - half, mean + half)
+                }
+                Err(_) => "NaN,NaN,NaN,NaN".to_owned(),
+            })
+            .collect();
+        text.push_str(&cells.join(","));
+        text.push('\n');
+    }
+    // through a temporary file: a failed write leaves any old file whole
+    write_atomic(out, &text).map_err(|source| FitError::Write {
+        file: out.to_path_buf(),
+        source,
+    })
+}
+
+/// Writes `contents` to `path` through `path.tmp` in the same directory
+/// and a rename, so that `path` holds either its old or its new contents;
+/// on failure the temporary file is removed and the error names the file.
+///
+/// # Errors
+/// The temporary file cannot be written or renamed.
+pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
+    let mut tmp: PathBuf = path.to_path_buf();
+    let mut name = path.file_name().unwrap_or_default().to_os_string();
+    name.push(".tmp");
+    tmp.set_file_name(name);
+    let named =
+        |e: io::Error, what: &str, file: &Path| io::Error::new(e.kind(), format!("{what} {}: {e}", file.display()));
+    if let Err(e) = fs::write(&tmp, contents) {
+        let _ = fs::remove_file(&tmp);
+        return Err(named(e, "writing", &tmp));
+    }
+    fs::rename(&tmp, path).map_err(|e| {
+        let _ = fs::remove_file(&tmp);
+        named(e, "renaming into place", path)
+    })
+}
+
+/// Runs the fit tool: [`fit_report_with`] with the phases on stderr, then
+/// prints the summary on stdout as text or, with `--json`, as JSON
+/// (non-finite numbers as `null`).
+///
+/// # Errors
+/// As [`fit_report`].
+pub fn fit_command(args: &FitArgs) -> Result<(), FitError> {
+    let report = fit_report_with(args, &mut |phase: &str| eprintln!("{phase} ..."))?;
+    if args.json {
+        println!("{}", serde_json::to_string_pretty(&report)?);
+    } else {
+        print!("{report}");
+    }
+    Ok(())
+}
+
+/// An error and its causes, joined by `": "` (what the `lwr-fit` binary
+/// prints).
+pub fn error_chain(error: &dyn std::error::Error) -> String {
+    let mut text = error.to_string();
+    let mut cause = error.source();
+    while let Some(e) = cause {
+        text.push_str(": ");
+        text.push_str(&e.to_string());
+        cause = e.source();
+    }
+    text
+}
