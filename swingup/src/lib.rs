@@ -28,7 +28,8 @@
 //! | output | [`output`] ([`output::run_report`], [`output::plot`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk (figures as SVG and PNG), and the rules that keep runs from overwriting or mixing |
 //!
 //! [`fit_cmd`] is the `swingup fit` subcommand (locally weighted regression
-//! on a CSV file); it uses nothing else of this crate.
+//! on a CSV file), an alias of `lwr`'s CSV fit tool [`lwr::csv_fit`] (also
+//! the `lwr-fit` binary); it uses nothing else of this crate.
 //!
 //! # Example
 //!

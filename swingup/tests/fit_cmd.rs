@@ -1,413 +1,57 @@
-//! `swingup fit` on CSV files: a fit with an irrelevant input, the predictions
-//! file, and errors naming the file, row and column for bad files.
+//! `swingup fit` is the CSV fit tool of `lwr::csv_fit` (tested there, in
+//! `lwr/tests/csv_fit.rs`): the subcommand parses the tool's options and
+//! prints the tool's summary, and its errors are the tool's typed ones.
 
-use std::fs;
 use std::path::PathBuf;
+use std::process::Command;
 
-use clap::Parser;
-use swingup::fit_cmd::{FitArgs, FitError, FitReport, fit_command, fit_report};
+use swingup::fit_cmd::{FitArgs, FitError, fit_report};
 
-/// A temporary directory, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        let dir = std::env::temp_dir().join(format!("swingup-fit-{tag}-{}-{nanos}", std::process::id()));
-        fs::create_dir_all(&dir).expect("create temp dir");
-        Self(dir)
-    }
-
-    fn write(&self, name: &str, text: &str) -> PathBuf {
-        let path = self.0.join(name);
-        fs::write(&path, text).expect("write temp file");
-        path
-    }
-
-    fn path(&self, name: &str) -> PathBuf {
-        self.0.join(name)
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
-
-/// Seeded uniform numbers in [-1, 1].
-fn uniform(seed: &mut u64) -> f64 {
-    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-}
-
-/// `a,b,c,y,z` with y = sin(3a) + 0.5 b + noise, z = cos(2b) + noise; c is
-/// irrelevant to both.
-fn data(n: usize, seed: u64) -> String {
-    let mut s = seed;
-    let mut text = String::from("a,b,c,y,z\n");
-    for _ in 0..n {
-        let (a, b, c) = (uniform(&mut s), uniform(&mut s), uniform(&mut s));
-        let y = (3.0 * a).sin() + 0.5 * b + 0.05 * uniform(&mut s);
-        let z = (2.0 * b).cos() + 0.05 * uniform(&mut s);
-        text.push_str(&format!("{a},{b},{c},{y},{z}\n"));
-    }
-    text
-}
-
-fn scale_of(report: &FitReport, name: &str) -> f64 {
-    report
-        .inputs
-        .iter()
-        .find(|i| i.name == name)
-        .map(|i| i.scale)
-        .expect("input present")
+fn demo_csv() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR")).join("../lwr/tests/data/fit_demo.csv")
 }
 
 #[test]
-fn fits_tunes_and_predicts_with_an_irrelevant_input() {
-    let dir = TempDir::new("good");
-    let train = dir.write("train.csv", &data(400, 1));
-    let test = dir.write("test.csv", &data(150, 2));
-    let out = dir.path("pred.csv");
-    let mut args = FitArgs::new(&train, &["y", "z"]);
-    args.test = Some(test.clone());
-    args.out = Some(out.clone());
-
-    let report = fit_report(&args).expect("fit succeeds");
-    assert_eq!(report.n_train, 400);
-    let names: Vec<&str> = report.inputs.iter().map(|i| i.name.as_str()).collect();
-    assert_eq!(names, ["a", "b", "c"]);
-    assert!(report.loo_nmse < 0.05, "LOO nMSE {}", report.loo_nmse);
-    assert!(report.loo_nmse <= report.initial_loo_nmse);
-    assert!(report.bandwidth > 0.0);
-    // c matters for neither target: the tuned metric drops it
-    let c = scale_of(&report, "c");
-    assert!(
-        c < 0.05 * scale_of(&report, "a").max(scale_of(&report, "b")),
-        "scale of c {c}"
-    );
-    assert!(scale_of(&report, "a") > 0.0);
-
-    let t = report.test.as_ref().expect("test report");
-    assert_eq!((t.n_rows, t.n_predicted), (150, 150));
-    assert!(t.unpredicted.is_empty());
-    let nmse = t.nmse.expect("test has targets");
-    assert!(nmse < 0.02, "test nMSE {nmse}");
-    for e in &t.targets {
-        assert!(e.nmse < 0.03, "{}: {}", e.name, e.nmse);
-        assert!(e.coverage > 0.85, "{}: coverage {}", e.name, e.coverage);
-    }
-
-    let text = fs::read_to_string(&out).expect("prediction file");
-    let mut lines = text.lines();
-    assert_eq!(lines.next(), Some("y_pred,y_std,y_lo,y_hi,z_pred,z_std,z_lo,z_hi"));
-    let rows: Vec<Vec<f64>> = lines
-        .map(|l| l.split(',').map(|c| c.parse::<f64>().expect("number")).collect())
-        .collect();
-    assert_eq!(rows.len(), 150);
-    let mut no_noise_estimate = 0;
-    for r in &rows {
-        assert_eq!(r.len(), 8);
-        for k in [0, 4] {
-            let (pred, std, lo, hi) = (r[k], r[k + 1], r[k + 2], r[k + 3]);
-            assert!(pred.is_finite());
-            if std.is_nan() {
-                // a fit without degrees of freedom for the noise: no interval
-                assert!(lo == f64::NEG_INFINITY && hi == f64::INFINITY, "{lo} {hi}");
-                no_noise_estimate += 1;
-                continue;
-            }
-            assert!(std > 0.0 && std < 0.2, "std {std}");
-            assert!(lo < pred && pred < hi, "{lo} {pred} {hi}");
-            // the prediction interval is wider than the mean's standard error
-            assert!(hi - pred > 1.96 * std);
-        }
-    }
-    assert!(
-        no_noise_estimate <= 6,
-        "{no_noise_estimate} predictions without a noise estimate"
-    );
-    assert_eq!(report.out_file.as_deref(), Some(out.as_path()));
-
-    // the printing command works in both formats
-    fit_command(&args).expect("text summary");
-    args.json = true;
-    args.out = None;
-    fit_command(&args).expect("json summary");
-    let json = serde_json::to_value(&report).expect("serialisable");
-    assert_eq!(json["inputs"][2]["name"], "c");
-    assert!(report.to_string().contains("LOO normalised MSE"));
-}
-
-#[test]
-fn a_test_file_without_targets_predicts_only() {
-    let dir = TempDir::new("notarget");
-    let train = dir.write("train.csv", &data(200, 3));
-    let test = dir.write("test.csv", "c,a,b\n0.1,0.2,0.3\n0,0,0\n");
-    let out = dir.path("pred.csv");
-    let mut args = FitArgs::new(&train, &["y", "z"]);
-    args.test = Some(test);
-    args.out = Some(out.clone());
-    args.tune_evals = 40;
-    let report = fit_report(&args).expect("fit succeeds");
-    let t = report.test.expect("test report");
-    assert_eq!(t.nmse, None);
-    assert!(t.targets.is_empty());
-    let text = fs::read_to_string(&out).expect("prediction file");
-    assert_eq!(text.lines().count(), 3);
-    // columns are matched by name, not position
-    let first: f64 = text
-        .lines()
-        .nth(1)
-        .and_then(|l| l.split(',').next())
-        .and_then(|c| c.parse().ok())
-        .expect("number");
-    assert!((first - ((0.6f64).sin() + 0.15)).abs() < 0.1, "{first}");
-}
-
-/// Runs the command on a bad training file and returns the error message.
-fn train_error(name: &str, text: &str) -> (String, bool) {
-    let dir = TempDir::new(name);
-    let train = dir.write(&format!("{name}.csv"), text);
-    let err = fit_report(&FitArgs::new(&train, &["y"])).expect_err("bad file");
-    let typed = err.downcast_ref::<FitError>().is_some();
-    let msg = format!("{err:#}");
-    assert!(msg.contains(&format!("{name}.csv")), "file not named: {msg}");
-    (msg, typed)
-}
-
-#[test]
-fn bad_training_files_name_row_and_column() {
-    let (msg, typed) = train_error("missing_target", "a,b,c\n1,2,3\n4,5,6\n");
-    assert!(typed);
-    assert!(
-        msg.contains("header (line 1)") && msg.contains("no column 'y'"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("non_numeric", "a,b,y\n1,2,3\n4,5,6\n7,abc,9\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 4 (data row 3), column 2 'b'") && msg.contains("'abc'"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("nan_cell", "a,b,y\n1,2,3\n4,5,NaN\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 3 (data row 2), column 3 'y'") && msg.contains("not a finite"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("empty_cell", "a,b,y\n1,,3\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 2 (data row 1), column 2 'b'") && msg.contains("empty cell"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("empty", "");
-    assert!(typed);
-    assert!(msg.contains("empty"), "{msg}");
-
-    let (msg, typed) = train_error("header_only", "a,b,y\n");
-    assert!(typed);
-    assert!(msg.contains("no data rows"), "{msg}");
-
-    let (msg, typed) = train_error("ragged_short", "a,b,y\n1,2,3\n4,5\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 3 (data row 2)") && msg.contains("column 3 'y' is missing"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("ragged_long", "a,b,y\n1,2,3,4\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 2 (data row 1)") && msg.contains("column 4 is extra"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("constant", "a,b,y\n1,2,3\n1,5,6\n1,4,2\n1,3,3\n1,1,1\n");
-    assert!(typed);
-    assert!(msg.contains("column 1 'a'") && msg.contains("constant"), "{msg}");
-
-    let (msg, typed) = train_error("only_targets", "y\n1\n2\n");
-    assert!(typed);
-    assert!(msg.contains("input"), "{msg}");
-
-    let dir = TempDir::new("missing");
-    let err = fit_report(&FitArgs::new(dir.path("nope.csv"), &["y"])).expect_err("no file");
-    assert!(format!("{err:#}").contains("nope.csv"));
-}
-
-#[test]
-fn bad_test_files_name_row_and_column() {
-    let dir = TempDir::new("badtest");
-    let train = dir.write("train.csv", &data(60, 4));
-    let cases = [
-        (
-            "no_input.csv",
-            "a,b\n0,0\n",
-            vec!["header (line 1)", "no column 'c' (input)"],
-        ),
-        (
-            "unknown.csv",
-            "a,b,c,w\n0,0,0,1\n",
-            vec!["column 4 'w'", "not a column"],
-        ),
-        (
-            "bad_cell.csv",
-            "a,b,c\n0,0,0\n0,x,0\n",
-            vec!["line 3 (data row 2), column 2 'b'"],
-        ),
-    ];
-    for (name, text, wants) in cases {
-        let mut args = FitArgs::new(&train, &["y", "z"]);
-        args.tune_evals = 5;
-        args.test = Some(dir.write(name, text));
-        let err = fit_report(&args).expect_err("bad test file");
-        let msg = format!("{err:#}");
-        assert!(msg.contains(name), "{msg}");
-        for w in wants {
-            assert!(msg.contains(w), "{name}: want '{w}' in: {msg}");
-        }
-    }
-}
-
-#[test]
-fn bad_arguments_are_errors() {
-    let dir = TempDir::new("args");
-    let train = dir.write("train.csv", &data(30, 5));
-    let mut args = FitArgs::new(&train, &["y", "y"]);
-    assert!(fit_report(&args).is_err());
-    args.targets = vec!["y".into()];
-    args.bandwidth = Some(0.0);
-    assert!(fit_report(&args).is_err());
-    args.bandwidth = None;
-    args.level = 1.5;
-    assert!(fit_report(&args).is_err());
-}
-
-#[derive(Debug, Parser)]
-struct Cli {
-    #[command(flatten)]
-    fit: FitArgs,
-}
-
-#[test]
-fn command_line_parses_with_defaults() {
-    let cli = Cli::try_parse_from(["fit", "--train", "t.csv", "--target", "y", "--target", "z"]).expect("parses");
-    assert_eq!(cli.fit.targets, ["y", "z"]);
-    assert_eq!(cli.fit.tune_evals, 300);
-    assert_eq!(cli.fit.level, 0.95);
-    assert!(!cli.fit.json);
-    let cli = Cli::try_parse_from([
-        "fit",
-        "--train",
-        "t.csv",
-        "--test",
-        "s.csv",
-        "--target",
-        "y",
-        "--out",
-        "p.csv",
-        "--json",
-        "--kernel",
-        "tricube",
-        "--degree",
-        "quadratic",
-        "--bandwidth",
-        "2",
-        "--tune-evals",
-        "10",
-    ])
-    .expect("parses");
-    assert_eq!(cli.fit.bandwidth, Some(2.0));
-    assert!(cli.fit.json);
-    // a target is required, and --out needs --test
-    assert!(Cli::try_parse_from(["fit", "--train", "t.csv"]).is_err());
-    assert!(Cli::try_parse_from(["fit", "--train", "t.csv", "--target", "y", "--out", "p.csv"]).is_err());
-}
-
-/// Data a local fit cannot be made from is refused before any work, with
-/// what is wrong with it: identical rows (not "a constant column"), fewer
-/// rows than coefficients, a local polynomial too large to hold (300 inputs
-/// at quadratic degree used to allocate until the process was killed), and
-/// a constant target (whose normalised errors would divide by zero).
-#[test]
-fn data_too_small_for_the_model_is_refused_with_the_reason() {
-    let dir = TempDir::new("size");
-    let message = |train: &PathBuf, degree: &str| {
-        let mut args = FitArgs::new(train, &["y"]);
-        args.degree = match degree {
-            "quadratic" => swingup::fit_cmd::DegreeArg::Quadratic,
-            _ => swingup::fit_cmd::DegreeArg::Linear,
-        };
-        format!("{:#}", fit_report(&args).expect_err("refused"))
-    };
-    let twins = dir.write("twins.csv", "a,b,y\n1,2,3\n1,2,3\n");
-    let e = message(&twins, "linear");
-    assert!(
-        e.contains("all 2 data rows are identical") && !e.contains("constant"),
-        "{e}"
-    );
-
-    let few = dir.write("few.csv", "a,b,c,y\n1,2,3,4\n2,1,3,5\n3,3,1,6\n");
-    let e = message(&few, "linear");
-    assert!(
-        e.contains("4 coefficients") && e.contains("at least 5 training rows") && e.contains("has 3"),
-        "{e}"
-    );
-
-    let mut wide = (0..300).map(|j| format!("x{j}")).collect::<Vec<_>>().join(",");
-    wide.push_str(",y\n");
-    let mut seed = 3;
-    for _ in 0..10 {
-        let row: Vec<String> = (0..301).map(|_| uniform(&mut seed).to_string()).collect();
-        wide.push_str(&row.join(","));
-        wide.push('\n');
-    }
-    let wide = dir.write("wide.csv", &wide);
-    let e = message(&wide, "quadratic");
-    assert!(
-        e.contains("quadratic fit in 300 inputs has 45451 coefficients") && e.contains("at most 2000"),
-        "{e}"
-    );
-
-    let flat = dir.write("flat.csv", "a,y\n1,7\n2,7\n3,7\n4,7\n");
-    let e = message(&flat, "linear");
-    assert!(e.contains("target column 2 'y' is 7 in every row"), "{e}");
-}
-
-/// `--out` naming the training or test file is refused and the file kept;
-/// test rows none of which can be predicted are reported as such, not as a
-/// missing target column.
-#[test]
-fn predictions_never_overwrite_the_inputs_and_unpredictable_tests_say_so() {
-    let dir = TempDir::new("out");
-    let text = data(40, 8);
-    let train = dir.write("train.csv", &text);
-    let test = dir.write("test.csv", "a,b,c,y\n50,50,50,1\n60,60,60,2\n");
-    for out in [&train, &test] {
-        let mut args = FitArgs::new(&train, &["y", "z"]);
-        args.tune_evals = 0;
-        args.test = Some(test.clone());
-        args.out = Some(out.clone());
-        let e = format!("{:#}", fit_report(&args).expect_err("refused"));
-        assert!(e.contains("writing the predictions would destroy it"), "{e}");
-    }
-    assert_eq!(fs::read_to_string(&train).expect("kept"), text);
-    let mut args = FitArgs::new(&train, &["y", "z"]);
-    args.tune_evals = 0;
-    args.kernel = swingup::fit_cmd::KernelArg::Tricube;
-    args.test = Some(test);
+fn swingup_fit_prints_the_tools_summary() {
+    let train = demo_csv();
+    let out = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(["fit", "--train"])
+        .arg(&train)
+        .args(["--target", "y", "--tune-evals", "20"])
+        .output()
+        .expect("runs");
+    assert!(out.status.success(), "{}", String::from_utf8_lossy(&out.stderr));
+    let mut args = FitArgs::new(&train, &["y"]);
+    args.tune_evals = 20;
     let report = fit_report(&args).expect("fit");
-    assert_eq!(report.test.as_ref().map(|t| t.n_predicted), Some(0));
-    let shown = report.to_string();
-    assert!(shown.contains("no test row could be predicted"), "{shown}");
+    assert_eq!(String::from_utf8_lossy(&out.stdout), report.to_string());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("tuning the metric: up to 20 leave-one-out evaluations over 200 rows ..."),
+        "{stderr}"
+    );
+}
+
+#[test]
+fn swingup_fit_reports_the_tools_errors() {
+    let missing = FitArgs::new(demo_csv(), &["nope"]);
+    assert!(matches!(fit_report(&missing), Err(FitError::MissingColumn { .. })));
+    let out = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(["fit", "--train"])
+        .arg(demo_csv())
+        .args(["--target", "nope"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        stderr.contains("fit_demo.csv: header (line 1): no column 'nope' (target)"),
+        "{stderr}"
+    );
+    // --out needs --test, as in lwr-fit
+    let out = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(["fit", "--train", "t.csv", "--target", "y", "--out", "p.csv"])
+        .output()
+        .expect("runs");
+    assert!(!out.status.success());
 }
