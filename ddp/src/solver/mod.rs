@@ -1,0 +1,239 @@
+//! The DDP / iLQR solver with Tassa's regularisation schedule, a
+//! backtracking line search on the feedforward term and a box-constrained
+//! backward pass.
+
+mod backward;
+mod forward;
+mod regularization;
+mod result;
+mod settings;
+mod work;
+
+use std::time::Instant;
+
+pub use result::{DdpResult, DdpStatus};
+pub use settings::{DdpSettings, Regularization};
+
+use crate::error::Result;
+use crate::problem::{Cost, DdpProblem, Dynamics};
+use forward::Rollout;
+use work::Work;
+
+/// Differential dynamic programming (Jacobson and Mayne 1970) / iLQR.
+///
+/// Each iteration linearises the dynamics and quadratises the cost along the
+/// current trajectory $(x^*, u^*)$ and runs the backward pass from
+/// $V_x(N) = \ell_{f,x}$, $V_{xx}(N) = \ell_{f,xx}$:
+/// $$\begin{aligned}
+/// Q_x &= \ell_x + f_x^\top V_x', & Q_u &= \ell_u + f_u^\top V_x', \\
+/// Q_{xx} &= \ell_{xx} + f_x^\top V_{xx}' f_x + V_x' \cdot f_{xx}, &
+/// Q_{uu} &= \ell_{uu} + f_u^\top V_{xx}' f_u + V_x' \cdot f_{uu}, \\
+/// Q_{ux} &= \ell_{ux} + f_u^\top V_{xx}' f_x + V_x' \cdot f_{ux}, &
+/// k &= -\tilde Q_{uu}^{-1} Q_u, \quad K = -\tilde Q_{uu}^{-1} \tilde Q_{ux}, \\
+/// V_x &= Q_x + K^\top Q_{uu} k + K^\top Q_u + Q_{ux}^\top k, &
+/// V_{xx} &= Q_{xx} + K^\top Q_{uu} K + K^\top Q_{ux} + Q_{ux}^\top K,
+/// \end{aligned}$$
+/// (the tensor terms only with second derivatives; $\tilde Q$ regularised by
+/// $\mu$, see [`Regularization`]), accumulating the expected reduction
+/// $\Delta J(\alpha) = \alpha \sum k^\top Q_u + \tfrac{\alpha^2}{2} \sum k^\top Q_{uu} k$.
+/// With control limits, $k$ solves the box QP
+/// $\min_{\delta u} \tfrac12 \delta u^\top \tilde Q_{uu} \delta u + Q_u^\top \delta u$,
+/// $u^{lo} \le u^* + \delta u \le u^{hi}$, by projected Newton, and the rows
+/// of $K$ of clamped controls are zero (Tassa, Mansard and Todorov 2014).
+///
+/// The forward pass rolls out $\hat u_t = \mathrm{clamp}(u^*_t + \alpha k_t + K_t(\hat x_t - x^*_t))$
+/// for $\alpha = 1, \beta, \beta^2, \dots$ and accepts the first $\alpha$ with
+/// $(J - \hat J) / (-\Delta J(\alpha)) > $ `min_reduction_ratio` (or, if
+/// $\Delta J(\alpha) \ge 0$, any decrease), so accepted iterations never
+/// increase the cost. Rollouts that leave the finite region or exceed
+/// `max_state_norm` are rejected. $\mu$ follows Tassa's schedule (Tassa,
+/// Erez and Todorov 2012, Sec. II-F): on failure
+/// $\Delta \leftarrow \max(\Delta_0, \Delta \Delta_0)$, $\mu \leftarrow \max(\mu_{min}, \mu \Delta)$;
+/// on success $\Delta \leftarrow \min(1/\Delta_0, \Delta / \Delta_0)$,
+/// $\mu \leftarrow \mu \Delta$ (0 below $\mu_{min}$).
+///
+/// Needs a [`Dynamics`] with first derivatives (second ones optional) and a
+/// [`Cost`] with gradient and Hessian. Settings: [`DdpSettings`].
+///
+/// References: D. H. Jacobson and D. Q. Mayne, *Differential Dynamic
+/// Programming*, 1970; Y. Tassa, T. Erez and E. Todorov, "Synthesis and
+/// stabilization of complex behaviors through online trajectory
+/// optimization", IROS 2012; Y. Tassa, N. Mansard and E. Todorov,
+/// "Control-limited differential dynamic programming", ICRA 2014.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Ddp {
+    settings: DdpSettings,
+}
+
+impl Ddp {
+    /// A solver with validated settings.
+    ///
+    /// # Errors
+    /// Invalid settings ([`DdpSettings::validate`]).
+    pub fn new(settings: DdpSettings) -> Result<Self> {
+        settings.validate()?;
+        Ok(Self { settings })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &DdpSettings {
+        &self.settings
+    }
+
+    /// Solves `problem` from its warm start. Not converging and blowing up
+    /// are statuses of the result, not errors.
+    ///
+    /// # Errors
+    /// None at present (the problem was checked when built); the `Result`
+    /// keeps room for user-model failures.
+    pub fn solve<D: Dynamics, C: Cost>(&self, problem: &DdpProblem<D, C>) -> Result<DdpResult> {
+        let start = Instant::now();
+        let mut w = Work::new(problem, &self.settings);
+        let mut result = w.run();
+        result.solve_time = start.elapsed();
+        Ok(result)
+    }
+}
+
+impl<D: Dynamics, C: Cost> Work<'_, D, C> {
+    fn run(&mut self) -> DdpResult {
+        let s = self.s;
+        let mut cost = match self.initial_rollout() {
+            Rollout::Ok(c) => c,
+            Rollout::Diverged(step) => return self.result_diverged(step),
+        };
+        let initial_cost = cost;
+        let mut costs = vec![cost];
+        let (mut regs, mut steps) = (Vec::new(), Vec::new());
+        let (mut mu, mut delta) = (s.reg_init, 1.0);
+        let mut status = DdpStatus::MaxIterations;
+        let mut need_derivatives = true;
+        let mut policy_current = false;
+        let mut iterations = 0;
+        'outer: loop {
+            if need_derivatives {
+                if !self.linearise() {
+                    status = DdpStatus::NonFiniteDerivatives;
+                    break;
+                }
+                need_derivatives = false;
+            }
+            let (dv1, dv2) = loop {
+                policy_current = false;
+                match self.backward(mu) {
+                    Some(dv) => break dv,
+                    None => {
+                        self.increase(&mut mu, &mut delta);
+                        if mu > s.reg_max {
+                            status = DdpStatus::NotPositiveDefinite;
+                            break 'outer;
+                        }
+                    }
+                }
+            };
+            policy_current = true;
+            if self.converged(dv1 + dv2, cost) {
+                if mu <= 10.0 * s.reg_min {
+                    status = DdpStatus::Converged;
+                    break;
+                }
+                // a heavily regularised step is small without being converged:
+                // confirm with an unregularised backward pass
+                match self.backward(0.0) {
+                    Some((d1, d2)) if self.converged(d1 + d2, cost) => {
+                        mu = 0.0;
+                        status = DdpStatus::Converged;
+                        break;
+                    }
+                    _ => {
+                        if self.backward(mu).is_none() {
+                            policy_current = false;
+                            status = DdpStatus::NotPositiveDefinite;
+                            break;
+                        }
+                    }
+                }
+            }
+            if iterations == s.max_iterations {
+                break;
+            }
+            iterations += 1;
+            regs.push(mu);
+
+            let mut alpha = 1.0;
+            let mut accepted = None;
+            let mut all_diverged = true;
+            for _ in 0..s.n_line_search {
+                if let Rollout::Ok(trial) = self.forward(alpha) {
+                    all_diverged = false;
+                    let expected = -alpha * (dv1 + alpha * dv2);
+                    let actual = cost - trial;
+                    let ok = if expected > 0.0 {
+                        actual / expected > s.min_reduction_ratio
+                    } else {
+                        actual > 0.0
+                    };
+                    if ok && trial <= cost {
+                        accepted = Some((alpha, trial));
+                        break;
+                    }
+                }
+                alpha *= s.line_search_factor;
+            }
+            match accepted {
+                Some((alpha, trial)) => {
+                    std::mem::swap(&mut self.xs, &mut self.xs_try);
+                    std::mem::swap(&mut self.us, &mut self.us_try);
+                    std::mem::swap(&mut self.stage, &mut self.stage_try);
+                    cost = trial;
+                    steps.push(alpha);
+                    costs.push(cost);
+                    need_derivatives = true;
+                    policy_current = false;
+                    self.decrease(&mut mu, &mut delta);
+                }
+                None => {
+                    steps.push(0.0);
+                    costs.push(cost);
+                    self.increase(&mut mu, &mut delta);
+                    if mu > s.reg_max {
+                        status = if all_diverged {
+                            DdpStatus::RolloutDiverged
+                        } else {
+                            DdpStatus::NoDescent
+                        };
+                        break;
+                    }
+                }
+            }
+        }
+        // a policy at the returned trajectory, if one was not just computed
+        if !policy_current && matches!(status, DdpStatus::MaxIterations) {
+            if need_derivatives && !self.linearise() {
+                status = DdpStatus::NonFiniteDerivatives;
+            } else {
+                loop {
+                    if self.backward(mu).is_some() {
+                        policy_current = true;
+                        break;
+                    }
+                    self.increase(&mut mu, &mut delta);
+                    if mu > s.reg_max {
+                        break;
+                    }
+                }
+            }
+        }
+        self.result(
+            status,
+            cost,
+            initial_cost,
+            costs,
+            regs,
+            steps,
+            mu,
+            iterations,
+            policy_current,
+        )
+    }
+}
