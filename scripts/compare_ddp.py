@@ -14,7 +14,9 @@ cart-pole). Crocoddyl is single-threaded (OMP_NUM_THREADS=1, problem.nthreads
 = 1) and uses its native C++ models (pinocchio free forward dynamics,
 semi-implicit IntegratedActionModelEuler, weighted-quadratic costs scaled by
 dt), the same discrete problems as ours (checked for the pendulum by
-scripts/golden/crocoddyl_golden.py). Our `ddp` runs with default settings
+scripts/golden/crocoddyl_golden.py); its weighted quadratic has a 1/2 that
+ddp's QuadraticCost does not, so the weights below are twice those of
+ddp::problems and of the unicycle in ddp's ddp_timing example. Our `ddp` runs with default settings
 (iLQR: the `pendulum` and `cartpole` rows; `pendulum-ddp` uses the pendulum's
 second derivatives). Iteration counts: Crocoddyl counts the final iteration
 whose backward pass meets its stopping test (it still takes a step); ours

@@ -1,8 +1,9 @@
 //! The crate's error type.
 
-/// Invalid input or invalid settings. A solver that stops without
-/// converging, or whose model blows up, is not an error: it returns its last
-/// good iterate with a [`DdpStatus`](crate::DdpStatus).
+/// Invalid input or invalid settings, or a user model that fails where no
+/// usable answer is left (a step of the warm start's rollout). A solver that
+/// stops without converging, or whose model blows up, is not an error: it
+/// returns its last good iterate with a [`DdpStatus`](crate::DdpStatus).
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
 #[non_exhaustive]
 pub enum DdpError {
@@ -34,6 +35,10 @@ pub enum DdpError {
         /// Why it is invalid.
         reason: String,
     },
+    /// A user-supplied model failed ([`Dynamics::step`](crate::Dynamics::step)
+    /// or [`Dynamics::derivatives`](crate::Dynamics::derivatives) returned it).
+    #[error("the model failed: {0}")]
+    Model(String),
 }
 
 /// The crate's result type.

@@ -18,22 +18,42 @@
 //! for the recursion), with a forward line search, Tassa's adaptive
 //! regularisation and box control limits (projected Newton).
 //!
-//! - [`Dynamics`]: $x_{k+1} = f(x_k, u_k)$ with $f_x, f_u$; with second
-//!   derivatives (and [`DdpSettings::second_order`]) the solver is full DDP,
-//!   without them iLQR (the default).
+//! - [`Dynamics`]: $x_{k+1} = f(x_k, u_k)$ (a fallible `step`, as
+//!   `trajopt`'s `Model`) with $f_x, f_u$ (by default central differences);
+//!   with second derivatives and [`DdpMethod::Ddp`] the solver is full DDP,
+//!   otherwise iLQR ([`DdpMethod::Ilqr`], the default).
 //! - [`Cost`]: running and terminal costs with gradients and Hessians;
-//!   [`QuadraticCost`] is a built-in tracking cost.
+//!   [`QuadraticCost`] is a built-in tracking cost, scaled as `trajopt`'s
+//!   `TrackingCost` (no $\tfrac12$).
 //! - [`DdpProblem`]: dynamics, cost, horizon, $x_0$, warm start, optional
 //!   control limits.
-//! - [`Ddp`] / [`DdpSettings`] / [`DdpResult`] / [`DdpStatus`]: the solver.
-//!   Not converging, a rollout that blows up (the paper's point 2: a
-//!   learned model integrated forward), an indefinite $Q_{uu}$ or no descent
-//!   are [`DdpStatus`] values returned with the last good, finite iterate;
-//!   `Err` ([`DdpError`]) only reports invalid input.
+//! - [`Ddp`] / [`DdpSettings`] / [`DdpResult`] / [`DdpStatus`]: the solver,
+//!   in the vocabulary of `trajopt`'s solvers (`max_iterations`, `tol_*`,
+//!   `cost`, `initial_cost`, `status`, `iterations`, `cost_evals`,
+//!   `jacobian_evals`, `solve_time`, `cost_history`). Not converging, a
+//!   rollout that blows up (the paper's point 2: a learned model integrated
+//!   forward), an indefinite $Q_{uu}$ or no descent are [`DdpStatus`] values
+//!   returned with the last good, finite iterate; `Err` ([`DdpError`]) only
+//!   reports invalid input, or a model whose warm-start rollout fails.
 //! - [`models`]: [`LinearDynamics`], [`Pendulum`], [`CartPole`];
 //!   [`problems`]: the swing-up benchmarks; `strategies` (feature
 //!   `proptest`): random linear-quadratic problems with their Riccati
-//!   solution.
+//!   solution, and `check_jacobian` (analytic derivatives against central
+//!   differences).
+//!
+//! # Layout
+//!
+//! `problem.rs` holds the traits and [`DdpProblem`], `models.rs` the
+//! built-in dynamics and cost, `problems.rs` the benchmarks; the solver is
+//! the folder `solver/`: `mod.rs` ([`Ddp`] and its outer loop),
+//! `settings.rs`, `result.rs`, `work.rs` (the buffers of one solve),
+//! `forward.rs` (rollouts), `backward.rs` (linearisation and backward pass)
+//! and `regularization.rs` ([`Regularization`] and Tassa's schedule).
+//! `linalg.rs` has the dense kernels of the backward pass and the box QP;
+//! `diff.rs` central
+//! differences; `error.rs` the error type. Modules depend downwards only:
+//! `solver` on `problem`, `linalg` and `error`; `problem` on `diff` and
+//! `error`.
 //!
 //! # Example: pendulum swing-up, then the policy and the value function
 //!
@@ -43,7 +63,7 @@
 //! let dt = 0.01;
 //! let pendulum = Pendulum { dt, ..Pendulum::default() }; // theta = 0 hangs down
 //! // reach (pi, 0): small running cost, large terminal cost
-//! let cost = QuadraticCost::diagonal(&[dt, 0.1 * dt], &[0.01 * dt], &[100.0, 10.0])?
+//! let cost = QuadraticCost::diagonal(&[0.5 * dt, 0.05 * dt], &[0.005 * dt], &[50.0, 5.0])?
 //!     .with_state_target(&[std::f64::consts::PI, 0.0])?;
 //! // 4 s from rest, zero warm start, torque below m g l: it has to pump
 //! let problem = DdpProblem::new(pendulum, cost, &[0.0, 0.0], 400)?
@@ -77,6 +97,7 @@
 //! Todorov, ICINCO 2004 (iLQR).
 #![warn(missing_docs)]
 
+mod diff;
 pub mod error;
 mod linalg;
 pub mod models;
@@ -89,4 +110,4 @@ pub mod strategies;
 pub use error::{DdpError, Result};
 pub use models::{CartPole, LinearDynamics, Pendulum, QuadraticCost};
 pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
-pub use solver::{Ddp, DdpResult, DdpSettings, DdpStatus, Regularization};
+pub use solver::{Ddp, DdpMethod, DdpResult, DdpSettings, DdpStatus, Regularization};

@@ -68,7 +68,7 @@ impl Dynamics for LinearDynamics {
     fn control_dim(&self) -> usize {
         self.m
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         for (i, out) in next.iter_mut().enumerate() {
             let ax: f64 = self.a[i * self.n..(i + 1) * self.n]
                 .iter()
@@ -82,10 +82,12 @@ impl Dynamics for LinearDynamics {
                 .sum();
             *out = ax + bu;
         }
+        Ok(())
     }
-    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
         fx.copy_from_slice(&self.a);
         fu.copy_from_slice(&self.b);
+        Ok(())
     }
     fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64], _: &mut [f64]) -> bool {
         true // all zero
@@ -93,8 +95,14 @@ impl Dynamics for LinearDynamics {
 }
 
 /// Quadratic tracking cost
-/// $$\ell(x, u, k) = \tfrac12 (x - x^r_k)^\top Q (x - x^r_k) + \tfrac12 (u - u^r_k)^\top R (u - u^r_k),
-/// \qquad \ell_f(x) = \tfrac12 (x - x^r_N)^\top Q_f (x - x^r_N).$$
+/// $$\ell(x, u, k) = (x - x^r_k)^\top Q (x - x^r_k) + (u - u^r_k)^\top R (u - u^r_k),
+/// \qquad \ell_f(x) = (x - x^r_N)^\top Q_f (x - x^r_N),$$
+/// without a factor $\tfrac12$: the scaling of `trajopt`'s `TrackingCost`
+/// ($c_k = \sum_i q_i (x_{k,i} - x^d_{k,i})^2 + \dots$), so that the same
+/// diagonal weights give the same cost in both crates. (Up to version 0.1
+/// this cost carried a $\tfrac12$; halving old weights gives exactly the
+/// old cost, optimum and value function.) Gradients $2 Q (x - x^r_k)$,
+/// Hessians $2 Q$.
 ///
 /// References default to zero; a per-step reference shorter than the
 /// horizon holds its last value. $Q$, $R$, $Q_f$ must be symmetric (not
@@ -220,7 +228,7 @@ fn check_reference(what: &'static str, reference: &[Vec<f64>], dim: usize) -> Re
     Ok(())
 }
 
-/// $\tfrac12 d^\top W d$ and, optionally, $W d$.
+/// $d^\top W d$ with $d = x - r$ and, optionally, its gradient $2 W d$.
 fn quad(w: &[f64], x: &[f64], r: &[f64], grad: Option<&mut [f64]>) -> f64 {
     let n = x.len();
     let mut value = 0.0;
@@ -236,10 +244,17 @@ fn quad(w: &[f64], x: &[f64], r: &[f64], grad: Option<&mut [f64]>) -> f64 {
     };
     for i in 0..n {
         let wd: f64 = (0..n).map(|j| w[i * n + j] * (x[j] - r[j])).sum();
-        g[i] = wd;
-        value += 0.5 * (x[i] - r[i]) * wd;
+        g[i] = 2.0 * wd;
+        value += (x[i] - r[i]) * wd;
     }
     value
+}
+
+/// `out = 2 w`.
+fn twice(w: &[f64], out: &mut [f64]) {
+    for (o, w) in out.iter_mut().zip(w) {
+        *o = 2.0 * w;
+    }
 }
 
 impl Cost for QuadraticCost {
@@ -249,15 +264,15 @@ impl Cost for QuadraticCost {
     fn running_derivatives(&self, k: usize, x: &[f64], u: &[f64], d: &mut CostDerivatives) {
         quad(&self.q, x, self.x_ref(k), Some(&mut d.lx));
         quad(&self.r, u, self.u_ref(k), Some(&mut d.lu));
-        d.lxx.copy_from_slice(&self.q);
-        d.luu.copy_from_slice(&self.r);
+        twice(&self.q, &mut d.lxx);
+        twice(&self.r, &mut d.luu);
     }
     fn terminal(&self, x: &[f64]) -> f64 {
         quad(&self.qf, x, self.x_ref_terminal(), None)
     }
     fn terminal_derivatives(&self, x: &[f64], lx: &mut [f64], lxx: &mut [f64]) {
         quad(&self.qf, x, self.x_ref_terminal(), Some(lx));
-        lxx.copy_from_slice(&self.qf);
+        twice(&self.qf, lxx);
     }
 }
 
@@ -268,7 +283,7 @@ impl Cost for QuadraticCost {
 /// $\theta_{k+1} = \theta_k + \Delta t\,\omega_{k+1}$.
 ///
 /// It has analytic second derivatives, so with
-/// [`DdpSettings::second_order`](crate::DdpSettings::second_order) DDP on it is full DDP.
+/// [`DdpMethod::Ddp`](crate::DdpMethod::Ddp) DDP on it is full DDP.
 ///
 /// | field | default |
 /// |---|---|
@@ -310,13 +325,14 @@ impl Dynamics for Pendulum {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         let ml2 = self.mass * self.length * self.length;
         let acc = (u[0] - self.damping * x[1]) / ml2 - self.gravity / self.length * x[0].sin();
         next[1] = x[1] + self.dt * acc;
         next[0] = x[0] + self.dt * next[1];
+        Ok(())
     }
-    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
         let ml2 = self.mass * self.length * self.length;
         let dt = self.dt;
         let (a_th, a_w, a_u) = (-self.gravity / self.length * x[0].cos(), -self.damping / ml2, 1.0 / ml2);
@@ -328,6 +344,7 @@ impl Dynamics for Pendulum {
         fx[0] = 1.0 + dt * fx[2];
         fx[1] = dt * fx[3];
         fu[0] = dt * fu[1];
+        Ok(())
     }
     fn second_derivatives(
         &self,
@@ -344,11 +361,13 @@ impl Dynamics for Pendulum {
     }
 }
 
-/// A cart-pole, state $(p, \theta, \dot p, \dot\theta)$ with $\theta = 0$
-/// hanging down, control the horizontal force $f$ on the cart (massless
-/// rod, point mass at its end, no friction): with
+/// A cart-pole, state $(x, \theta, \dot x, \dot\theta)$ (cart position,
+/// pole angle, then their rates: positions first, as in every model of the
+/// workspace; `trajopt` has no cart-pole) with $\theta = 0$ hanging down,
+/// control the horizontal force $f$ on the cart (massless rod, point mass
+/// at its end, no friction): with
 /// $D = m_c + m_p \sin^2\theta$,
-/// $$\ddot p = \frac{f + m_p \sin\theta\,(l \dot\theta^2 + g \cos\theta)}{D}, \qquad
+/// $$\ddot x = \frac{f + m_p \sin\theta\,(l \dot\theta^2 + g \cos\theta)}{D}, \qquad
 /// \ddot\theta = \frac{-f \cos\theta - m_p l \dot\theta^2 \cos\theta \sin\theta - (m_c + m_p) g \sin\theta}{l D},$$
 /// discretised by semi-implicit Euler (velocities first, then positions with
 /// the new velocities). First derivatives only (the solver is iLQR on it).
@@ -387,7 +406,7 @@ impl Default for CartPole {
 }
 
 impl CartPole {
-    /// Accelerations $(\ddot p, \ddot\theta)$ and their derivatives with
+    /// Accelerations $(\ddot x, \ddot\theta)$ and their derivatives with
     /// respect to $(\theta, \dot\theta, f)$.
     fn accelerations(&self, theta: f64, omega: f64, f: f64) -> ([f64; 2], [[f64; 3]; 2]) {
         let (mc, mp, l, g) = (self.cart_mass, self.pole_mass, self.length, self.gravity);
@@ -425,14 +444,15 @@ impl Dynamics for CartPole {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         let (acc, _) = self.accelerations(x[1], x[3], u[0]);
         next[2] = x[2] + self.dt * acc[0];
         next[3] = x[3] + self.dt * acc[1];
         next[0] = x[0] + self.dt * next[2];
         next[1] = x[1] + self.dt * next[3];
+        Ok(())
     }
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
         let (_, da) = self.accelerations(x[1], x[3], u[0]);
         let dt = self.dt;
         for i in 0..2 {
@@ -449,6 +469,7 @@ impl Dynamics for CartPole {
             }
             fu[i] = dt * fu[2 + i];
         }
+        Ok(())
     }
 }
 
@@ -462,7 +483,7 @@ mod tests {
         let b = Mat::from_fn(2, 1, |i, _| [0.0, 0.1][i]);
         let f = LinearDynamics::new(&a, &b).expect("valid");
         let mut next = [0.0; 2];
-        f.step(&[1.0, 2.0], &[3.0], &mut next);
+        f.step(&[1.0, 2.0], &[3.0], &mut next).expect("step");
         assert_eq!(next, [1.2, 2.3]);
         assert!(LinearDynamics::new(&a, &Mat::zeros(3, 1)).is_err());
         assert_eq!(f.a(), a);
@@ -475,19 +496,48 @@ mod tests {
             .expect("valid")
             .with_state_target(&[1.0, 0.0])
             .expect("valid");
-        assert_eq!(c.running(0, &[2.0, 5.0], &[1.0]), 0.5 * 2.0 + 0.5 * 4.0);
-        assert_eq!(c.terminal(&[0.0, 1.0]), 0.5 * 6.0 * 2.0);
+        // no 1/2: q (x - x^r)^2 + r u^2, as trajopt's TrackingCost
+        assert_eq!(c.running(0, &[2.0, 5.0], &[1.0]), 2.0 + 4.0);
+        assert_eq!(c.terminal(&[0.0, 1.0]), 6.0 * 2.0);
         let asym = Mat::from_fn(2, 2, |i, j| if i < j { 1.0 } else { 0.0 });
         assert!(QuadraticCost::new(&asym, &Mat::identity(1, 1), &Mat::identity(2, 2)).is_err());
         assert!(c.clone().with_state_reference(vec![]).is_err());
         assert!(c.with_control_reference(vec![vec![f64::NAN]]).is_err());
     }
 
+    /// Halved weights give exactly (bit for bit) the cost, gradient and
+    /// Hessian of the former $\tfrac12$-scaled cost, which callers rely on
+    /// to keep their optimum.
+    #[test]
+    fn halved_weights_reproduce_the_former_half_scaled_cost_exactly() {
+        let q = Mat::from_fn(2, 2, |i, j| [[3.0, 0.7], [0.7, 0.1]][i][j]);
+        let r = Mat::from_fn(1, 1, |_, _| 0.01 * 0.01);
+        let half = |a: &Mat<f64>| Mat::from_fn(a.nrows(), a.ncols(), |i, j| 0.5 * a[(i, j)]);
+        let c = QuadraticCost::new(&half(&q), &half(&r), &half(&q))
+            .expect("valid")
+            .with_state_target(&[std::f64::consts::PI, 0.0])
+            .expect("valid");
+        let (x, u) = ([0.3, -1.7], [2.5]);
+        let d = [x[0] - std::f64::consts::PI, x[1]];
+        let qd = [q[(0, 0)] * d[0] + q[(0, 1)] * d[1], q[(1, 0)] * d[0] + q[(1, 1)] * d[1]];
+        // the former implementation: sum_i 1/2 d_i (W d)_i, gradient W d, Hessian W
+        let former_state = 0.5 * d[0] * qd[0] + 0.5 * d[1] * qd[1];
+        let former_control = 0.5 * u[0] * (r[(0, 0)] * u[0]);
+        assert_eq!(c.running(0, &x, &u), former_state + former_control);
+        assert_eq!(c.terminal(&x), former_state);
+        let mut der = CostDerivatives::zeros(2, 1);
+        c.running_derivatives(0, &x, &u, &mut der);
+        assert_eq!(der.lx, qd.to_vec());
+        assert_eq!(der.lu, vec![r[(0, 0)] * u[0]]);
+        assert_eq!(der.lxx, vec![3.0, 0.7, 0.7, 0.1]);
+        assert_eq!(der.luu, vec![r[(0, 0)]]);
+    }
+
     #[test]
     fn pendulum_falls_under_gravity() {
         let p = Pendulum::default();
         let mut next = [0.0; 2];
-        p.step(&[1.0, 0.0], &[0.0], &mut next);
+        p.step(&[1.0, 0.0], &[0.0], &mut next).expect("step");
         assert!(next[1] < 0.0 && next[0] < 1.0);
     }
 
@@ -495,9 +545,9 @@ mod tests {
     fn cartpole_rests_hanging_down() {
         let c = CartPole::default();
         let mut next = [0.0; 4];
-        c.step(&[0.5, 0.0, 0.0, 0.0], &[0.0], &mut next);
+        c.step(&[0.5, 0.0, 0.0, 0.0], &[0.0], &mut next).expect("step");
         assert_eq!(next, [0.5, 0.0, 0.0, 0.0]);
-        c.step(&[0.0, 0.0, 0.0, 0.0], &[1.0], &mut next);
+        c.step(&[0.0, 0.0, 0.0, 0.0], &[1.0], &mut next).expect("step");
         assert!(next[2] > 0.0 && next[3] < 0.0, "{next:?}");
     }
 }

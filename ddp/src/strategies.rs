@@ -1,15 +1,17 @@
 //! [proptest] strategies generating random stabilisable linear-quadratic
 //! problems with their discrete Riccati solution (feature `proptest`), so
 //! users can property-test their own DDP / iLQR against ours on the same
-//! work. The crate's own tests use them.
+//! work, and [`check_jacobian`] / [`check_dynamics`], which compare analytic
+//! derivatives with central differences. The crate's own tests use them.
 
 use faer::Mat;
 use faer::linalg::solvers::Solve;
 use proptest::collection::vec;
 use proptest::prelude::*;
 
+use crate::error::{DdpError, Result, check_len};
 use crate::models::{LinearDynamics, QuadraticCost};
-use crate::problem::DdpProblem;
+use crate::problem::{DdpProblem, Dynamics};
 
 /// A finite-horizon linear-quadratic problem
 /// $\min \sum_{k<N} \tfrac12 (x_k^\top Q x_k + u_k^\top R u_k) + \tfrac12 x_N^\top Q_f x_N$,
@@ -35,13 +37,16 @@ pub struct LqProblem {
 }
 
 impl LqProblem {
-    /// The problem as a [`DdpProblem`] warm-started with zero controls.
+    /// The problem as a [`DdpProblem`] warm-started with zero controls (its
+    /// [`QuadraticCost`] weights are $Q/2$, $R/2$, $Q_f/2$).
     ///
     /// # Panics
     /// Never for strategy output (the data is valid by construction).
     pub fn to_ddp_problem(&self) -> DdpProblem<LinearDynamics, QuadraticCost> {
         let dynamics = LinearDynamics::new(&self.a, &self.b).expect("valid by construction");
-        let cost = QuadraticCost::new(&self.q, &self.r, &self.qf).expect("valid by construction");
+        // QuadraticCost has no 1/2: half the weights
+        let half = |w: &Mat<f64>| Mat::from_fn(w.nrows(), w.ncols(), |i, j| 0.5 * w[(i, j)]);
+        let cost = QuadraticCost::new(&half(&self.q), &half(&self.r), &half(&self.qf)).expect("valid by construction");
         DdpProblem::new(dynamics, cost, &self.x0, self.horizon).expect("valid by construction")
     }
 }
@@ -159,4 +164,114 @@ pub fn lq_problem(max_n: usize, max_m: usize, max_horizon: usize) -> impl Strate
                 riccati,
             }
         })
+}
+
+/// The worst disagreement between an analytic Jacobian and central
+/// differences, found by [`check_jacobian`].
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct JacobianCheck {
+    /// The largest relative error
+    /// $\lvert a_{ij} - d_{ij} \rvert / \max(1, \lvert d_{ij} \rvert)$ over
+    /// all entries ($a$ analytic, $d$ central difference): relative for
+    /// large entries, absolute for small ones; infinite where either is NaN.
+    /// 0 for an empty Jacobian.
+    pub max_rel_error: f64,
+    /// Row (output) of the worst entry.
+    pub row: usize,
+    /// Column (input) of the worst entry.
+    pub col: usize,
+    /// The analytic value there.
+    pub analytic: f64,
+    /// The central difference there.
+    pub numeric: f64,
+}
+
+/// Compares the analytic Jacobian `analytic` ($q \times p$, row-major) of
+/// $f: \mathbb{R}^p \to \mathbb{R}^q$ at `z` with central differences
+/// $(f(z + h e_j) - f(z - h e_j)) / 2h$,
+/// $h = \sqrt[3]{\epsilon} \max(1, \lvert z_j \rvert)$ (the step of the
+/// default [`Dynamics::derivatives`]), and returns the worst entry. For
+/// smooth $f$ of unit scale the differences are accurate to about
+/// $10^{-10}$, so a correct Jacobian gives `max_rel_error` below $10^{-6}$
+/// and a wrong entry typically above $10^{-3}$.
+///
+/// ```
+/// use ddp::strategies::check_jacobian;
+/// // f(z) = (z0 z1, sin z0): J = [[z1, z0], [cos z0, 0]]
+/// let z = [0.3, -2.0];
+/// let f = |z: &[f64]| vec![z[0] * z[1], z[0].sin()];
+/// let good = check_jacobian(f, &z, &[-2.0, 0.3, 0.3f64.cos(), 0.0])?;
+/// assert!(good.max_rel_error < 1e-8);
+/// let bad = check_jacobian(f, &z, &[-2.0, 0.3, 0.3f64.sin(), 0.0])?;
+/// assert_eq!((bad.row, bad.col), (1, 0));
+/// # Ok::<(), ddp::DdpError>(())
+/// ```
+///
+/// # Errors
+/// `analytic` not of length $q p$ (with $q$ the length of $f(z)$), or `f`
+/// returning outputs of different lengths.
+pub fn check_jacobian(mut f: impl FnMut(&[f64]) -> Vec<f64>, z: &[f64], analytic: &[f64]) -> Result<JacobianCheck> {
+    let p = z.len();
+    let q = f(z).len();
+    check_len("analytic Jacobian", q * p, analytic.len())?;
+    let mut numeric = vec![0.0; q * p];
+    let mut scratch = vec![0.0; p + 2 * q];
+    crate::diff::central_jacobian(
+        |z, out| {
+            let v = f(z);
+            check_len("f(z)", out.len(), v.len())?;
+            out.copy_from_slice(&v);
+            Ok(())
+        },
+        z,
+        q,
+        &mut numeric,
+        &mut scratch,
+    )?;
+    let mut worst = JacobianCheck {
+        max_rel_error: 0.0,
+        row: 0,
+        col: 0,
+        analytic: analytic.first().copied().unwrap_or(0.0),
+        numeric: numeric.first().copied().unwrap_or(0.0),
+    };
+    for (k, (&a, &d)) in analytic.iter().zip(&numeric).enumerate() {
+        // a NaN on either side counts as an infinite error
+        let err = (a - d).abs() / d.abs().max(1.0);
+        let err = if err.is_nan() { f64::INFINITY } else { err };
+        if err > worst.max_rel_error {
+            worst = JacobianCheck {
+                max_rel_error: err,
+                row: k / p,
+                col: k % p,
+                analytic: a,
+                numeric: d,
+            };
+        }
+    }
+    Ok(worst)
+}
+
+/// [`check_jacobian`] for both Jacobians of `dynamics` at $(x, u)$: returns
+/// the checks of $f_x$ and $f_u$ as written by [`Dynamics::derivatives`].
+///
+/// # Errors
+/// Wrong-sized `x` or `u`, or a failed step or derivative of the dynamics.
+pub fn check_dynamics<D: Dynamics>(dynamics: &D, x: &[f64], u: &[f64]) -> Result<(JacobianCheck, JacobianCheck)> {
+    let (n, m) = (dynamics.state_dim(), dynamics.control_dim());
+    check_len("x", n, x.len())?;
+    check_len("u", m, u.len())?;
+    let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
+    dynamics.derivatives(x, u, &mut fx, &mut fu)?;
+    let step = |x: &[f64], u: &[f64]| -> Result<Vec<f64>> {
+        let mut next = vec![0.0; n];
+        dynamics.step(x, u, &mut next)?;
+        Ok(next)
+    };
+    step(x, u)?;
+    // a step that fails at a perturbed point is reported as NaN output
+    let or_nan = |r: Result<Vec<f64>>| r.unwrap_or_else(|_: DdpError| vec![f64::NAN; n]);
+    let cx = check_jacobian(|z| or_nan(step(z, u)), x, &fx)?;
+    let cu = check_jacobian(|z| or_nan(step(x, z)), u, &fu)?;
+    Ok((cx, cu))
 }

@@ -1,7 +1,10 @@
 //! The paper's point 2: integrating a learned model forward can blow up.
 //! The solver reports it as a status and never returns NaNs.
 
-use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpResult, DdpSettings, DdpStatus, Dynamics, QuadraticCost};
+use ddp::{
+    Cost, CostDerivatives, Ddp, DdpError, DdpProblem, DdpResult, DdpSettings, DdpStatus, Dynamics, QuadraticCost,
+    Result,
+};
 
 /// $x_{k+1} = a x_k + u_k$ in one dimension, optionally lying about its
 /// derivatives or exploding outside $|x| < r$.
@@ -20,11 +23,12 @@ impl Dynamics for Scalar {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         let out = (x[0].abs() - self.radius).max(0.0);
         next[0] = self.a * x[0] + u[0] + (out * 50.0).exp() - 1.0;
+        Ok(())
     }
-    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
         let out = (x[0].abs() - self.radius).max(0.0);
         fx[0] = self.a
             + if out > 0.0 {
@@ -33,11 +37,13 @@ impl Dynamics for Scalar {
                 0.0
             };
         fu[0] = self.reported_fu;
+        Ok(())
     }
 }
 
+/// $\tfrac12 (x - target)^2 + \tfrac{r}{2} u^2$ per step, $5 (x_N - target)^2$ at the end.
 fn tracking(target: f64, r: f64) -> QuadraticCost {
-    QuadraticCost::diagonal(&[1.0], &[r], &[10.0])
+    QuadraticCost::diagonal(&[0.5], &[0.5 * r], &[5.0])
         .expect("cost")
         .with_state_target(&[target])
         .expect("target")
@@ -52,7 +58,7 @@ fn assert_no_nans(r: &DdpResult) {
         .chain(r.feedforward.iter().flatten())
         .chain(r.value_gradient.iter().flatten())
         .chain(&r.value)
-        .chain(&r.costs);
+        .chain(&r.cost_history);
     for v in all {
         assert!(!v.is_nan());
     }
@@ -123,7 +129,7 @@ fn a_model_exploding_outside_its_data_is_never_exploited_into_nans() {
         .solve(&problem)
         .expect("solve");
     assert_no_nans(&r);
-    assert!(r.costs.windows(2).all(|w| w[1] <= w[0]));
+    assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
     assert!(r.cost < r.initial_cost);
     assert!(r.states.iter().flatten().all(|x| x.abs() < 2.0), "{:?}", r.states);
     // the optimiser keeps pushing towards the target; every trial rollout beyond the region blows up
@@ -155,7 +161,7 @@ fn an_indefinite_cost_ends_in_not_positive_definite() {
         radius: f64::INFINITY,
     };
     // concave in u, and the regularisation may not exceed 1
-    let cost = QuadraticCost::diagonal(&[1.0], &[-1e3], &[1.0]).expect("cost");
+    let cost = QuadraticCost::diagonal(&[0.5], &[-0.5e3], &[0.5]).expect("cost");
     let problem = DdpProblem::new(model, cost, &[1.0], 10).expect("problem");
     let settings = DdpSettings {
         reg_max: 1.0,
@@ -217,12 +223,14 @@ impl Dynamics for OnlyKnowsZero {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
         next[0] = if u[0] == 0.0 { x[0] } else { f64::INFINITY };
+        Ok(())
     }
-    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
         fx[0] = 1.0;
         fu[0] = 1.0;
+        Ok(())
     }
 }
 
@@ -237,4 +245,102 @@ fn every_trial_rollout_blowing_up_is_rollout_diverged() {
     assert_eq!(r.cost, r.initial_cost);
     assert!(r.states.iter().flatten().all(|x| *x == 0.0));
     assert_no_nans(&r);
+}
+
+/// A model $x_{k+1} = x_k + u_k$ that refuses (returns an error) outside
+/// $|x| \le 1$.
+struct Refuses;
+
+impl Dynamics for Refuses {
+    fn state_dim(&self) -> usize {
+        1
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        if x[0].abs() > 1.0 {
+            return Err(DdpError::Model(format!("no data at x = {}", x[0])));
+        }
+        next[0] = x[0] + u[0];
+        Ok(())
+    }
+    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+        fx[0] = 1.0;
+        fu[0] = 1.0;
+        Ok(())
+    }
+}
+
+/// [`Refuses`] with the trait's default (central-difference) Jacobians.
+struct RefusesDifferenced;
+
+impl Dynamics for RefusesDifferenced {
+    fn state_dim(&self) -> usize {
+        1
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        Refuses.step(x, u, next)
+    }
+}
+
+#[test]
+fn a_failed_step_in_the_line_search_is_a_diverged_trial() {
+    // the target lies outside the region where the model answers
+    let problem = DdpProblem::new(Refuses, tracking(5.0, 1e-3), &[0.0], 30).expect("problem");
+    let r = Ddp::new(DdpSettings::default())
+        .expect("settings")
+        .solve(&problem)
+        .expect("the warm start's rollout succeeds");
+    assert_no_nans(&r);
+    assert!(r.cost < r.initial_cost, "{} vs {}", r.cost, r.initial_cost);
+    assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
+    // every returned state is one the model answered for (it may step from
+    // x = 1 to beyond it only at the last step)
+    assert!(
+        r.states[..30].iter().flatten().all(|x| x.abs() <= 1.0),
+        "{:?}",
+        r.states
+    );
+    assert_eq!(r.status, DdpStatus::RolloutDiverged);
+}
+
+#[test]
+fn a_failed_step_in_the_warm_start_is_an_error() {
+    let problem = DdpProblem::new(Refuses, tracking(0.0, 1e-3), &[0.5], 10)
+        .expect("problem")
+        .with_initial_controls(vec![vec![1.0]; 10])
+        .expect("controls");
+    let e = Ddp::new(DdpSettings::default())
+        .expect("settings")
+        .solve(&problem)
+        .expect_err("x leaves the model's region at step 1");
+    assert!(matches!(e, DdpError::Model(ref m) if m.contains("x = 1.5")), "{e}");
+    assert!(problem.rollout_cost(problem.initial_controls()).is_err());
+}
+
+#[test]
+fn default_derivatives_let_ddp_solve_a_tracking_problem() {
+    // inside the model's region the default (differenced) Jacobians are exact
+    let problem = DdpProblem::new(RefusesDifferenced, tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
+    let r = Ddp::new(DdpSettings::default())
+        .expect("settings")
+        .solve(&problem)
+        .expect("solve");
+    assert_eq!(r.status, DdpStatus::Converged);
+    // a linear-quadratic problem: one Newton step, the same plan as with
+    // the analytic Jacobians
+    assert!(r.iterations <= 2, "{} iterations", r.iterations);
+    let exact = DdpProblem::new(Refuses, tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
+    let r_exact = Ddp::new(DdpSettings::default())
+        .expect("settings")
+        .solve(&exact)
+        .expect("solve");
+    assert!((r.cost - r_exact.cost).abs() <= 1e-9 * r_exact.cost);
+    for (a, b) in r.controls.iter().zip(&r_exact.controls) {
+        assert!((a[0] - b[0]).abs() < 1e-7, "{a:?} vs {b:?}");
+    }
 }

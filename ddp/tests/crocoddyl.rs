@@ -2,7 +2,7 @@
 //! data from `scripts/golden/crocoddyl_golden.py`).
 
 use ddp::problems::pendulum_swingup;
-use ddp::{Ddp, DdpSettings, DdpStatus};
+use ddp::{Ddp, DdpMethod, DdpSettings, DdpStatus};
 
 fn golden() -> serde_json::Value {
     let path = concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/crocoddyl_pendulum.json");
@@ -32,16 +32,16 @@ fn pendulum_swingup_matches_crocoddyl() {
         "{ours_of_theirs} vs {croc_cost}"
     );
 
-    for second_order in [true, false] {
+    for method in [DdpMethod::Ddp, DdpMethod::Ilqr] {
         let settings = DdpSettings {
-            second_order,
+            method,
             ..DdpSettings::default()
         };
         let r = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
         assert_eq!(r.status, DdpStatus::Converged);
         assert!(
             (r.cost - croc_cost).abs() <= 1e-6 * croc_cost,
-            "second_order={second_order}: {} vs Crocoddyl {croc_cost}",
+            "{method:?}: {} vs Crocoddyl {croc_cost}",
             r.cost
         );
         let du = r

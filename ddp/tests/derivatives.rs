@@ -1,53 +1,24 @@
 //! Analytic derivatives of the built-in costs and dynamics equal central
-//! differences.
+//! differences ([`ddp::strategies::check_jacobian`]), and the default
+//! finite-difference derivatives of [`Dynamics`] equal the analytic ones.
 
-use ddp::{CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost};
+use ddp::strategies::{JacobianCheck, check_dynamics, check_jacobian};
+use ddp::{CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result};
 use faer::Mat;
 use proptest::collection::vec;
 use proptest::prelude::*;
 
-const H: f64 = 1e-6;
-
-/// Central-difference Jacobian of `f: R^p -> R^q` at `z` (row-major q x p).
-fn jacobian(f: impl Fn(&[f64]) -> Vec<f64>, z: &[f64]) -> Vec<f64> {
-    let p = z.len();
-    let q = f(z).len();
-    let mut jac = vec![0.0; q * p];
-    for j in 0..p {
-        let (mut zp, mut zm) = (z.to_vec(), z.to_vec());
-        zp[j] += H;
-        zm[j] -= H;
-        let (fp, fm) = (f(&zp), f(&zm));
-        for i in 0..q {
-            jac[i * p + j] = (fp[i] - fm[i]) / (2.0 * H);
-        }
-    }
-    jac
-}
-
-fn assert_close(what: &str, analytic: &[f64], numeric: &[f64], tol: f64) -> Result<(), TestCaseError> {
-    prop_assert_eq!(analytic.len(), numeric.len());
-    for (i, (a, b)) in analytic.iter().zip(numeric).enumerate() {
-        prop_assert!(
-            (a - b).abs() <= tol * (1.0 + b.abs()),
-            "{what}[{i}]: analytic {a}, numeric {b}"
-        );
-    }
+fn assert_close(what: &str, check: JacobianCheck, tol: f64) -> Result<(), TestCaseError> {
+    prop_assert!(check.max_rel_error <= tol, "{what}: {check:?}");
     Ok(())
 }
 
 /// Checks `derivatives` (and `second_derivatives` if provided) of `f` at `(x, u)`.
-fn check_dynamics<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<(), TestCaseError> {
+fn check_model<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<(), TestCaseError> {
     let (n, m) = (f.state_dim(), f.control_dim());
-    let step = |x: &[f64], u: &[f64]| {
-        let mut next = vec![0.0; n];
-        f.step(x, u, &mut next);
-        next
-    };
-    let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
-    f.derivatives(x, u, &mut fx, &mut fu);
-    assert_close("fx", &fx, &jacobian(|z| step(z, u), x), 1e-6)?;
-    assert_close("fu", &fu, &jacobian(|z| step(x, z), u), 1e-6)?;
+    let (cx, cu) = check_dynamics(f, x, u).expect("sizes");
+    assert_close("fx", cx, 1e-7)?;
+    assert_close("fu", cu, 1e-7)?;
     let (mut hxx, mut hux, mut huu) = (vec![0.0; n * n], vec![0.0; m * n], vec![0.0; m * m]);
     if f.second_derivatives(x, u, v, &mut hxx, &mut hux, &mut huu) {
         // d/dx (v^T f_x), d/dx (v^T f_u), d/du (v^T f_u)
@@ -56,22 +27,63 @@ fn check_dynamics<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result
                 .map(|j| (0..n).map(|i| v[i] * a[i * cols + j]).sum())
                 .collect()
         };
-        let vfx = |x: &[f64], u: &[f64]| {
+        let vfx = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) {
             let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
-            f.derivatives(x, u, &mut fx, &mut fu);
+            f.derivatives(x, u, &mut fx, &mut fu).expect("derivatives");
             (vt(&fx, n), vt(&fu, m))
         };
-        assert_close("fxx", &hxx, &jacobian(|z| vfx(z, u).0, x), 1e-5)?;
-        assert_close("fux", &hux, &jacobian(|z| vfx(z, u).1, x), 1e-5)?;
-        assert_close("fuu", &huu, &jacobian(|z| vfx(x, z).1, u), 1e-5)?;
+        assert_close("fxx", check_jacobian(|z| vfx(z, u).0, x, &hxx).expect("sizes"), 1e-6)?;
+        assert_close("fux", check_jacobian(|z| vfx(z, u).1, x, &hux).expect("sizes"), 1e-6)?;
+        assert_close("fuu", check_jacobian(|z| vfx(x, z).1, u, &huu).expect("sizes"), 1e-6)?;
     }
     Ok(())
+}
+
+/// The pendulum without its analytic derivatives: the trait's defaults.
+struct DifferencedPendulum(Pendulum);
+
+impl Dynamics for DifferencedPendulum {
+    fn state_dim(&self) -> usize {
+        2
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        self.0.step(x, u, next)
+    }
 }
 
 fn sym(n: usize, e: &[f64], shift: f64) -> Mat<f64> {
     Mat::from_fn(n, n, |i, j| {
         e[i.min(j) * n + i.max(j)] + if i == j { shift } else { 0.0 }
     })
+}
+
+#[test]
+fn check_jacobian_finds_a_wrong_entry_and_rejects_wrong_sizes() {
+    let p = Pendulum::default();
+    let (x, u) = ([0.4, -1.0], [0.5]);
+    let (mut fx, mut fu) = ([0.0; 4], [0.0; 2]);
+    p.derivatives(&x, &u, &mut fx, &mut fu).expect("derivatives");
+    let step = |z: &[f64]| {
+        let mut next = vec![0.0; 2];
+        p.step(z, &u, &mut next).expect("step");
+        next
+    };
+    assert!(check_jacobian(step, &x, &fx).expect("sizes").max_rel_error < 1e-8);
+    fx[2] += 1e-3;
+    let bad = check_jacobian(step, &x, &fx).expect("sizes");
+    assert_eq!((bad.row, bad.col), (1, 0));
+    assert!((bad.max_rel_error - 1e-3).abs() < 1e-6, "{bad:?}");
+    assert_eq!(bad.analytic, fx[2]);
+    assert!(check_jacobian(step, &x, &fx[..3]).is_err());
+    fx[2] = f64::NAN;
+    assert_eq!(
+        check_jacobian(step, &x, &fx).expect("sizes").max_rel_error,
+        f64::INFINITY
+    );
+    assert!(check_dynamics(&p, &[0.0], &u).is_err());
 }
 
 proptest! {
@@ -81,12 +93,26 @@ proptest! {
     fn pendulum_derivatives(x in vec(-4.0..4.0f64, 2), u in vec(-5.0..5.0f64, 1), v in vec(-3.0..3.0f64, 2),
                             damping in 0.0..0.5f64, mass in 0.5..2.0f64) {
         let p = Pendulum { damping, mass, dt: 0.05, ..Pendulum::default() };
-        check_dynamics(&p, &x, &u, &v)?;
+        check_model(&p, &x, &u, &v)?;
     }
 
     #[test]
     fn cartpole_derivatives(x in vec(-3.0..3.0f64, 4), u in vec(-10.0..10.0f64, 1)) {
-        check_dynamics(&CartPole { dt: 0.05, ..CartPole::default() }, &x, &u, &[0.0; 4])?;
+        check_model(&CartPole { dt: 0.05, ..CartPole::default() }, &x, &u, &[0.0; 4])?;
+    }
+
+    /// The default `derivatives` (central differences of `step`) equal the
+    /// analytic Jacobians.
+    #[test]
+    fn default_derivatives_are_central_differences(x in vec(-4.0..4.0f64, 2), u in vec(-5.0..5.0f64, 1)) {
+        let p = Pendulum { damping: 0.1, dt: 0.05, ..Pendulum::default() };
+        let (mut fx, mut fu) = ([0.0; 4], [0.0; 2]);
+        p.derivatives(&x, &u, &mut fx, &mut fu).expect("analytic");
+        let (mut dx, mut du) = ([0.0; 4], [0.0; 2]);
+        DifferencedPendulum(p).derivatives(&x, &u, &mut dx, &mut du).expect("differences");
+        for (a, d) in fx.iter().chain(&fu).zip(dx.iter().chain(&du)) {
+            prop_assert!((a - d).abs() <= 1e-8 * a.abs().max(1.0), "{fx:?} {fu:?} vs {dx:?} {du:?}");
+        }
     }
 
     #[test]
@@ -105,24 +131,27 @@ proptest! {
         let (x, u) = (&x[..n], &u[..m]);
         let mut d = CostDerivatives::zeros(n, m);
         cost.running_derivatives(k, x, u, &mut d);
-        assert_close("lx", &d.lx, &jacobian(|z| vec![cost.running(k, z, u)], x), 1e-6)?;
-        assert_close("lu", &d.lu, &jacobian(|z| vec![cost.running(k, x, z)], u), 1e-6)?;
+        let check = |what, f: &dyn Fn(&[f64]) -> Vec<f64>, z: &[f64], analytic: &[f64]| {
+            assert_close(what, check_jacobian(f, z, analytic).expect("sizes"), 1e-7)
+        };
+        check("lx", &|z| vec![cost.running(k, z, u)], x, &d.lx)?;
+        check("lu", &|z| vec![cost.running(k, x, z)], u, &d.lu)?;
         let grads = |x: &[f64], u: &[f64]| {
             let mut d = CostDerivatives::zeros(n, m);
             cost.running_derivatives(k, x, u, &mut d);
             d
         };
-        assert_close("lxx", &d.lxx, &jacobian(|z| grads(z, u).lx, x), 1e-6)?;
-        assert_close("luu", &d.luu, &jacobian(|z| grads(x, z).lu, u), 1e-6)?;
-        assert_close("lux", &d.lux, &jacobian(|z| grads(z, u).lu, x), 1e-6)?;
+        check("lxx", &|z| grads(z, u).lx, x, &d.lxx)?;
+        check("luu", &|z| grads(x, z).lu, u, &d.luu)?;
+        check("lux", &|z| grads(z, u).lu, x, &d.lux)?;
         let (mut lx, mut lxx) = (vec![0.0; n], vec![0.0; n * n]);
         cost.terminal_derivatives(x, &mut lx, &mut lxx);
-        assert_close("lfx", &lx, &jacobian(|z| vec![cost.terminal(z)], x), 1e-6)?;
+        check("lfx", &|z| vec![cost.terminal(z)], x, &lx)?;
         let tgrad = |z: &[f64]| {
             let (mut g, mut h) = (vec![0.0; n], vec![0.0; n * n]);
             cost.terminal_derivatives(z, &mut g, &mut h);
             g
         };
-        assert_close("lfxx", &lxx, &jacobian(tgrad, x), 1e-6)?;
+        check("lfxx", &tgrad, x, &lxx)?;
     }
 }

@@ -3,7 +3,7 @@
 
 use ddp::problems::{cartpole_swingup, pendulum_swingup};
 use ddp::strategies::lq_problem;
-use ddp::{Ddp, DdpProblem, DdpSettings, DdpStatus, Pendulum, QuadraticCost, Regularization};
+use ddp::{Ddp, DdpMethod, DdpProblem, DdpSettings, DdpStatus, Pendulum, QuadraticCost, Regularization};
 use proptest::prelude::*;
 
 fn assert_finite(r: &ddp::DdpResult) {
@@ -20,26 +20,26 @@ fn assert_finite(r: &ddp::DdpResult) {
 fn pendulum_swingup_converges_with_ddp_and_ilqr_to_the_same_optimum() {
     let problem = pendulum_swingup(300).expect("problem");
     let mut costs = Vec::new();
-    for second_order in [true, false] {
+    for method in [DdpMethod::Ddp, DdpMethod::Ilqr] {
         for regularization in [Regularization::State, Regularization::Control] {
             let settings = DdpSettings {
-                second_order,
+                method,
                 regularization,
                 ..DdpSettings::default()
             };
             let r = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
-            assert_eq!(
-                r.status,
-                DdpStatus::Converged,
-                "second_order={second_order} {regularization:?}"
-            );
-            assert_eq!(r.second_order, second_order);
+            assert_eq!(r.status, DdpStatus::Converged, "{method:?} {regularization:?}");
+            assert_eq!(r.method, method);
             let last = &r.states[300];
             assert!(
                 (last[0] - std::f64::consts::PI).abs() < 1e-2 && last[1].abs() < 1e-2,
                 "{last:?}"
             );
-            assert_eq!(r.costs.len(), r.iterations + 1);
+            assert_eq!(r.cost_history.len(), r.iterations + 1);
+            // one linearisation at the warm start and one after each accepted step
+            let accepted = r.step_sizes.iter().filter(|&&a| a > 0.0).count();
+            assert_eq!(r.jacobian_evals, accepted + 1);
+            assert!(r.cost_evals > r.iterations, "{} rollouts", r.cost_evals);
             assert_eq!(r.step_sizes.len(), r.iterations);
             assert_eq!(r.regularizations.len(), r.iterations);
             assert_eq!(r.gains.len(), 300);
@@ -64,7 +64,7 @@ fn cartpole_swingup_decreases_the_cost_monotonically() {
         .solve(&cartpole_swingup(100).expect("problem"))
         .expect("solve");
     assert_eq!(r.status, DdpStatus::Converged);
-    assert!(r.costs.windows(2).all(|w| w[1] <= w[0]));
+    assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
     assert!(r.cost < 0.02 * r.initial_cost);
 }
 
@@ -112,7 +112,7 @@ fn control_limits_are_respected_on_the_swingup() {
         r.controls.iter().any(|u| u[0].abs() == limit),
         "the limit should be active"
     );
-    assert!(r.costs.windows(2).all(|w| w[1] <= w[0]));
+    assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
     let last = &r.states[400];
     assert!((last[0] - std::f64::consts::PI).abs() < 0.05, "{last:?}");
     // controls clamped by the box QP get no feedback (Tassa et al. 2014)
@@ -147,16 +147,17 @@ proptest! {
     /// The cost never increases over accepted iterations (random pendulum problems).
     #[test]
     fn cost_never_increases(theta0 in -3.0..3.0f64, omega0 in -3.0..3.0f64, horizon in 20..200usize,
-                            r in 1e-4..1e-1f64, damping in 0.0..0.5f64, second_order: bool) {
-        let cost = QuadraticCost::diagonal(&[0.01, 0.001], &[r * 0.01], &[50.0, 5.0])
+                            r in 1e-4..1e-1f64, damping in 0.0..0.5f64, full_ddp: bool) {
+        let cost = QuadraticCost::diagonal(&[0.005, 0.0005], &[r * 0.005], &[25.0, 2.5])
             .expect("cost")
             .with_state_target(&[std::f64::consts::PI, 0.0])
             .expect("target");
         let dynamics = Pendulum { damping, ..Pendulum::default() };
         let problem = DdpProblem::new(dynamics, cost, &[theta0, omega0], horizon).expect("problem");
-        let settings = DdpSettings { second_order, max_iterations: 50, ..DdpSettings::default() };
+        let method = if full_ddp { DdpMethod::Ddp } else { DdpMethod::Ilqr };
+        let settings = DdpSettings { method, max_iterations: 50, ..DdpSettings::default() };
         let res = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
-        prop_assert!(res.costs.windows(2).all(|w| w[1] <= w[0]), "{:?}", res.costs);
+        prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]), "{:?}", res.cost_history);
         prop_assert!(res.cost <= res.initial_cost);
         let recomputed = problem.rollout_cost(&res.controls).expect("rollout");
         prop_assert!((recomputed - res.cost).abs() <= 1e-9 * res.cost.max(1.0));

@@ -20,6 +20,10 @@ The problem is built from Crocoddyl's own C++ models, matching ours exactly:
   1/2 (theta - pi)^2 + 0.1/2 omega^2 + 0.01/2 u^2 becomes ours,
   dt [1/2 (theta - pi)^2 + 0.1/2 omega^2 + 0.01/2 u^2];
   the terminal cost 100/2 (theta - pi)^2 + 10/2 omega^2 is not scaled.
+  Crocoddyl's ActivationModelWeightedQuad is 1/2 r^T W r while ddp's
+  QuadraticCost, like trajopt's TrackingCost, has no 1/2: the weights here
+  (W) are twice the QuadraticCost weights of ddp::problems (dt (0.5, 0.05),
+  dt 0.005, (50, 5)); the costs are the same.
 The script checks that gravity acts and that the discretisation matches by
 rolling out a control sequence both with Crocoddyl and with a direct numpy
 implementation of our step.

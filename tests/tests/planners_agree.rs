@@ -18,11 +18,12 @@ fn matrices() -> (Mat<f64>, Mat<f64>) {
     (a, b)
 }
 
-/// DDP's optimum: cost 0.5 x'Qx + 0.5 u'Ru summed, plus 0.5 x_N' Qf x_N.
+/// DDP's optimum: cost x'Qx + u'Ru summed, plus x_N' Qf x_N (no 1/2 in
+/// either crate's quadratic cost).
 fn ddp_plan() -> (f64, Vec<Vec<f64>>, Vec<Vec<f64>>) {
     let (a, b) = matrices();
     let dynamics = ddp::models::LinearDynamics::new(&a, &b).expect("valid");
-    let cost = ddp::models::QuadraticCost::diagonal(&[1.0, 0.1], &[0.01], &[10.0, 10.0]).expect("valid");
+    let cost = ddp::models::QuadraticCost::diagonal(&[0.5, 0.05], &[0.005], &[5.0, 5.0]).expect("valid");
     let problem = ddp::DdpProblem::new(dynamics, cost, &[1.0, 0.0], N).expect("valid");
     let result = ddp::Ddp::new(ddp::DdpSettings::default())
         .expect("settings")
@@ -32,8 +33,8 @@ fn ddp_plan() -> (f64, Vec<Vec<f64>>, Vec<Vec<f64>>) {
     (result.cost, result.states, result.controls)
 }
 
-/// The Eq. 3 plan with the same costs (halved weights: no 1/2 in Eq. 3),
-/// states and controls one coefficient per sample.
+/// The Eq. 3 plan with the same costs (the same weights as DDP's), states
+/// and controls one coefficient per sample.
 fn eq3_plan(lambda: f64) -> (f64, f64, Mat<f64>) {
     let (a, b) = matrices();
     let times: Vec<f64> = (0..=N).map(|k| k as f64 * DT).collect();

@@ -1,14 +1,17 @@
 //! The backward pass: derivatives along the trajectory, the recursion on
 //! the $Q$-function and the convergence test.
 
-use super::settings::Regularization;
+use super::regularization::Regularization;
+use super::settings::DdpMethod;
 use super::work::Work;
 use crate::linalg::{add_at_b, add_at_x, cholesky, cholesky_solve, set_a_b};
 use crate::problem::{Cost, Dynamics};
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
-    /// Derivatives along the current trajectory; `false` if any is not finite.
+    /// Derivatives along the current trajectory; `false` if any is not
+    /// finite or the dynamics' derivatives failed.
     pub(super) fn linearise(&mut self) -> bool {
+        self.jacobian_evals += 1;
         let (n, m) = (self.n, self.m);
         let (dynamics, cost) = (self.p.dynamics(), self.p.cost());
         let mut finite = true;
@@ -19,7 +22,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let fu = &mut self.fu[k * n * m..(k + 1) * n * m];
             fx.fill(0.0);
             fu.fill(0.0);
-            dynamics.derivatives(x, u, fx, fu);
+            finite &= dynamics.derivatives(x, u, fx, fu).is_ok();
             let d = &mut self.cd[k];
             d.clear();
             cost.running_derivatives(k, x, u, d);
@@ -40,7 +43,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// positive definite at some knot.
     pub(super) fn backward(&mut self, mu: f64) -> Option<(f64, f64)> {
         let (n, m, horizon) = (self.n, self.m, self.horizon);
-        let use_second = self.s.second_order;
+        let use_second = self.s.method == DdpMethod::Ddp;
         let state_reg = self.s.regularization == Regularization::State;
         self.vx[horizon * n..].copy_from_slice(&self.lfx);
         self.vxx[horizon * n * n..].copy_from_slice(&self.lfxx);

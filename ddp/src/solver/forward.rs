@@ -2,6 +2,7 @@
 //! trial rollouts of the line search.
 
 use super::work::Work;
+use crate::error::Result;
 use crate::problem::{Cost, Dynamics};
 
 /// Why a forward rollout failed.
@@ -14,7 +15,11 @@ pub(super) enum Rollout {
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// Open-loop rollout of `self.us` into `self.xs`.
-    pub(super) fn initial_rollout(&mut self) -> Rollout {
+    ///
+    /// # Errors
+    /// The dynamics' error if a step fails (there is no iterate to return).
+    pub(super) fn initial_rollout(&mut self) -> Result<Rollout> {
+        self.cost_evals += 1;
         let (n, m) = (self.n, self.m);
         let (dynamics, cost) = (self.p.dynamics(), self.p.cost());
         self.xs[..n].copy_from_slice(self.p.initial_state());
@@ -25,23 +30,25 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let l = cost.running(k, cur, u);
             self.stage[k] = l;
             total += l;
-            dynamics.step(cur, u, next);
+            dynamics.step(cur, u, next)?;
             if self.diverged(&self.xs[(k + 1) * n..(k + 2) * n]) {
-                return Rollout::Diverged(k + 1);
+                return Ok(Rollout::Diverged(k + 1));
             }
         }
         let lf = cost.terminal(&self.xs[self.horizon * n..]);
         self.stage[self.horizon] = lf;
         total += lf;
-        if total.is_finite() {
+        Ok(if total.is_finite() {
             Rollout::Ok(total)
         } else {
             Rollout::Diverged(self.horizon)
-        }
+        })
     }
 
-    /// Closed-loop rollout with step size `alpha` into the `_try` buffers.
+    /// Closed-loop rollout with step size `alpha` into the `_try` buffers. A
+    /// step of the dynamics that fails counts as a blow-up at that step.
     pub(super) fn forward(&mut self, alpha: f64) -> Rollout {
+        self.cost_evals += 1;
         let (n, m) = (self.n, self.m);
         let (dynamics, cost) = (self.p.dynamics(), self.p.cost());
         self.xs_try[..n].copy_from_slice(&self.xs[..n]);
@@ -61,8 +68,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let l = cost.running(k, cur, u);
             self.stage_try[k] = l;
             total += l;
-            dynamics.step(cur, u, next);
-            if self.diverged(&self.xs_try[(k + 1) * n..(k + 2) * n]) {
+            if dynamics.step(cur, u, next).is_err() || self.diverged(&self.xs_try[(k + 1) * n..(k + 2) * n]) {
                 return Rollout::Diverged(k + 1);
             }
         }

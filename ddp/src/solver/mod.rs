@@ -1,6 +1,12 @@
 //! The DDP / iLQR solver with Tassa's regularisation schedule, a
 //! backtracking line search on the feedforward term and a box-constrained
 //! backward pass.
+//!
+//! This file holds [`Ddp`] and its outer loop; `settings` the
+//! [`DdpSettings`] and [`DdpMethod`]; `result` the [`DdpResult`] and
+//! [`DdpStatus`]; `work` the per-solve buffers; `forward` the rollouts;
+//! `backward` the linearisation and backward pass; `regularization` the
+//! [`Regularization`] choice and Tassa's schedule for $\mu$.
 
 mod backward;
 mod forward;
@@ -11,13 +17,15 @@ mod work;
 
 use std::time::Instant;
 
+pub use regularization::Regularization;
 pub use result::{DdpResult, DdpStatus};
-pub use settings::{DdpSettings, Regularization};
+pub use settings::{DdpMethod, DdpSettings};
 
 use crate::error::Result;
 use crate::problem::{Cost, DdpProblem, Dynamics};
 use forward::Rollout;
-use work::Work;
+use regularization::Schedule;
+use work::{History, Work};
 
 /// Differential dynamic programming (Jacobson and Mayne 1970) / iLQR.
 ///
@@ -52,8 +60,9 @@ use work::Work;
 /// on success $\Delta \leftarrow \min(1/\Delta_0, \Delta / \Delta_0)$,
 /// $\mu \leftarrow \mu \Delta$ (0 below $\mu_{min}$).
 ///
-/// Needs a [`Dynamics`] with first derivatives (second ones optional) and a
-/// [`Cost`] with gradient and Hessian. Settings: [`DdpSettings`].
+/// Needs a [`Dynamics`] (first derivatives analytic or, by default, by
+/// central differences; second ones optional, used by [`DdpMethod::Ddp`])
+/// and a [`Cost`] with gradient and Hessian. Settings: [`DdpSettings`].
 ///
 /// References: D. H. Jacobson and D. Q. Mayne, *Differential Dynamic
 /// Programming*, 1970; Y. Tassa, T. Erez and E. Todorov, "Synthesis and
@@ -81,31 +90,40 @@ impl Ddp {
     }
 
     /// Solves `problem` from its warm start. Not converging and blowing up
-    /// are statuses of the result, not errors.
+    /// are statuses of the result, not errors; so is a step of the dynamics
+    /// that fails during the line search (that trial rollout counts as blown
+    /// up) and derivatives that fail
+    /// ([`DdpStatus::NonFiniteDerivatives`]).
     ///
     /// # Errors
-    /// None at present (the problem was checked when built); the `Result`
-    /// keeps room for user-model failures.
+    /// [`DdpError::Model`](crate::DdpError::Model) (or whatever error the
+    /// dynamics return) when a step of the warm start's rollout fails: there
+    /// is no trajectory to improve on.
     pub fn solve<D: Dynamics, C: Cost>(&self, problem: &DdpProblem<D, C>) -> Result<DdpResult> {
         let start = Instant::now();
         let mut w = Work::new(problem, &self.settings);
-        let mut result = w.run();
+        let mut result = w.run()?;
         result.solve_time = start.elapsed();
         Ok(result)
     }
 }
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
-    fn run(&mut self) -> DdpResult {
+    /// The outer loop: linearise, backward pass (raising $\mu$ until it
+    /// succeeds), convergence test, line search, update of $\mu$.
+    ///
+    /// # Errors
+    /// A failed step of the dynamics in the warm start's rollout.
+    fn run(&mut self) -> Result<DdpResult> {
         let s = self.s;
-        let mut cost = match self.initial_rollout() {
+        let mut cost = match self.initial_rollout()? {
             Rollout::Ok(c) => c,
-            Rollout::Diverged(step) => return self.result_diverged(step),
+            Rollout::Diverged(step) => return Ok(self.result_diverged(step)),
         };
         let initial_cost = cost;
         let mut costs = vec![cost];
         let (mut regs, mut steps) = (Vec::new(), Vec::new());
-        let (mut mu, mut delta) = (s.reg_init, 1.0);
+        let mut reg = Schedule::new(s.reg_init, s.reg_factor, s.reg_min);
         let mut status = DdpStatus::MaxIterations;
         let mut need_derivatives = true;
         let mut policy_current = false;
@@ -120,11 +138,11 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             }
             let (dv1, dv2) = loop {
                 policy_current = false;
-                match self.backward(mu) {
+                match self.backward(reg.mu) {
                     Some(dv) => break dv,
                     None => {
-                        self.increase(&mut mu, &mut delta);
-                        if mu > s.reg_max {
+                        reg.increase();
+                        if reg.mu > s.reg_max {
                             status = DdpStatus::NotPositiveDefinite;
                             break 'outer;
                         }
@@ -133,7 +151,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             };
             policy_current = true;
             if self.converged(dv1 + dv2, cost) {
-                if mu <= 10.0 * s.reg_min {
+                if reg.mu <= 10.0 * s.reg_min {
                     status = DdpStatus::Converged;
                     break;
                 }
@@ -141,12 +159,12 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                 // confirm with an unregularised backward pass
                 match self.backward(0.0) {
                     Some((d1, d2)) if self.converged(d1 + d2, cost) => {
-                        mu = 0.0;
+                        reg.mu = 0.0;
                         status = DdpStatus::Converged;
                         break;
                     }
                     _ => {
-                        if self.backward(mu).is_none() {
+                        if self.backward(reg.mu).is_none() {
                             policy_current = false;
                             status = DdpStatus::NotPositiveDefinite;
                             break;
@@ -158,7 +176,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                 break;
             }
             iterations += 1;
-            regs.push(mu);
+            regs.push(reg.mu);
 
             let mut alpha = 1.0;
             let mut accepted = None;
@@ -190,13 +208,13 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                     costs.push(cost);
                     need_derivatives = true;
                     policy_current = false;
-                    self.decrease(&mut mu, &mut delta);
+                    reg.decrease();
                 }
                 None => {
                     steps.push(0.0);
                     costs.push(cost);
-                    self.increase(&mut mu, &mut delta);
-                    if mu > s.reg_max {
+                    reg.increase();
+                    if reg.mu > s.reg_max {
                         status = if all_diverged {
                             DdpStatus::RolloutDiverged
                         } else {
@@ -213,27 +231,26 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                 status = DdpStatus::NonFiniteDerivatives;
             } else {
                 loop {
-                    if self.backward(mu).is_some() {
+                    if self.backward(reg.mu).is_some() {
                         policy_current = true;
                         break;
                     }
-                    self.increase(&mut mu, &mut delta);
-                    if mu > s.reg_max {
+                    reg.increase();
+                    if reg.mu > s.reg_max {
                         break;
                     }
                 }
             }
         }
-        self.result(
-            status,
+        let history = History {
             cost,
             initial_cost,
-            costs,
-            regs,
-            steps,
-            mu,
+            cost_history: costs,
+            regularizations: regs,
+            step_sizes: steps,
+            mu: reg.mu,
             iterations,
-            policy_current,
-        )
+        };
+        Ok(self.result(status, history, policy_current))
     }
 }

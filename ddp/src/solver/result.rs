@@ -5,6 +5,8 @@ use std::time::Duration;
 
 use faer::Mat;
 
+use super::settings::DdpMethod;
+
 /// How a solve ended. Only [`DdpStatus::Converged`] is a success; every
 /// other status still comes with the last good (finite) iterate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -29,7 +31,8 @@ pub enum DdpStatus {
     /// No step size reduced the cost, up to `reg_max`.
     NoDescent,
     /// The dynamics or cost returned non-finite derivatives at a finite
-    /// trajectory.
+    /// trajectory, or [`Dynamics::derivatives`](crate::Dynamics::derivatives)
+    /// returned an error.
     NonFiniteDerivatives,
 }
 
@@ -46,7 +49,7 @@ impl DdpStatus {
     }
 }
 
-/// The outcome of [`Ddp::solve`]: the trajectory, the local linear policy
+/// The outcome of [`Ddp::solve`](crate::Ddp::solve): the trajectory, the local linear policy
 /// (Eq. 2) and the local quadratic value function (Eq. 1) along it, and the
 /// solver's history.
 ///
@@ -75,7 +78,7 @@ pub struct DdpResult {
     /// Cost of the warm start.
     pub initial_cost: f64,
     /// Cost before the first iteration and after each iteration (length `iterations + 1`).
-    pub costs: Vec<f64>,
+    pub cost_history: Vec<f64>,
     /// Regularisation $\mu$ used by each iteration's accepted backward pass.
     pub regularizations: Vec<f64>,
     /// Accepted step size of each iteration (0 when the line search failed).
@@ -84,8 +87,15 @@ pub struct DdpResult {
     pub regularization: f64,
     /// Iterations performed.
     pub iterations: usize,
-    /// Whether second derivatives of the dynamics were used (DDP) or not (iLQR).
-    pub second_order: bool,
+    /// The method that ran: [`DdpMethod::Ddp`] only if it was asked for and
+    /// the dynamics provided second derivatives, else [`DdpMethod::Ilqr`].
+    pub method: DdpMethod,
+    /// Rollouts, each a cost evaluation of a whole trajectory: the warm
+    /// start's and every line-search trial.
+    pub cost_evals: usize,
+    /// Linearisations of the dynamics and the cost along a whole trajectory
+    /// (each [`Dynamics::derivatives`](crate::Dynamics::derivatives) at every knot).
+    pub jacobian_evals: usize,
     /// How the solve ended.
     pub status: DdpStatus,
     /// Wall-clock solve time.

@@ -1,24 +1,25 @@
-//! The solver's settings and the choice of regularisation.
+//! The solver's settings and the choice of method.
 
+use super::regularization::Regularization;
 use crate::error::{DdpError, Result};
 
-/// Where the Levenberg-Marquardt term $\mu$ is added in the backward pass.
+/// Which second-order model of the dynamics the backward pass uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-pub enum Regularization {
-    /// $\tilde Q_{uu} = Q_{uu} + \mu I$ (the classic Levenberg-Marquardt choice).
-    Control,
-    /// $\tilde Q_{uu} = Q_{uu} + \mu f_u^\top f_u$, $\tilde Q_{ux} = Q_{ux} + \mu f_u^\top f_x$,
-    /// i.e. $V'_{xx} + \mu I$: a quadratic penalty on deviating from the
-    /// current states rather than the current controls (Tassa et al. 2012,
-    /// Eq. 10), invariant to the scaling of the controls. The default: with
-    /// second derivatives (full DDP, where $V_{xx}$ may be indefinite) it is
-    /// markedly more robust here (pendulum swing-up, $N = 5000$: converged in
-    /// 18 iterations, against `NotPositiveDefinite` with [`Control`](Self::Control)).
+#[non_exhaustive]
+pub enum DdpMethod {
+    /// iLQR (Li and Todorov 2004): the dynamics linearised, $Q$-Hessians of
+    /// Gauss-Newton form (positive semidefinite whenever the cost Hessians
+    /// are). The default.
     #[default]
-    State,
+    Ilqr,
+    /// Full DDP (Jacobson and Mayne 1970): adds the tensor terms
+    /// $V_x' \cdot f_{xx}$, $V_x' \cdot f_{ux}$, $V_x' \cdot f_{uu}$ from
+    /// [`Dynamics::second_derivatives`](crate::Dynamics::second_derivatives);
+    /// dynamics without second derivatives fall back to iLQR.
+    Ddp,
 }
 
-/// Settings of [`Ddp`].
+/// Settings of [`Ddp`](crate::Ddp).
 ///
 /// | field | default | meaning |
 /// |---|---|---|
@@ -34,7 +35,7 @@ pub enum Regularization {
 /// | `line_search_factor` | 0.5 | $\beta$ |
 /// | `min_reduction_ratio` | 0.1 | accept $\alpha$ when actual / expected reduction exceeds it |
 /// | `max_state_norm` | 1e8 | a rollout with $\lVert x \rVert_\infty$ beyond it has blown up |
-/// | `second_order` | `false` | use the dynamics' second derivatives when provided (full DDP); `false` is iLQR |
+/// | `method` | [`DdpMethod::Ilqr`] | [`DdpMethod::Ddp`] uses the dynamics' second derivatives when provided (full DDP) |
 /// | `box_qp_max_iterations` | 100 | projected-Newton iterations per knot with control limits |
 ///
 /// iLQR is the default because on the swing-ups here full DDP never took
@@ -71,8 +72,8 @@ pub struct DdpSettings {
     pub min_reduction_ratio: f64,
     /// Blow-up threshold on $\lVert x_k \rVert_\infty$.
     pub max_state_norm: f64,
-    /// Use second derivatives of the dynamics when available.
-    pub second_order: bool,
+    /// iLQR or full DDP.
+    pub method: DdpMethod,
     /// Iteration cap of the box-constrained QP at each knot.
     pub box_qp_max_iterations: usize,
 }
@@ -92,7 +93,7 @@ impl Default for DdpSettings {
             line_search_factor: 0.5,
             min_reduction_ratio: 0.1,
             max_state_norm: 1e8,
-            second_order: false,
+            method: DdpMethod::Ilqr,
             box_qp_max_iterations: 100,
         }
     }

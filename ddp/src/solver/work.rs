@@ -6,7 +6,7 @@ use std::time::Duration;
 use faer::Mat;
 
 use super::result::{DdpResult, DdpStatus};
-use super::settings::DdpSettings;
+use super::settings::{DdpMethod, DdpSettings};
 use crate::linalg::BoxQp;
 use crate::problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
 
@@ -56,6 +56,8 @@ pub(super) struct Work<'a, D, C> {
     pub(super) dx: Vec<f64>,
     pub(super) qp: BoxQp,
     pub(super) second_order: bool,
+    pub(super) cost_evals: usize,
+    pub(super) jacobian_evals: usize,
 }
 
 impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
@@ -113,6 +115,8 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             dx: vec![0.0; n],
             qp: BoxQp::new(m),
             second_order: false,
+            cost_evals: 0,
+            jacobian_evals: 0,
         }
     }
 
@@ -120,6 +124,15 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
         x.iter().any(|v| !v.is_finite() || v.abs() > self.s.max_state_norm)
     }
 
+    fn method(&self) -> DdpMethod {
+        if self.second_order {
+            DdpMethod::Ddp
+        } else {
+            DdpMethod::Ilqr
+        }
+    }
+
+    /// The result when the warm start's rollout blew up at state `step`.
     pub(super) fn result_diverged(&self, step: usize) -> DdpResult {
         let n = self.n;
         DdpResult {
@@ -132,30 +145,22 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             value_hessian: Vec::new(),
             cost: f64::INFINITY,
             initial_cost: f64::INFINITY,
-            costs: vec![f64::INFINITY],
+            cost_history: vec![f64::INFINITY],
             regularizations: Vec::new(),
             step_sizes: Vec::new(),
             regularization: self.s.reg_init,
             iterations: 0,
-            second_order: false,
+            method: DdpMethod::Ilqr,
+            cost_evals: self.cost_evals,
+            jacobian_evals: self.jacobian_evals,
             status: DdpStatus::InitialRolloutDiverged { step },
             solve_time: Duration::ZERO,
         }
     }
 
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn result(
-        &self,
-        status: DdpStatus,
-        cost: f64,
-        initial_cost: f64,
-        costs: Vec<f64>,
-        regularizations: Vec<f64>,
-        step_sizes: Vec<f64>,
-        mu: f64,
-        iterations: usize,
-        policy: bool,
-    ) -> DdpResult {
+    /// The result at the current trajectory, with the policy and value
+    /// terms of the last backward pass if `policy`.
+    pub(super) fn result(&self, status: DdpStatus, history: History, policy: bool) -> DdpResult {
         let (n, m) = (self.n, self.m);
         let mut value = vec![0.0; self.horizon + 1];
         let mut acc = 0.0;
@@ -187,16 +192,37 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             value,
             value_gradient,
             value_hessian,
-            cost,
-            initial_cost,
-            costs,
-            regularizations,
-            step_sizes,
-            regularization: mu,
-            iterations,
-            second_order: self.second_order,
+            cost: history.cost,
+            initial_cost: history.initial_cost,
+            cost_history: history.cost_history,
+            regularizations: history.regularizations,
+            step_sizes: history.step_sizes,
+            regularization: history.mu,
+            iterations: history.iterations,
+            method: self.method(),
+            cost_evals: self.cost_evals,
+            jacobian_evals: self.jacobian_evals,
             status,
             solve_time: Duration::ZERO,
         }
     }
+}
+
+/// What the outer loop records, handed to [`Work::result`].
+#[derive(Debug, Clone, PartialEq)]
+pub(super) struct History {
+    /// The current cost.
+    pub(super) cost: f64,
+    /// The warm start's cost.
+    pub(super) initial_cost: f64,
+    /// The cost before the first and after each iteration.
+    pub(super) cost_history: Vec<f64>,
+    /// $\mu$ of each iteration's accepted backward pass.
+    pub(super) regularizations: Vec<f64>,
+    /// Accepted step size of each iteration (0 on failure).
+    pub(super) step_sizes: Vec<f64>,
+    /// The final $\mu$.
+    pub(super) mu: f64,
+    /// Iterations performed.
+    pub(super) iterations: usize,
 }

@@ -168,12 +168,14 @@ impl<G: PendulumRegression> ddp::Dynamics for KnownHand<G> {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ddp::Result<()> {
         self.next(x, u[0], next);
+        Ok(())
     }
 
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
+    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ddp::Result<()> {
         self.derivs(x, u[0], fx, fu);
+        Ok(())
     }
 }
 

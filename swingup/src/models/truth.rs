@@ -91,7 +91,7 @@ mod tests {
         for k in 0..120 {
             let u = 8.0 * (0.15 * k as f64).sin();
             let mut next = [0.0; 4];
-            ddp::Dynamics::step(&model, &st.s, &[u], &mut next);
+            ddp::Dynamics::step(&model, &st.s, &[u], &mut next).expect("step");
             st = plant.step(&st, u);
             assert!((next[1] - st.s[1]).abs() < 1e-12);
             assert!((next[2] - st.s[2]).abs() < 1e-12 && (next[3] - st.s[3]).abs() < 1e-12);

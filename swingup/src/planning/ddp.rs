@@ -27,7 +27,7 @@
 
 use std::cell::{Cell, RefCell};
 
-use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, DdpStatus, Dynamics};
+use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, DdpStatus};
 use trajopt::StageCost;
 
 use crate::planning::cost::SwingupCost;
@@ -226,7 +226,8 @@ pub fn plan_ddp<G: PendulumRegression>(
         inner: task_cost(cfg, demo)?,
         rollouts: Cell::new(0),
     };
-    let problem = DdpProblem::new(ByRef(model), cost, &[0.0; 4], demo.horizon())?
+    // a reference to `ddp` dynamics is `ddp` dynamics
+    let problem = DdpProblem::new(model, cost, &[0.0; 4], demo.horizon())?
         .with_initial_controls(demo.controls.iter().map(|&u| vec![u]).collect())?
         .with_control_limits(&[-u_max], &[u_max])?;
     let solver = Ddp::new(DdpSettings {
@@ -299,27 +300,6 @@ pub fn classify_ddp_failure(summary: &PlanSummary) -> &'static str {
         .map_or("other", |(_, s)| classify_ddp_status(*s))
 }
 
-/// The model as `ddp` dynamics, by reference.
-struct ByRef<'a, G>(&'a KnownHand<G>);
-
-impl<G: PendulumRegression> Dynamics for ByRef<'_, G> {
-    fn state_dim(&self) -> usize {
-        4
-    }
-
-    fn control_dim(&self) -> usize {
-        1
-    }
-
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) {
-        Dynamics::step(self.0, x, u, next);
-    }
-
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) {
-        Dynamics::derivatives(self.0, x, u, fx, fu);
-    }
-}
-
 /// A cost that counts rollouts (each evaluates the terminal cost once).
 struct Counted<C> {
     inner: C,
@@ -351,6 +331,7 @@ mod tests {
     use crate::models::truth::TrueRegression;
     use crate::planning::eq3::build_problem;
     use crate::plant::demo::demonstrate;
+    use ddp::Dynamics;
     use faer::prelude::*;
     use splines::{BSplineBasis, TrajectoryBasis};
 
@@ -395,7 +376,7 @@ mod tests {
         let mut s = [0.0; 4];
         for (k, &u) in plan.controls.iter().enumerate() {
             let mut next = [0.0; 4];
-            Dynamics::step(&model, &s, &[u], &mut next);
+            Dynamics::step(&model, &s, &[u], &mut next).expect("step");
             s = next;
             assert_eq!(s, plan.states[k + 1]);
         }
