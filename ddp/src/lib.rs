@@ -49,8 +49,9 @@
 //! `settings.rs`, `result.rs`, `work.rs` (the buffers of one solve),
 //! `forward.rs` (rollouts), `backward.rs` (linearisation and backward pass)
 //! and `regularization.rs` ([`Regularization`] and Tassa's schedule).
-//! `linalg.rs` has the dense kernels of the backward pass and the box QP;
-//! `diff.rs` central
+//! `linalg.rs` has the dense kernels of the backward pass (a hand-written
+//! Cholesky: at these sizes, $m \le 2$, it beats faer's and nalgebra's,
+//! see `benches/cholesky.rs`) and the box QP; `diff.rs` central
 //! differences; `error.rs` the error type. Modules depend downwards only:
 //! `solver` on `problem`, `linalg` and `error`; `problem` on `diff` and
 //! `error`.
