@@ -4,7 +4,7 @@
 use crate::error::Result;
 
 /// The central-difference step for a coordinate of value `z`:
-/// $h = \sqrt[3]{\epsilon} \max(1, \lvert z \rvert)$, which balances the
+/// $h = \epsilon^{1/3} \max(1, \lvert z \rvert)$, which balances the
 /// $O(h^2)$ truncation error against the $O(\epsilon / h)$ rounding error
 /// (both about $10^{-11}$ relative for smooth $f$ of unit scale). The rule
 /// of `trajopt`'s finite-difference Jacobians.

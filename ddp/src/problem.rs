@@ -45,7 +45,7 @@ pub trait Dynamics {
     ///
     /// The default takes central differences of [`step`](Self::step),
     /// $(f(z + h e_j) - f(z - h e_j)) / 2h$ over $z = (x, u)$ with
-    /// $h = \sqrt[3]{\epsilon} \max(1, \lvert z_j \rvert)$ (as `trajopt`'s
+    /// $h = \epsilon^{1/3} \max(1, \lvert z_j \rvert)$ (as `trajopt`'s
     /// `Model` does): $2(n + m)$ steps and a few small allocations per call,
     /// accurate to about $10^{-10}$ relative for smooth dynamics. Write the
     /// analytic Jacobians where they are cheap.

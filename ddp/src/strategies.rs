@@ -1,4 +1,4 @@
-//! [proptest] strategies generating random stabilisable linear-quadratic
+//! `proptest` strategies generating random stabilisable linear-quadratic
 //! problems with their discrete Riccati solution (feature `proptest`), so
 //! users can property-test their own DDP / iLQR against ours on the same
 //! work, and [`check_jacobian`] / [`check_dynamics`], which compare analytic
@@ -189,7 +189,7 @@ pub struct JacobianCheck {
 /// Compares the analytic Jacobian `analytic` ($q \times p$, row-major) of
 /// $f: \mathbb{R}^p \to \mathbb{R}^q$ at `z` with central differences
 /// $(f(z + h e_j) - f(z - h e_j)) / 2h$,
-/// $h = \sqrt[3]{\epsilon} \max(1, \lvert z_j \rvert)$ (the step of the
+/// $h = \epsilon^{1/3} \max(1, \lvert z_j \rvert)$ (the step of the
 /// default [`Dynamics::derivatives`]), and returns the worst entry. For
 /// smooth $f$ of unit scale the differences are accurate to about
 /// $10^{-10}$, so a correct Jacobian gives `max_rel_error` below $10^{-6}$
