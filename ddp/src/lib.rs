@@ -39,7 +39,8 @@
 //!   [`problems`]: the swing-up benchmarks; `strategies` (feature
 //!   `proptest`): random linear-quadratic problems with their Riccati
 //!   solution, and `check_jacobian` (analytic derivatives against central
-//!   differences).
+//!   differences); `nalgebra_convert` (feature `nalgebra`): conversions
+//!   from and to nalgebra's `DVector` / `DMatrix`.
 //!
 //! # Layout
 //!
@@ -52,7 +53,8 @@
 //! `linalg.rs` has the dense kernels of the backward pass (a hand-written
 //! Cholesky: at these sizes, $m \le 2$, it beats faer's and nalgebra's,
 //! see `benches/cholesky.rs`) and the box QP; `diff.rs` central
-//! differences; `error.rs` the error type. Modules depend downwards only:
+//! differences; `nalgebra_convert.rs` (feature `nalgebra`) the
+//! conversions; `error.rs` the error type. Modules depend downwards only:
 //! `solver` on `problem`, `linalg` and `error`; `problem` on `diff` and
 //! `error`.
 //!
@@ -102,6 +104,8 @@ mod diff;
 pub mod error;
 mod linalg;
 pub mod models;
+#[cfg(feature = "nalgebra")]
+pub mod nalgebra_convert;
 pub mod problem;
 pub mod problems;
 pub mod solver;
