@@ -1,8 +1,8 @@
 //! Criterion benchmarks of the sparse Gauss-Newton solver on the benchmark
 //! pendulum swing-up (`trajopt::problems`) over horizons: one iteration (to
 //! show linear growth with the horizon; it includes the symbolic setup) and
-//! a full solve, Gauss-Newton, Newton (`second_order`) and the adaptive
-//! choice between the two (`adaptive`); and the Newton mode with the normal
+//! a full solve, Gauss-Newton, Newton (`StepModel::Newton`) and the adaptive
+//! choice between the two (`StepModel::Adaptive`); and the Newton mode with the normal
 //! equations formed on two threads (`solve_parallel`).
 //!
 //! `cargo bench -p trajopt --bench gauss_newton`
@@ -10,25 +10,24 @@
 use criterion::{BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use std::hint::black_box;
 use trajopt::problems::pendulum_swingup;
-use trajopt::{GaussNewton, GaussNewtonSettings};
+use trajopt::{GaussNewton, GaussNewtonSettings, StepModel};
 
 fn gauss_newton(c: &mut Criterion) {
     let mut group = c.benchmark_group("gauss_newton_pendulum");
     group.sample_size(10);
     let one = GaussNewton::new(GaussNewtonSettings {
-        max_iters: 1,
+        max_iterations: 1,
         ..GaussNewtonSettings::default()
     })
     .expect("settings");
     let full = GaussNewton::new(GaussNewtonSettings::default()).expect("settings");
     let newton = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
+        step_model: StepModel::Newton,
         ..GaussNewtonSettings::default()
     })
     .expect("settings");
     let adaptive = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
-        adaptive: true,
+        step_model: StepModel::Adaptive,
         ..GaussNewtonSettings::default()
     })
     .expect("settings");

@@ -8,17 +8,18 @@
 
 use std::time::Instant;
 
-use trajopt::LeastSquaresProblem;
-use trajopt::banded::BandedSym;
+use trajopt::linalg::BandedSym;
 use trajopt::problems::pendulum_swingup;
+use trajopt::{BandForm, BandNormalEquations, LeastSquaresProblem, Point};
 
 fn main() -> anyhow::Result<()> {
     let horizon: usize = std::env::args().nth(1).map_or(Ok(1000), |a| a.parse())?;
     let (problem, theta) = pendulum_swingup(horizon, 1e2)?;
     let n_p = problem.n_params();
     let layout = problem
-        .band_layout()
-        .ok_or_else(|| anyhow::anyhow!("the problem has no band form"))?;
+        .band_form()
+        .ok_or_else(|| anyhow::anyhow!("the problem has no band form"))?
+        .layout();
     let mut r = vec![0.0; problem.n_residuals()];
     let mut h = BandedSym::zeros(n_p, layout.half_bandwidth);
     let (mut grad, mut diag_s) = (vec![0.0; n_p], vec![0.0; n_p]);
@@ -32,7 +33,12 @@ fn main() -> anyhow::Result<()> {
     };
     let residuals = time(&mut || Ok(problem.residuals(&theta, &mut r)?))?;
     let jtj = time(&mut || {
-        problem.band_normal_equations(&theta, &r, &layout, &mut h, &mut grad, None)?;
+        let out = BandNormalEquations {
+            h: &mut h,
+            grad: &mut grad,
+            second_order_diagonal: None,
+        };
+        problem.normal_equations(Point { theta: &theta, r: &r }, &layout, out)?;
         Ok(())
     })?;
     // a positive definite matrix to factorise: J^T J with Marquardt damping
@@ -49,7 +55,12 @@ fn main() -> anyhow::Result<()> {
         Ok(())
     })?;
     let full = time(&mut || {
-        problem.band_normal_equations(&theta, &r, &layout, &mut h, &mut grad, Some(&mut diag_s))?;
+        let out = BandNormalEquations {
+            h: &mut h,
+            grad: &mut grad,
+            second_order_diagonal: Some(&mut diag_s),
+        };
+        problem.normal_equations(Point { theta: &theta, r: &r }, &layout, out)?;
         Ok(())
     })?;
     println!(

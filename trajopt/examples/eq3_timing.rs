@@ -12,11 +12,11 @@
 use std::time::Instant;
 
 use trajopt::problems::pendulum_swingup;
-use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem};
+use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem, StepModel};
 
 fn main() -> anyhow::Result<()> {
     let mut args: Vec<String> = std::env::args().skip(1).collect();
-    let max_iters = match args.iter().position(|a| a == "--max-iters") {
+    let max_iterations = match args.iter().position(|a| a == "--max-iters") {
         Some(i) => {
             let value = args
                 .get(i + 1)
@@ -25,7 +25,7 @@ fn main() -> anyhow::Result<()> {
             args.drain(i..i + 2);
             value
         }
-        None => GaussNewtonSettings::default().max_iters,
+        None => GaussNewtonSettings::default().max_iterations,
     };
     let lambda: f64 = args.first().map_or(Ok(1e3), |a| a.parse())?;
     let horizons: Vec<usize> = args.iter().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
@@ -35,15 +35,15 @@ fn main() -> anyhow::Result<()> {
         horizons
     };
     for horizon in horizons {
-        for (mode, second_order, adaptive, threads) in [
-            ("gauss_newton", false, false, 1),
-            ("newton", true, false, 1),
-            ("adaptive", true, true, 1),
-            ("gauss_newton_2t", false, false, 2),
-            ("newton_2t", true, false, 2),
-            ("adaptive_2t", true, true, 2),
+        for (mode, step_model, threads) in [
+            ("gauss_newton", StepModel::GaussNewton, 1),
+            ("newton", StepModel::Newton, 1),
+            ("adaptive", StepModel::Adaptive, 1),
+            ("gauss_newton_2t", StepModel::GaussNewton, 2),
+            ("newton_2t", StepModel::Newton, 2),
+            ("adaptive_2t", StepModel::Adaptive, 2),
         ] {
-            run(horizon, lambda, max_iters, mode, second_order, adaptive, threads)?;
+            run(horizon, lambda, max_iterations, mode, step_model, threads)?;
         }
     }
     Ok(())
@@ -52,16 +52,14 @@ fn main() -> anyhow::Result<()> {
 fn run(
     horizon: usize,
     lambda: f64,
-    max_iters: usize,
+    max_iterations: usize,
     mode: &str,
-    second_order: bool,
-    adaptive: bool,
+    step_model: StepModel,
     threads: usize,
 ) -> anyhow::Result<()> {
     let solver = GaussNewton::new(GaussNewtonSettings {
-        second_order,
-        adaptive,
-        max_iters,
+        step_model,
+        max_iterations,
         ..GaussNewtonSettings::default()
     })?;
     let (problem, theta0) = pendulum_swingup(horizon, lambda)?;
@@ -75,7 +73,7 @@ fn run(
         result = Some(r);
     }
     let r = result.ok_or_else(|| anyhow::anyhow!("no run"))?;
-    let parts = problem.cost_breakdown(&r.theta)?;
+    let parts = problem.cost_breakdown(&r.x)?;
     println!(
         "{{\"horizon\": {horizon}, \"mode\": \"{mode}\", \"lambda\": {lambda:e}, \"params\": {}, \"residuals\": {}, \"seconds\": {best:e}, \"iterations\": {}, \"residual_evals\": {}, \"factorizations\": {}, \"status\": \"{:?}\", \"cost\": {:e}, \"initial_cost\": {:e}, \"task\": {:e}, \"inconsistency\": {:e}, \"max_mismatch\": {:e}}}",
         problem.n_params(),

@@ -1,18 +1,80 @@
-//! Nonlinear least-squares problems with a sparse Jacobian of fixed pattern.
+//! Nonlinear least-squares problems with a sparse Jacobian of fixed pattern,
+//! and the opt-in capabilities a solver can use: the second-order term
+//! ([`SecondOrder`]) and the band form of the normal equations ([`BandForm`]).
 
 use std::ops::Range;
 
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
 
-use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError};
+use crate::linalg::{BandLayout, BandedSym};
 
 /// A problem $\min_\theta F(\theta) = \lVert r(\theta) \rVert^2$ whose Jacobian
 /// $J = \partial r / \partial \theta$ is sparse with a pattern that does not
 /// depend on $\theta$ (the structural nonzeros; some may be zero at a point).
 ///
-/// This is what [`GaussNewton`](crate::GaussNewton) solves. The paper's Eq. 3
-/// with a least-squares stage cost is one ([`Eq3Problem`](crate::Eq3Problem)).
+/// This is what [`GaussNewton`](crate::GaussNewton) solves. A plain problem
+/// implements the five required methods (sizes, residuals, the Jacobian's
+/// pattern and values); the rest is opt-in:
+///
+/// - [`bounds`](Self::bounds): linear bounds on $\theta$;
+/// - [`second_order`](Self::second_order): the second-order term $S$ for
+///   the Newton modes ([`SecondOrder`]);
+/// - [`band_form`](Self::band_form): the normal equations formed in band
+///   storage, in parts on several threads ([`BandForm`]).
+///
+/// The paper's Eq. 3 with a least-squares stage cost
+/// ([`Eq3Problem`](crate::Eq3Problem)) has all three.
+///
+/// # Example
+///
+/// Fitting $y = a e^{b t}$ to four points: only the core methods.
+///
+/// ```
+/// use faer::sparse::SymbolicSparseRowMat;
+/// use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem};
+///
+/// struct ExpFit {
+///     t: Vec<f64>,
+///     y: Vec<f64>,
+/// }
+///
+/// impl LeastSquaresProblem for ExpFit {
+///     fn n_params(&self) -> usize {
+///         2
+///     }
+///     fn n_residuals(&self) -> usize {
+///         self.t.len()
+///     }
+///     fn residuals(&self, p: &[f64], r: &mut [f64]) -> trajopt::Result<()> {
+///         for ((ri, &t), &y) in r.iter_mut().zip(&self.t).zip(&self.y) {
+///             *ri = p[0] * (p[1] * t).exp() - y;
+///         }
+///         Ok(())
+///     }
+///     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+///         // every residual depends on both parameters
+///         let m = self.t.len();
+///         let row_ptr = (0..=m).map(|i| 2 * i).collect();
+///         let col_idx = (0..m).flat_map(|_| [0, 1]).collect();
+///         SymbolicSparseRowMat::new_checked(m, 2, row_ptr, None, col_idx)
+///     }
+///     fn jacobian_values(&self, p: &[f64], values: &mut [f64]) -> trajopt::Result<()> {
+///         for (row, &t) in values.chunks_exact_mut(2).zip(&self.t) {
+///             let e = (p[1] * t).exp();
+///             row.copy_from_slice(&[e, p[0] * t * e]);
+///         }
+///         Ok(())
+///     }
+/// }
+///
+/// let t = vec![0.0, 0.5, 1.0, 1.5];
+/// let y = t.iter().map(|t: &f64| 2.0 * (-0.7 * t).exp()).collect();
+/// let fit = GaussNewton::new(GaussNewtonSettings::default())?.solve(&ExpFit { t, y }, &[1.0, 0.0])?;
+/// assert!(fit.status.is_converged());
+/// assert!((fit.x[0] - 2.0).abs() < 1e-8 && (fit.x[1] + 0.7).abs() < 1e-8);
+/// # Ok::<(), trajopt::TrajoptError>(())
+/// ```
 pub trait LeastSquaresProblem {
     /// Number of parameters $\dim \theta$.
     fn n_params(&self) -> usize;
@@ -22,29 +84,6 @@ pub trait LeastSquaresProblem {
 
     /// Writes $r(\theta)$ into `r` (length [`n_residuals`](Self::n_residuals)).
     fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()>;
-
-    /// Part `part` of [`residuals`](Self::residuals) when the residuals are
-    /// split into `parts` groups of consecutive rows: writes that group's
-    /// rows of $r(\theta)$ into `r` (full length; the other rows are left
-    /// as they are) and returns their range. The parts' ranges cover all
-    /// rows once, and the parts can be evaluated at the same time on
-    /// different threads
-    /// ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
-    ///
-    /// The default evaluates every row in part 0 and none in the others.
-    /// [`Eq3Problem`](crate::Eq3Problem) splits its time steps as in
-    /// [`band_normal_equations_part`](Self::band_normal_equations_part).
-    ///
-    /// # Errors
-    /// `part >= parts`, and the errors of [`residuals`](Self::residuals).
-    fn residuals_part(&self, part: usize, parts: usize, theta: &[f64], r: &mut [f64]) -> Result<Range<usize>> {
-        check_part(part, parts)?;
-        if part > 0 {
-            return Ok(0..0);
-        }
-        self.residuals(theta, r)?;
-        Ok(0..self.n_residuals())
-    }
 
     /// The sparsity pattern of $J$: compressed rows, sorted unique columns.
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize>;
@@ -59,139 +98,143 @@ pub trait LeastSquaresProblem {
         None
     }
 
-    /// The pattern (both triangles, compressed columns, sorted rows) of the
-    /// second-order term $S(\theta) = \sum_i r_i \nabla^2 r_i$ of the Hessian
-    /// $\nabla^2 F = 2 (J^\top J + S)$, if the problem can evaluate it (none
-    /// by default: Gauss-Newton drops $S$).
-    fn second_order_pattern(&self) -> Option<SymbolicSparseColMat<usize>> {
+    /// The problem's second-order term, if it can evaluate it (none by
+    /// default: the Newton modes then take Gauss-Newton steps).
+    fn second_order(&self) -> Option<&dyn SecondOrder> {
         None
     }
 
-    /// Writes the values of $S(\theta)$ for the residuals `r` $= r(\theta)$
-    /// in the order of [`second_order_pattern`](Self::second_order_pattern)
-    /// and returns `true`, or returns `false` when it is not available at
-    /// this point (the default).
-    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
-        let _ = (theta, r, values);
-        Ok(false)
+    /// The problem's band form of the normal equations, if it has one
+    /// (none by default: the general sparse path).
+    fn band_form(&self) -> Option<&dyn BandForm> {
+        None
     }
+}
 
-    /// $\delta^\top S(\theta) \delta$ for the residuals `r` $= r(\theta)$, if the
-    /// problem can evaluate it cheaply without forming $S$ (none by default).
-    /// The [adaptive](crate::GaussNewtonSettings::adaptive) solver uses it to
-    /// compare its two models; without it, it takes central differences of
-    /// the residuals along $\delta$.
+/// The second-order term $S(\theta) = \sum_i r_i \nabla^2 r_i$ of the Hessian
+/// $\nabla^2 F = 2 (J^\top J + S)$ of a [`LeastSquaresProblem`], for the
+/// Newton modes of [`GaussNewton`](crate::GaussNewton)
+/// ([`StepModel::Newton`](crate::StepModel::Newton),
+/// [`StepModel::Adaptive`](crate::StepModel::Adaptive)). Gauss-Newton drops it.
+pub trait SecondOrder {
+    /// The pattern of $S$: both triangles, compressed columns, sorted rows.
+    fn pattern(&self) -> SymbolicSparseColMat<usize>;
+
+    /// Writes the values of $S(\theta)$ for the residuals `r` $= r(\theta)$
+    /// in the order of [`pattern`](Self::pattern) and returns `true`, or
+    /// returns `false` when it is not available at this point.
     ///
     /// # Errors
     /// Wrong sizes, or an error from evaluating the problem.
-    fn second_order_form(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
+    fn values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool>;
+
+    /// $\delta^\top S(\theta) \delta$ for the residuals `r` $= r(\theta)$, if the
+    /// problem can evaluate it cheaply without forming $S$ (none by default).
+    /// The [adaptive](crate::StepModel::Adaptive) solver uses it to compare
+    /// its two models; without it, it takes central differences of the
+    /// residuals along $\delta$.
+    ///
+    /// # Errors
+    /// Wrong sizes, or an error from evaluating the problem.
+    fn form(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
         let _ = (theta, r, delta);
         Ok(None)
     }
+}
 
-    /// A parameter order under which $J^\top J$ (and $S$) is banded, if the
-    /// problem can form its normal equations in that band form itself
-    /// ([`band_normal_equations`](Self::band_normal_equations)); none by
-    /// default. [`GaussNewton`](crate::GaussNewton) then skips the sparse
-    /// Jacobian and the sparse Cholesky factorisation and works on band
-    /// matrices ([`crate::banded`]), which for trajectory problems is
-    /// several times faster.
-    fn band_layout(&self) -> Option<BandLayout> {
-        None
+/// Part `index` of `count` groups of consecutive residual rows (time
+/// steps, for Eq. 3), formed at the same time on different threads by
+/// [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel).
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub struct Part {
+    /// Which part, `0..count`.
+    pub index: usize,
+    /// How many parts.
+    pub count: usize,
+}
+
+impl Part {
+    /// The whole: part 0 of 1.
+    pub const WHOLE: Self = Self { index: 0, count: 1 };
+
+    /// An error unless `index < count`.
+    pub fn check(self) -> Result<()> {
+        check_part(self.index, self.count)
     }
+}
 
-    /// Writes the normal equations at $\theta$ ($r = r(\theta)$) in the band
-    /// form of `layout` (from [`band_layout`](Self::band_layout)): $J^\top r$
-    /// into `grad` (in the parameter order) and $J^\top J$ into `h`; or,
-    /// when `second_order` is given, $J^\top J + S$ into `h` and the
-    /// diagonal of $S$ into `second_order` (parameter order), returning
-    /// `true`. Returns `false` when $S$ was not asked for or is not
-    /// available at this point (as for
-    /// [`second_order_values`](Self::second_order_values)); `h` then holds
-    /// $J^\top J$.
+/// A point of a [`LeastSquaresProblem`]: the parameters $\theta$ and the
+/// residuals `r` $= r(\theta)$ already evaluated there.
+#[derive(Debug, Clone, Copy)]
+pub struct Point<'a> {
+    /// The parameters $\theta$.
+    pub theta: &'a [f64],
+    /// The residuals $r(\theta)$.
+    pub r: &'a [f64],
+}
+
+/// Where [`BandForm::normal_equations`] writes: $J^\top J$ (or
+/// $J^\top J + S$) into `h`, $J^\top r$ into `grad` (parameter order), and,
+/// when given, the diagonal of $S$ into `second_order_diagonal` (parameter
+/// order); giving it asks for $S$.
+#[derive(Debug)]
+pub struct BandNormalEquations<'a> {
+    /// The band matrix $J^\top J$, or $J^\top J + S$.
+    pub h: &'a mut BandedSym,
+    /// The gradient $J^\top r$.
+    pub grad: &'a mut [f64],
+    /// The diagonal of $S$; `Some` asks for $S$.
+    pub second_order_diagonal: Option<&'a mut [f64]>,
+}
+
+/// A [`LeastSquaresProblem`] that forms its normal equations itself in
+/// band storage ([`crate::linalg`]): [`GaussNewton`](crate::GaussNewton)
+/// then skips the sparse Jacobian and the sparse Cholesky factorisation and
+/// works on band matrices, which for trajectory problems is several times
+/// faster. The parts ([`Part`]) let
+/// [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel) form
+/// them on several threads.
+pub trait BandForm: LeastSquaresProblem {
+    /// A parameter order under which $J^\top J$ (and $S$) is banded.
+    fn layout(&self) -> BandLayout;
+
+    /// Writes the normal equations at `at` in the band form of `layout`
+    /// (from [`layout`](Self::layout)) into `out` ([`BandNormalEquations`]),
+    /// returning `true` when $S$ was asked for and is included, `false`
+    /// when it was not asked for or is not available at this point (`h`
+    /// then holds $J^\top J$).
     ///
     /// # Errors
-    /// Wrong sizes, or an error from evaluating the problem. The default
-    /// (for problems without a band form) always fails.
-    fn band_normal_equations(
-        &self,
-        theta: &[f64],
-        r: &[f64],
-        layout: &BandLayout,
-        h: &mut BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
-    ) -> Result<bool> {
-        let _ = (theta, r, layout, h, grad, second_order);
-        Err(TrajoptError::InvalidParameter {
-            name: "problem",
-            reason: "it has no band form of its normal equations".into(),
-        })
-    }
+    /// Wrong sizes, or an error from evaluating the problem.
+    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool>;
 
-    /// The second-order term $S$ alone, in the band form of `layout`, from
-    /// part `part` of `parts` of the residuals (as in
-    /// [`band_normal_equations_part`](Self::band_normal_equations_part)):
-    /// the $S$ that [`band_normal_equations`](Self::band_normal_equations)
-    /// adds to $J^\top J$, written into `s`; false when $S$ is not available
-    /// (`s` then holds nothing useful). When a Newton iteration of
-    /// [`GaussNewton`](crate::GaussNewton) falls back to a Gauss-Newton
-    /// step, it recovers $J^\top J = (J^\top J + S) - S$ from it, which
-    /// costs less than forming $J^\top J$ again (about half, for
-    /// [`Eq3Problem`](crate::Eq3Problem)). Not available by default.
-    ///
-    /// # Errors
-    /// `part >= parts`, wrong sizes, or an error from evaluating the problem.
-    #[allow(clippy::too_many_arguments)]
-    fn band_second_order_part(
-        &self,
-        part: usize,
-        parts: usize,
-        theta: &[f64],
-        r: &[f64],
-        layout: &BandLayout,
-        s: &mut BandedSym,
-    ) -> Result<bool> {
-        check_part(part, parts)?;
-        let _ = (theta, r, layout, s);
-        Ok(false)
-    }
-
-    /// Part `part` of [`band_normal_equations`](Self::band_normal_equations)
-    /// when the residuals are split into `parts` groups: the same outputs,
-    /// from one group's residuals only. The parts add up (`h`, `grad` and
-    /// `second_order` each) to the whole, up to the rounding of that sum,
-    /// and can be formed at the same time on different threads
-    /// ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
-    /// The returned flag means what it means there; a part without
-    /// residuals returns whether `second_order` was given.
+    /// Part `part` of [`normal_equations`](Self::normal_equations): the
+    /// same outputs, from one group's residuals only. The parts add up
+    /// (`h`, `grad` and the diagonal each) to the whole, up to the rounding
+    /// of that sum. The returned flag means what it means there; a part
+    /// without residuals returns whether $S$ was asked for.
     ///
     /// The default forms everything in part 0 and nothing in the others:
     /// the right sum, without a speed-up. [`Eq3Problem`](crate::Eq3Problem)
-    /// splits its time steps into `parts` consecutive runs.
+    /// splits its time steps into consecutive runs.
     ///
     /// # Errors
-    /// `part >= parts`, and the errors of
-    /// [`band_normal_equations`](Self::band_normal_equations).
-    #[allow(clippy::too_many_arguments)]
-    fn band_normal_equations_part(
+    /// A part that does not exist, and the errors of
+    /// [`normal_equations`](Self::normal_equations).
+    fn normal_equations_part(
         &self,
-        part: usize,
-        parts: usize,
-        theta: &[f64],
-        r: &[f64],
+        part: Part,
+        at: Point<'_>,
         layout: &BandLayout,
-        h: &mut BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
+        out: BandNormalEquations<'_>,
     ) -> Result<bool> {
-        check_part(part, parts)?;
-        if part == 0 {
-            return self.band_normal_equations(theta, r, layout, h, grad, second_order);
+        part.check()?;
+        if part.index == 0 {
+            return self.normal_equations(at, layout, out);
         }
-        h.clear();
-        grad.fill(0.0);
-        Ok(match second_order {
+        out.h.clear();
+        out.grad.fill(0.0);
+        Ok(match out.second_order_diagonal {
             Some(diag) => {
                 diag.fill(0.0);
                 true
@@ -199,6 +242,51 @@ pub trait LeastSquaresProblem {
             None => false,
         })
     }
+
+    /// Part `part` of the residuals: writes that group's rows of
+    /// $r(\theta)$ into `r` (full length; the other rows are left as they
+    /// are) and returns their range. The parts' ranges cover all rows once.
+    ///
+    /// The default evaluates every row in part 0 and none in the others.
+    ///
+    /// # Errors
+    /// A part that does not exist, and the errors of
+    /// [`residuals`](LeastSquaresProblem::residuals).
+    fn residuals_part(&self, part: Part, theta: &[f64], r: &mut [f64]) -> Result<Range<usize>> {
+        part.check()?;
+        if part.index > 0 {
+            return Ok(0..0);
+        }
+        self.residuals(theta, r)?;
+        Ok(0..self.n_residuals())
+    }
+
+    /// The second-order term $S$ alone, in the band form of `layout`, from
+    /// part `part` of the residuals: the $S$ that
+    /// [`normal_equations`](Self::normal_equations) adds to $J^\top J$,
+    /// written into `s`; false when $S$ is not available (`s` then holds
+    /// nothing useful). When a Newton iteration falls back to a
+    /// Gauss-Newton step, the solver recovers $J^\top J = (J^\top J + S) - S$
+    /// from it, which costs less than forming $J^\top J$ again (about half,
+    /// for [`Eq3Problem`](crate::Eq3Problem)). Not available by default.
+    ///
+    /// # Errors
+    /// A part that does not exist, wrong sizes, or an error from evaluating
+    /// the problem.
+    fn second_order_part(&self, part: Part, at: Point<'_>, layout: &BandLayout, s: &mut BandedSym) -> Result<bool> {
+        part.check()?;
+        let _ = (at, layout, s);
+        Ok(false)
+    }
+}
+
+/// The problem's band form, or an error if it has none (the solver uses
+/// the band paths only for problems that have one).
+pub(crate) fn band_form_of<P: LeastSquaresProblem + ?Sized>(problem: &P) -> Result<&dyn BandForm> {
+    problem.band_form().ok_or_else(|| TrajoptError::InvalidParameter {
+        name: "problem",
+        reason: "it has no band form of its normal equations".into(),
+    })
 }
 
 /// An error unless `part < parts`.
@@ -343,5 +431,75 @@ impl LeastSquaresProblem for LinearLeastSquares {
     fn jacobian_values(&self, _theta: &[f64], values: &mut [f64]) -> Result<()> {
         values.copy_from_slice(self.a.val());
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::{GaussNewton, GaussNewtonSettings, LinearSolver, StepModel};
+
+    /// $y = a e^{b t}$ through exact data: a problem with the core methods
+    /// only (no bounds, no second-order term, no band form).
+    struct ExpFit {
+        t: Vec<f64>,
+        y: Vec<f64>,
+    }
+
+    impl LeastSquaresProblem for ExpFit {
+        fn n_params(&self) -> usize {
+            2
+        }
+        fn n_residuals(&self) -> usize {
+            self.t.len()
+        }
+        fn residuals(&self, p: &[f64], r: &mut [f64]) -> Result<()> {
+            for ((ri, &t), &y) in r.iter_mut().zip(&self.t).zip(&self.y) {
+                *ri = p[0] * (p[1] * t).exp() - y;
+            }
+            Ok(())
+        }
+        fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+            let m = self.t.len();
+            SymbolicSparseRowMat::new_checked(m, 2, (0..=m).map(|i| 2 * i).collect(), None, vec![0, 1].repeat(m))
+        }
+        fn jacobian_values(&self, p: &[f64], values: &mut [f64]) -> Result<()> {
+            for (row, &t) in values.chunks_exact_mut(2).zip(&self.t) {
+                let e = (p[1] * t).exp();
+                row.copy_from_slice(&[e, p[0] * t * e]);
+            }
+            Ok(())
+        }
+    }
+
+    #[test]
+    fn a_plain_curve_fit_needs_only_the_core_methods() {
+        let t: Vec<f64> = (0..8).map(|i| 0.25 * i as f64).collect();
+        let y = t.iter().map(|t| 2.0 * (-0.7 * t).exp()).collect();
+        let fit = ExpFit { t, y };
+        assert!(fit.second_order().is_none() && fit.band_form().is_none());
+        assert!(crate::check_jacobian(&fit, &[1.3, 0.2]).expect("check").error < 1e-8);
+        // every step model and linear solver runs it (the Newton modes take
+        // Gauss-Newton steps without S): the same fit
+        for step_model in [StepModel::GaussNewton, StepModel::Newton, StepModel::Adaptive] {
+            for linear_solver in [LinearSolver::Auto, LinearSolver::Sparse] {
+                let settings = GaussNewtonSettings {
+                    step_model,
+                    linear_solver,
+                    ..GaussNewtonSettings::default()
+                };
+                let r = GaussNewton::new(settings)
+                    .expect("settings")
+                    .solve(&fit, &[1.0, 0.0])
+                    .expect("solve");
+                assert!(
+                    r.status.is_converged(),
+                    "{step_model:?} {linear_solver:?}: {:?}",
+                    r.status
+                );
+                assert!((r.x[0] - 2.0).abs() < 1e-8 && (r.x[1] + 0.7).abs() < 1e-8, "{:?}", r.x);
+                assert!(r.cost < 1e-20 && r.cost_history.windows(2).all(|w| w[1] <= w[0]));
+            }
+        }
     }
 }

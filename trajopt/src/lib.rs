@@ -12,16 +12,15 @@
 //!   per-step consistency weights ([`Lambda`]) and the cost split into task
 //!   and inconsistency ([`CostBreakdown`]).
 //! - [`GaussNewton`]: Gauss-Newton / Levenberg-Marquardt. On Eq. 3 it works on
-//!   band matrices ([`banded`]): the problem forms $J^\top J$ in band storage
+//!   band matrices ([`linalg`]): the problem forms $J^\top J$ in band storage
 //!   from its per-step local blocks, and a band Cholesky factorisation solves
 //!   the steps. On any other sparse least-squares problem, $J^\top J$ and its
 //!   symbolic Cholesky factorisation (faer) are structured once and reused.
-//!   With [`GaussNewtonSettings::second_order`] and a model that gives its
+//!   With [`StepModel::Newton`] and a model that gives its
 //!   second derivatives ([`Model::weighted_hessian`]), it takes safeguarded
 //!   Newton steps instead, which converge quadratically on Eq. 3's
-//!   large-residual problems; with [`GaussNewtonSettings::adaptive`] as
-//!   well, each iteration takes whichever model predicted the last step
-//!   better. Which to use, from the benchmark pendulum at $N = 1000$: the
+//!   large-residual problems; with [`StepModel::Adaptive`], each iteration
+//!   takes whichever model predicted the last step better. Which to use, from the benchmark pendulum at $N = 1000$: the
 //!   Newton mode where the residuals stay large at the solution (small
 //!   $\lambda$: 17 iterations against Gauss-Newton's 113 at $\lambda = 10^2$),
 //!   Gauss-Newton where the dynamics are nearly enforced (it converges at
@@ -38,74 +37,71 @@
 //! - [`problems`]: a shared benchmark set (the soft-dynamics pendulum swing-up
 //!   at any horizon, Rosenbrock, Powell's singular function).
 //!
+//! - [`LeastSquaresProblem`]: what Gauss-Newton solves: a plain problem
+//!   implements sizes, residuals and the Jacobian's pattern and values;
+//!   [`SecondOrder`] (the Newton modes) and [`BandForm`] (band assembly,
+//!   in parts on several threads) are opt-in. [`check::check_jacobian`]
+//!   compares an analytic Jacobian with central differences.
+//!
 //! Invalid input is a typed [`TrajoptError`]; a solver that stops without
-//! converging returns its best point with a status.
+//! converging returns its best point with a status. The solvers share one
+//! vocabulary: settings with `max_iterations` and `tol_*` fields and
+//! `validate()`; results with `x`, `cost`, `initial_cost`, `status`
+//! (`is_converged()`), `iterations`, `*_evals` counts, `cost_history` and
+//! `solve_time`.
 //!
-//! # Example
+//! # Layout
 //!
-//! ```
-//! use faer::Mat;
-//! use splines::BSplineBasis;
-//! use trajopt::powell::{Powell, PowellSettings};
-//! use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LinearModel, TrackingCost};
+//! | concern | where |
+//! |---|---|
+//! | least-squares problem traits ([`LeastSquaresProblem`], [`SecondOrder`], [`BandForm`]), [`LinearBounds`], [`LinearLeastSquares`] | `least_squares.rs` |
+//! | Gauss-Newton / Levenberg-Marquardt: the iteration | `gauss_newton/mod.rs` |
+//! | its settings ([`StepModel`], [`LinearSolver`]), result and status | `gauss_newton/{settings,result}.rs` |
+//! | damping and the Newton shift | `gauss_newton/damping.rs` |
+//! | the normal equations: one trait, three back ends | `gauss_newton/normal_equations/{mod,sparse,band,split}.rs` |
+//! | helper threads; the two-domain split of a band matrix; the bounded step (a QP) | `parallel.rs`, `split.rs`, `qp.rs` |
+//! | band matrices and their Cholesky factorisation | `linalg/band.rs` |
+//! | every SIMD kernel and the fixed-shape dispatch table | `linalg/kernels.rs` |
+//! | Eq. 3: the problem, residuals, cost breakdown | `eq3/mod.rs` |
+//! | its [`Model`], [`StageCost`] / [`TrackingCost`], [`Lambda`] | `eq3/{model,stage_cost,lambda}.rs` |
+//! | its Jacobian, second-order term and band assembly | `eq3/{jacobian,second_order,band_assembly}.rs` |
+//! | Powell's method: settings and result; iteration; line search; argmin | `powell/{mod,engine,line_search,argmin}.rs` |
+//! | [`LinearModel`]; benchmark problems; proptest strategies | `models.rs`, `problems.rs`, `strategies.rs` |
+//! | Jacobian checks | `check.rs` |
 //!
-//! // a double integrator (position, velocity) driven by an acceleration, 50 steps of 0.02 s
-//! let dt = 0.02;
-//! let model = LinearModel::new(
-//!     Mat::from_fn(2, 2, |i, j| [[1.0, dt], [0.0, 1.0]][i][j]),
-//!     Mat::from_fn(2, 1, |i, _| [0.5 * dt * dt, dt][i]),
-//! )?;
-//! let times: Vec<f64> = (0..=50).map(|k| k as f64 * dt).collect();
-//! // track a reference that jumps from 0 to 1 (not feasible for the dynamics)
-//! let state_ref = Mat::from_fn(51, 2, |k, i| if i == 0 && k > 25 { 1.0 } else { 0.0 });
-//! let cost = TrackingCost::new(state_ref, Mat::zeros(50, 1), &[1.0, 0.0], &[1e-4], &[10.0, 10.0])?;
-//! let state_basis = BSplineBasis::clamped_uniform(15, 3, 0.0, 1.0)?;
-//! let control_basis = BSplineBasis::clamped_uniform(12, 3, 0.0, 1.0)?;
-//! let solver = GaussNewton::new(GaussNewtonSettings::default())?;
-//!
-//! let mut mismatch = Vec::new();
-//! for lambda in [0.0, 1e2, 1e6] {
-//!     let problem = Eq3Problem::new(model.clone(), cost.clone(), &state_basis, &control_basis, &times, Lambda::Constant(lambda))?
-//!         .with_consistency_scale(1.0 / dt)?;
-//!     let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
-//!     let result = solver.solve(&problem, &theta0)?;
-//!     assert!(result.cost <= result.initial_cost);
-//!     let parts = problem.cost_breakdown(&result.theta)?;
-//!     mismatch.push(parts.max_mismatch);
-//! }
-//! // the more the model is trusted, the more consistent the plan
-//! assert!(mismatch[0] > mismatch[1] && mismatch[1] > mismatch[2]);
-//!
-//! // the same problem by Powell's derivative-free method, the paper's solver:
-//! // at its default tolerances it lowers the cost, but stops well above
-//! // Gauss-Newton's minimum
-//! let problem = Eq3Problem::new(model, cost, &state_basis, &control_basis, &times, Lambda::Constant(1e2))?
-//!     .with_consistency_scale(1.0 / dt)?;
-//! let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
-//! let gauss_newton = solver.solve(&problem, &theta0)?;
-//! let powell = Powell::new(PowellSettings::default())?.solve(&problem, &theta0)?;
-//! assert!(powell.cost < 0.5 * powell.initial_cost);
-//! assert!(gauss_newton.cost <= powell.cost);
-//! # Ok::<(), trajopt::TrajoptError>(())
-//! ```
-#![warn(missing_docs)]
+//! The modules' `use crate::...` lines (tests aside) point one way only,
+//! so there is no import cycle: `error` ← `linalg` ← `least_squares` ←
+//! {`check`, `qp`, `split` ← `parallel`} ← `gauss_newton`; `powell` uses
+//! `error` alone; `eq3` uses `error`, `linalg`, `least_squares` (to
+//! implement the solvers' traits) and `powell` (to implement
+//! [`powell::Objective`]), and nothing uses `eq3` but `models`,
+//! `problems` and `strategies`.
 
-pub mod banded;
+pub mod check;
+pub mod eq3;
 pub mod error;
 pub mod gauss_newton;
 pub mod least_squares;
+pub mod linalg;
 pub mod models;
 mod parallel;
 pub mod powell;
-pub mod problem;
 pub mod problems;
 mod qp;
 mod split;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 
+pub use check::{JacobianCheck, check_jacobian};
+pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
-pub use gauss_newton::{GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, MIN_PARALLEL_PARAMS};
-pub use least_squares::{LeastSquaresProblem, LinearBounds, LinearLeastSquares};
+pub use gauss_newton::{
+    GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, LinearSolver, MIN_PARALLEL_PARAMS,
+    StepModel,
+};
+pub use least_squares::{
+    BandForm, BandNormalEquations, LeastSquaresProblem, LinearBounds, LinearLeastSquares, Part, Point, SecondOrder,
+};
+pub use linalg::{BandLayout, BandedSym};
 pub use models::LinearModel;
-pub use problem::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
+pub use powell::{Powell, PowellResult, PowellSettings, PowellStatus};

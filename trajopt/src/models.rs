@@ -2,8 +2,8 @@
 
 use faer::Mat;
 
+use crate::eq3::Model;
 use crate::error::{Result, TrajoptError, check_finite};
-use crate::problem::Model;
 
 /// The linear model $x_{k+1} = A x_k + B u_k$, with exact Jacobians.
 #[derive(Debug, Clone)]

@@ -26,9 +26,9 @@ use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::thread::Scope;
 use std::time::{Duration, Instant};
 
-use crate::banded::{BandLayout, BandedSym};
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::LeastSquaresProblem;
+use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
+use crate::linalg::{BandLayout, BandedSym};
 use crate::split::{self, SplitDone, SplitJob};
 
 /// How long a helper (or the solver waiting for one) spins before it
@@ -62,6 +62,14 @@ struct PartJob {
     /// $S$ alone ([`LeastSquaresProblem::band_second_order_part`]) instead
     /// of the normal equations.
     s_only: bool,
+}
+
+/// Where [`Helpers::band_parts`] writes: the normal equations (with
+/// `grad`) or $S$ alone (without).
+struct PartsOut<'a> {
+    h: &'a mut BandedSym,
+    grad: Option<&'a mut [f64]>,
+    second_order: Option<&'a mut [f64]>,
 }
 
 /// A formed part: the job (its buffers), the problem's answer, and the
@@ -165,27 +173,26 @@ impl Helpers {
                     while let Some(job) = receive(&job_rx) {
                         let done = match job {
                             Job::Band(mut job) => {
-                                let result = if job.s_only {
-                                    problem.band_second_order_part(
-                                        job.part,
-                                        job.parts,
-                                        &job.theta,
-                                        &job.r,
-                                        &job.layout,
-                                        &mut job.h,
-                                    )
-                                } else {
-                                    problem.band_normal_equations_part(
-                                        job.part,
-                                        job.parts,
-                                        &job.theta,
-                                        &job.r,
-                                        &job.layout,
-                                        &mut job.h,
-                                        &mut job.grad,
-                                        job.diag.as_deref_mut(),
-                                    )
+                                let part = Part {
+                                    index: job.part,
+                                    count: job.parts,
                                 };
+                                let at = Point {
+                                    theta: &job.theta,
+                                    r: &job.r,
+                                };
+                                let result = band_form_of(problem).and_then(|form| {
+                                    if job.s_only {
+                                        form.second_order_part(part, at, &job.layout, &mut job.h)
+                                    } else {
+                                        let out = BandNormalEquations {
+                                            h: &mut job.h,
+                                            grad: &mut job.grad,
+                                            second_order_diagonal: job.diag.as_deref_mut(),
+                                        };
+                                        form.normal_equations_part(part, at, &job.layout, out)
+                                    }
+                                });
                                 let first_column = job.h.first_nonzero_column();
                                 Done::Band(PartDone {
                                     job,
@@ -199,7 +206,12 @@ impl Helpers {
                                 None => break,
                             },
                             Job::Residuals(mut job) => {
-                                let result = problem.residuals_part(job.part, job.parts, &job.theta, &mut job.r);
+                                let part = Part {
+                                    index: job.part,
+                                    count: job.parts,
+                                };
+                                let result = band_form_of(problem)
+                                    .and_then(|form| form.residuals_part(part, &job.theta, &mut job.r));
                                 Done::Residuals(job, result)
                             }
                         };
@@ -248,49 +260,57 @@ impl Helpers {
         self.late >= LATE_LIMIT
     }
 
-    /// [`LeastSquaresProblem::band_normal_equations`] formed in parts, part
-    /// 0 on this thread and one part on each helper, and summed in the part
-    /// order (so the result depends on the number of parts, not on timing).
-    #[allow(clippy::too_many_arguments)]
+    /// [`BandForm::normal_equations`](crate::BandForm::normal_equations)
+    /// formed in parts, part 0 on this thread and one part on each helper,
+    /// and summed in the part order (so the result depends on the number of
+    /// parts, not on timing).
     pub(crate) fn band_normal_equations<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
         layout: &Arc<BandLayout>,
-        h: &mut BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
+        out: BandNormalEquations<'_>,
     ) -> Result<bool> {
-        self.band_parts(problem, theta, r, layout, h, Some(grad), second_order)
+        let out = PartsOut {
+            h: out.h,
+            grad: Some(out.grad),
+            second_order: out.second_order_diagonal,
+        };
+        self.band_parts(problem, at, layout, out)
     }
 
-    /// [`LeastSquaresProblem::band_second_order_part`] over the parts, as
-    /// [`band_normal_equations`](Self::band_normal_equations): $S$ alone
-    /// into `s`; false unless every part has it.
+    /// [`BandForm::second_order_part`](crate::BandForm::second_order_part)
+    /// over the parts, as [`band_normal_equations`](Self::band_normal_equations):
+    /// $S$ alone into `s`; false unless every part has it.
     pub(crate) fn band_second_order<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
         layout: &Arc<BandLayout>,
         s: &mut BandedSym,
     ) -> Result<bool> {
-        self.band_parts(problem, theta, r, layout, s, None, None)
+        let out = PartsOut {
+            h: s,
+            grad: None,
+            second_order: None,
+        };
+        self.band_parts(problem, at, layout, out)
     }
 
     /// The normal equations (with `grad`) or $S$ alone (without), in parts.
-    #[allow(clippy::too_many_arguments)]
     fn band_parts<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
         layout: &Arc<BandLayout>,
-        h: &mut BandedSym,
-        mut grad: Option<&mut [f64]>,
-        mut second_order: Option<&mut [f64]>,
+        out: PartsOut<'_>,
     ) -> Result<bool> {
+        let Point { theta, r } = at;
+        let PartsOut {
+            h,
+            mut grad,
+            mut second_order,
+        } = out;
         let s_only = grad.is_none();
         let n_grad = grad.as_deref().map_or(0, <[f64]>::len);
         let parts = self.helpers.len() + 1;
@@ -331,12 +351,18 @@ impl Helpers {
             }
             sent += 1;
         }
-        let mine = match grad.as_deref_mut() {
+        let part = Part { index: 0, count: parts };
+        let mine = band_form_of(problem).and_then(|form| match grad.as_deref_mut() {
             Some(g) => {
-                problem.band_normal_equations_part(0, parts, theta, r, layout, h, g, second_order.as_deref_mut())
+                let out = BandNormalEquations {
+                    h: &mut *h,
+                    grad: g,
+                    second_order_diagonal: second_order.as_deref_mut(),
+                };
+                form.normal_equations_part(part, at, layout, out)
             }
-            None => problem.band_second_order_part(0, parts, theta, r, layout, h),
-        };
+            None => form.second_order_part(part, at, layout, h),
+        });
         // collect every part sent, even after an error, so that no answer
         // is left in a channel for the next call
         let mut outcome = mine;
@@ -372,7 +398,12 @@ impl Helpers {
         outcome?;
         if let (Some(grad), true) = (grad, any_s && !all_s) {
             // S is missing in some part: J^T J alone, everywhere
-            return self.band_parts(problem, theta, r, layout, h, Some(grad), None);
+            let out = PartsOut {
+                h,
+                grad: Some(grad),
+                second_order: None,
+            };
+            return self.band_parts(problem, at, layout, out);
         }
         Ok(all_s)
     }
@@ -430,7 +461,8 @@ impl Helpers {
             }
             sent += 1;
         }
-        let mine = problem.residuals_part(0, parts, theta, r);
+        let part = Part { index: 0, count: parts };
+        let mine = band_form_of(problem).and_then(|form| form.residuals_part(part, theta, r));
         let mut outcome = mine.map(|range| vec![range]);
         let Self { helpers, late, .. } = self;
         for helper in &mut helpers[..sent] {

@@ -16,8 +16,8 @@
 use faer::Mat;
 use splines::BSplineBasis;
 
+use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::error::Result;
-use crate::problem::{Eq3Problem, Lambda, Model, TrackingCost};
 
 /// Sample period of the pendulum problems, 60 Hz as in the paper.
 pub const PENDULUM_DT: f64 = 1.0 / 60.0;

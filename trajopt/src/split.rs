@@ -31,9 +31,9 @@
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::banded::{BandLayout, BandedSym};
 use crate::error::Result;
-use crate::least_squares::LeastSquaresProblem;
+use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
+use crate::linalg::{BandLayout, BandedSym};
 
 /// One part's normal equations and the work on them, on the thread that
 /// formed them.
@@ -142,23 +142,28 @@ impl SplitPart {
         r: &[f64],
         want_s: bool,
     ) -> Result<bool> {
+        let part = self.part();
         let diag_s = want_s.then_some(&mut self.diag_s[..]);
-        self.has_s = problem.band_normal_equations_part(
-            self.part,
-            2,
-            theta,
-            r,
-            &self.layout,
-            &mut self.h,
-            &mut self.grad,
-            diag_s,
-        )?;
+        let out = BandNormalEquations {
+            h: &mut self.h,
+            grad: &mut self.grad,
+            second_order_diagonal: diag_s,
+        };
+        self.has_s = band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
         if !self.has_s {
             self.diag_s.fill(0.0);
         }
         self.jtj_current = false;
         self.scan();
         Ok(self.has_s)
+    }
+
+    /// This part of two.
+    fn part(&self) -> Part {
+        Part {
+            index: self.part,
+            count: 2,
+        }
     }
 
     /// Finds the extent and finiteness of the matrix and gradient just
@@ -196,7 +201,16 @@ impl SplitPart {
         let jtj = self
             .jtj
             .get_or_insert_with(|| BandedSym::zeros(self.h.size(), self.h.half_bandwidth()));
-        problem.band_normal_equations_part(self.part, 2, theta, r, &self.layout, jtj, &mut self.scratch, None)?;
+        let out = BandNormalEquations {
+            h: &mut *jtj,
+            grad: &mut self.scratch,
+            second_order_diagonal: None,
+        };
+        let part = Part {
+            index: self.part,
+            count: 2,
+        };
+        band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
         self.jtj_current = true;
         Ok(jtj.band().iter().chain(&self.scratch).all(|v| v.is_finite()))
     }
@@ -236,7 +250,11 @@ impl SplitPart {
         }
         let (n, kd) = (self.h.size(), self.h.half_bandwidth());
         let s = self.s_band.get_or_insert_with(|| BandedSym::zeros(n, kd));
-        if problem.band_second_order_part(self.part, 2, theta, r, &self.layout, s)? {
+        let part = Part {
+            index: self.part,
+            count: 2,
+        };
+        if band_form_of(problem)?.second_order_part(part, Point { theta, r }, &self.layout, s)? {
             let jtj = self.jtj.get_or_insert_with(|| BandedSym::zeros(n, kd));
             jtj.copy_from(&self.h);
             jtj.add_scaled(-1.0, s);
@@ -270,7 +288,6 @@ impl SplitPart {
     /// `abort` is shared with the other part's elimination: the first to
     /// find a pivot that is not positive stops the other (the whole matrix
     /// is then not positive definite).
-    #[allow(clippy::too_many_arguments)]
     pub(crate) fn eliminate(
         &mut self,
         newton: bool,
@@ -501,13 +518,14 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::problem::{Eq3Problem, TrackingCost};
+    use crate::eq3::{Eq3Problem, TrackingCost};
+    use crate::least_squares::BandForm;
     use crate::problems::{Pendulum, pendulum_swingup};
 
     /// The benchmark swing-up at 120 steps, its start, layout and residuals.
     fn benchmark() -> (Eq3Problem<Pendulum, TrackingCost>, Vec<f64>, BandLayout, Vec<f64>) {
         let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
-        let layout = p.band_layout().expect("band form");
+        let layout = BandForm::layout(&p);
         let mut r = vec![0.0; p.n_residuals()];
         p.residuals(&theta, &mut r).expect("residuals");
         (p, theta, layout, r)
@@ -524,15 +542,13 @@ mod tests {
         for with_s in [false, true] {
             let mut whole = BandedSym::zeros(n, layout.half_bandwidth);
             let (mut grad, mut diag_s) = (vec![0.0; n], vec![0.0; n]);
-            p.band_normal_equations(
-                &theta,
-                &r,
-                &layout,
-                &mut whole,
-                &mut grad,
-                with_s.then_some(&mut diag_s[..]),
-            )
-            .expect("whole");
+            let out = BandNormalEquations {
+                h: &mut whole,
+                grad: &mut grad,
+                second_order_diagonal: with_s.then_some(&mut diag_s[..]),
+            };
+            p.normal_equations(Point { theta: &theta, r: &r }, &layout, out)
+                .expect("whole");
             let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
             assert_eq!(a.assemble(&p, &theta, &r, with_s).expect("part 0"), with_s);
             assert_eq!(b.assemble(&p, &theta, &r, with_s).expect("part 1"), with_s);

@@ -8,9 +8,9 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use splines::BSplineBasis;
 
+use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::least_squares::LinearLeastSquares;
 use crate::models::LinearModel;
-use crate::problem::{Eq3Problem, Lambda, Model, TrackingCost};
 
 /// A consistent linear least-squares problem $\min \lVert A\theta - b \rVert^2$
 /// with $b = A \theta^\star$ and $A$ of full column rank (its top block is a

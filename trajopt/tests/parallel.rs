@@ -2,11 +2,11 @@
 //! on helper threads.
 
 use splines::BSplineBasis;
-use trajopt::banded::{BandLayout, BandedSym};
+use trajopt::linalg::BandLayout;
 use trajopt::problems::{PENDULUM_DT, Pendulum, pendulum_swingup, swingup_reference};
 use trajopt::{
-    Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda, LeastSquaresProblem, Model, Result,
-    TrackingCost, TrajoptError,
+    BandForm, BandNormalEquations, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda,
+    LeastSquaresProblem, Model, Part, Point, Result, StepModel, TrackingCost, TrajoptError,
 };
 
 /// A horizon whose problem has at least `MIN_PARALLEL_PARAMS` parameters.
@@ -15,9 +15,13 @@ const HORIZON: usize = 700;
 /// The solver in a mode; without the fallback to one thread, so that the
 /// parallel path is what these tests test, however busy the machine.
 fn solver(second_order: bool, adaptive: bool) -> GaussNewton {
+    let step_model = match (second_order, adaptive) {
+        (false, _) => StepModel::GaussNewton,
+        (true, false) => StepModel::Newton,
+        (true, true) => StepModel::Adaptive,
+    };
     GaussNewton::new(GaussNewtonSettings {
-        second_order,
-        adaptive,
+        step_model,
         one_thread_fallback: false,
         ..GaussNewtonSettings::default()
     })
@@ -26,7 +30,7 @@ fn solver(second_order: bool, adaptive: bool) -> GaussNewton {
 
 fn assert_close(a: &GaussNewtonResult, b: &GaussNewtonResult, what: &str) {
     assert!(
-        a.status.converged() && b.status.converged(),
+        a.status.is_converged() && b.status.is_converged(),
         "{what}: {:?} {:?}",
         a.status,
         b.status
@@ -64,7 +68,7 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
         let s = solver(second_order, adaptive);
         let one = s.solve(&p, &theta0)?;
         let one_again = s.solve_parallel(&p, &theta0, 1)?;
-        assert_eq!(one.theta, one_again.theta);
+        assert_eq!(one.x, one_again.x);
         // (capped at the machine's cores; the unit tests run three parts)
         for threads in [2, 3] {
             let par = s.solve_parallel(&p, &theta0, threads)?;
@@ -75,7 +79,7 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
             );
             let again = s.solve_parallel(&p, &theta0, threads)?;
             assert_eq!(par.one_thread_from, None);
-            assert_eq!(par.theta, again.theta, "{threads} threads are not deterministic");
+            assert_eq!(par.x, again.x, "{threads} threads are not deterministic");
         }
     }
     Ok(())
@@ -223,7 +227,7 @@ fn an_overflow_in_a_helper_part_gives_gauss_newton_steps() -> Result<()> {
 }
 
 /// A problem with a band form but no split of its own: the default
-/// `band_normal_equations_part` forms everything in part 0, so the
+/// `BandForm::normal_equations_part` forms everything in part 0, so the
 /// parallel solve is the sequential one, bit for bit.
 struct Unsplit(Eq3Problem<Pendulum, TrackingCost>);
 
@@ -243,19 +247,17 @@ impl LeastSquaresProblem for Unsplit {
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
         self.0.jacobian_values(theta, values)
     }
-    fn band_layout(&self) -> Option<BandLayout> {
-        self.0.band_layout()
+    fn band_form(&self) -> Option<&dyn BandForm> {
+        Some(self)
     }
-    fn band_normal_equations(
-        &self,
-        theta: &[f64],
-        r: &[f64],
-        layout: &BandLayout,
-        h: &mut BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
-    ) -> Result<bool> {
-        self.0.band_normal_equations(theta, r, layout, h, grad, second_order)
+}
+
+impl BandForm for Unsplit {
+    fn layout(&self) -> BandLayout {
+        self.0.layout()
+    }
+    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool> {
+        self.0.normal_equations(at, layout, out)
     }
 }
 
@@ -266,8 +268,8 @@ fn the_default_split_changes_nothing() -> Result<()> {
     let s = solver(false, false);
     let one = s.solve(&p, &theta0)?;
     let two = s.solve_parallel(&p, &theta0, 2)?;
-    assert!(one.status.converged());
-    assert_eq!(one.theta, two.theta);
+    assert!(one.status.is_converged());
+    assert_eq!(one.x, two.x);
     assert_eq!(one.iterations, two.iterations);
     Ok(())
 }
@@ -290,7 +292,14 @@ fn residual_parts_make_up_the_residuals() -> Result<()> {
         let mut covered = vec![0; p.n_residuals()];
         for part in 0..parts {
             let mut scratch = vec![f64::NAN; p.n_residuals()];
-            let rows = p.residuals_part(part, parts, &theta, &mut scratch)?;
+            let rows = p.residuals_part(
+                Part {
+                    index: part,
+                    count: parts,
+                },
+                &theta,
+                &mut scratch,
+            )?;
             for i in rows {
                 covered[i] += 1;
                 r[i] = scratch[i];
@@ -299,7 +308,10 @@ fn residual_parts_make_up_the_residuals() -> Result<()> {
         assert!(covered.iter().all(|&c| c == 1), "{parts} parts: {covered:?}");
         assert_eq!(r, whole, "{parts} parts");
     }
-    assert!(p.residuals_part(3, 3, &theta, &mut whole).is_err());
+    assert!(
+        p.residuals_part(Part { index: 3, count: 3 }, &theta, &mut whole)
+            .is_err()
+    );
     Ok(())
 }
 
@@ -317,40 +329,32 @@ impl LeastSquaresProblem for MissingRows {
     fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
         self.0.residuals(theta, r)
     }
-    fn residuals_part(
-        &self,
-        part: usize,
-        parts: usize,
-        theta: &[f64],
-        r: &mut [f64],
-    ) -> Result<std::ops::Range<usize>> {
-        let rows = self.0.residuals_part(part, parts, theta, r)?;
-        // the last row of the last part is left out
-        Ok(if rows.end == self.n_residuals() {
-            rows.start..rows.end - 1
-        } else {
-            rows
-        })
-    }
     fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
         self.0.jacobian_pattern()
     }
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
         self.0.jacobian_values(theta, values)
     }
-    fn band_layout(&self) -> Option<BandLayout> {
-        self.0.band_layout()
+    fn band_form(&self) -> Option<&dyn BandForm> {
+        Some(self)
     }
-    fn band_normal_equations(
-        &self,
-        theta: &[f64],
-        r: &[f64],
-        layout: &BandLayout,
-        h: &mut BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
-    ) -> Result<bool> {
-        self.0.band_normal_equations(theta, r, layout, h, grad, second_order)
+}
+
+impl BandForm for MissingRows {
+    fn layout(&self) -> BandLayout {
+        self.0.layout()
+    }
+    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool> {
+        self.0.normal_equations(at, layout, out)
+    }
+    fn residuals_part(&self, part: Part, theta: &[f64], r: &mut [f64]) -> Result<std::ops::Range<usize>> {
+        let rows = self.0.residuals_part(part, theta, r)?;
+        // the last row of the last part is left out
+        Ok(if rows.end == self.n_residuals() {
+            rows.start..rows.end - 1
+        } else {
+            rows
+        })
     }
 }
 
@@ -359,7 +363,7 @@ fn residual_parts_that_miss_rows_are_an_error() -> Result<()> {
     let (p, theta0) = pendulum_swingup(HORIZON, 1e2)?;
     let p = MissingRows(p);
     let s = solver(false, false);
-    assert!(s.solve(&p, &theta0)?.status.converged());
+    assert!(s.solve(&p, &theta0)?.status.is_converged());
     let err = s.solve_parallel(&p, &theta0, 2).expect_err("rows are missing");
     assert!(
         matches!(

@@ -93,7 +93,7 @@ fn rosenbrock_matches_scipy_with_fewer_evaluations() {
     let g = golden("rosenbrock");
     let f = Recorder::new(rosenbrock);
     let result = default_powell().solve(&f, &g.x0).expect("solve");
-    assert!(result.status.converged(), "{:?}", result.status);
+    assert!(result.status.is_converged(), "{:?}", result.status);
     for (ours, theirs) in result.x.iter().zip(&g.x) {
         assert!((ours - theirs).abs() < 1e-4, "{:?} vs scipy {:?}", result.x, g.x);
     }
@@ -147,7 +147,7 @@ fn evaluation_counts_stay_at_or_below_scipys() {
         let g = golden(name);
         let objective = |x: &[f64]| -> trajopt::Result<f64> { Ok(f(x)) };
         let result = default_powell().solve(&objective, &g.x0).expect("solve");
-        assert!(result.status.converged(), "{name}: {:?}", result.status);
+        assert!(result.status.is_converged(), "{name}: {:?}", result.status);
         assert!(
             result.cost_evals <= g.nfev,
             "{name}: {} evaluations, scipy {}",
@@ -182,7 +182,7 @@ fn convex_quadratic_in_10d_reaches_its_minimiser() {
             + (0..9).map(|i| 0.5 * d[i] * d[i + 1]).sum::<f64>())
     };
     let result = default_powell().solve(&f, &[0.0; 10]).expect("solve");
-    assert!(result.status.converged(), "{:?}", result.status);
+    assert!(result.status.is_converged(), "{:?}", result.status);
     for (x, c) in result.x.iter().zip(&c) {
         assert!((x - c).abs() < 1e-6, "{:?}", result.x);
     }
@@ -204,7 +204,7 @@ fn bounded_minimiser_on_the_bound() {
             .expect("settings")
             .solve(&f, &x0)
             .expect("solve");
-        assert!(result.status.converged(), "{:?}", result.status);
+        assert!(result.status.is_converged(), "{:?}", result.status);
         assert!((result.x[0] - 0.5).abs() < 1e-9, "{:?}", result.x);
         assert!((result.x[1] - 0.25).abs() < 1e-5, "{:?}", result.x);
         assert!((result.cost - 0.25).abs() < 1e-9, "{}", result.cost);
@@ -346,7 +346,7 @@ fn argmin_executor_limits() {
     );
 
     let solver = PowellArgmin::new(PowellSettings {
-        max_evals: Some(50),
+        max_cost_evals: Some(50),
         ..PowellSettings::default()
     })
     .expect("settings");
@@ -408,7 +408,7 @@ proptest! {
         let n = c.len();
         let settings = PowellSettings {
             bounds: Some((vec![-half_width; n], vec![half_width; n])),
-            max_evals: Some(max_evals),
+            max_cost_evals: Some(max_evals),
             ..PowellSettings::default()
         };
         let f = |x: &[f64]| -> trajopt::Result<f64> { Ok(quadratic(&b, &c, x)) };

@@ -4,8 +4,12 @@ use faer::prelude::*;
 use faer::sparse::{SparseColMat, SparseRowMat};
 use faer::{Mat, Side};
 use proptest::prelude::*;
+use trajopt::linalg::{BandLayout, BandedSym};
 use trajopt::problems::{Pendulum, pendulum_swingup};
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, LeastSquaresProblem, Model, Result, TrackingCost};
+use trajopt::{
+    BandForm, BandNormalEquations, Eq3Problem, GaussNewton, GaussNewtonSettings, LeastSquaresProblem, LinearSolver,
+    Model, Part, Point, Result, SecondOrder, StepModel, TrackingCost,
+};
 
 /// $g(\theta) = J^\top r$.
 fn gradient<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Vec<f64> {
@@ -23,9 +27,10 @@ fn gradient<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Vec<f64> {
 fn dense_second_order<P: LeastSquaresProblem>(p: &P, theta: &[f64]) -> Mat<f64> {
     let mut r = vec![0.0; p.n_residuals()];
     p.residuals(theta, &mut r).expect("residuals");
-    let pattern = p.second_order_pattern().expect("a second-order pattern");
+    let so = p.second_order().expect("a second-order term");
+    let pattern = so.pattern();
     let mut values = vec![0.0; pattern.row_idx().len()];
-    assert!(p.second_order_values(theta, &r, &mut values).expect("second order"));
+    assert!(so.values(theta, &r, &mut values).expect("second order"));
     SparseColMat::new(pattern, values).to_dense()
 }
 
@@ -88,11 +93,11 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     let (p, theta0) = pendulum_swingup(150, 1e2)?;
     let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta0)?;
     let newton = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
+        step_model: StepModel::Newton,
         ..GaussNewtonSettings::default()
     })?
     .solve(&p, &theta0)?;
-    assert!(gn.status.converged() && newton.status.converged());
+    assert!(gn.status.is_converged() && newton.status.is_converged());
     assert!(
         (gn.cost - newton.cost).abs() <= 1e-9 * gn.cost,
         "{} vs {}",
@@ -117,7 +122,7 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     // the predicted gain is below tol_cost F, with the gradient near 1e-11
     // of the start's)
     let inf = |g: Vec<f64>| g.iter().fold(0.0f64, |a, v| a.max(v.abs()));
-    let (g0, g) = (inf(gradient(&p, &theta0)), inf(gradient(&p, &newton.theta)));
+    let (g0, g) = (inf(gradient(&p, &theta0)), inf(gradient(&p, &newton.x)));
     assert!(g < 1e-10 * g0, "gradient {g:e}, at the start {g0:e}");
     Ok(())
 }
@@ -127,12 +132,12 @@ fn without_second_derivatives_newton_mode_is_gauss_newton() -> Result<()> {
     let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
     let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
     let newton = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
+        step_model: StepModel::Newton,
         ..GaussNewtonSettings::default()
     })?
     .solve(&p, &theta)?;
     assert_eq!(gn.iterations, newton.iterations);
-    assert_eq!(gn.theta, newton.theta);
+    assert_eq!(gn.x, newton.x);
     Ok(())
 }
 
@@ -152,7 +157,7 @@ fn upper_triangular_storage_gives_the_symmetric_product() {
     let problem = trajopt::LinearLeastSquares::new(sparse, b.clone()).expect("problem");
     let res = GaussNewton::new(GaussNewtonSettings {
         initial_damping: 0.0,
-        second_order: true,
+        step_model: StepModel::Newton,
         ..GaussNewtonSettings::default()
     })
     .expect("settings")
@@ -162,12 +167,7 @@ fn upper_triangular_storage_gives_the_symmetric_product() {
     let atb = a.transpose() * Mat::from_fn(7, 1, |i, _| b[i]);
     let x = ata.llt(Side::Lower).expect("spd").solve(&atb);
     for j in 0..4 {
-        assert!(
-            (res.theta[j] - x[(j, 0)]).abs() < 1e-10,
-            "{} vs {}",
-            res.theta[j],
-            x[(j, 0)]
-        );
+        assert!((res.x[j] - x[(j, 0)]).abs() < 1e-10, "{} vs {}", res.x[j], x[(j, 0)]);
     }
 }
 
@@ -185,11 +185,11 @@ proptest! {
         let (p, theta0) = pendulum_swingup(horizon, lambda).expect("problem");
         let theta = perturbed(&theta0, seed as f64);
         for adaptive in [false, true] {
-            let settings = GaussNewtonSettings { max_iters: 30, second_order: true, adaptive, ..GaussNewtonSettings::default() };
+            let settings = GaussNewtonSettings { max_iterations: 30, step_model: if adaptive { StepModel::Adaptive } else { StepModel::Newton }, ..GaussNewtonSettings::default() };
             let res = GaussNewton::new(settings).expect("settings").solve(&p, &theta).expect("solve");
             prop_assert!(res.cost <= res.initial_cost);
             prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
-            prop_assert!((p.cost(&res.theta).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+            prop_assert!((p.cost(&res.x).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
         }
     }
 }
@@ -258,8 +258,8 @@ fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result
     })?;
     for band in [true, false] {
         let solver = GaussNewton::new(GaussNewtonSettings {
-            second_order: true,
-            band,
+            step_model: StepModel::Newton,
+            linear_solver: if band { LinearSolver::Auto } else { LinearSolver::Sparse },
             ..GaussNewtonSettings::default()
         })?;
         assert!(matches!(
@@ -283,9 +283,13 @@ fn an_overflowing_second_order_term_gives_gauss_newton_steps() -> Result<()> {
     })?;
     let solve = |second_order: bool, band: bool| {
         GaussNewton::new(GaussNewtonSettings {
-            second_order,
-            band,
-            max_iters: 30,
+            step_model: if second_order {
+                StepModel::Newton
+            } else {
+                StepModel::GaussNewton
+            },
+            linear_solver: if band { LinearSolver::Auto } else { LinearSolver::Sparse },
+            max_iterations: 30,
             ..GaussNewtonSettings::default()
         })?
         .solve(&p, &start)
@@ -310,22 +314,21 @@ fn adaptive_model_choice_takes_newton_steps_where_they_pay() -> Result<()> {
     for (lambda, max_ratio) in [(1e2, 0.5), (1e4, 1.3)] {
         let (p, theta0) = pendulum_swingup(150, lambda)?;
         let settings = GaussNewtonSettings {
-            max_iters: 1000,
+            max_iterations: 1000,
             ..GaussNewtonSettings::default()
         };
         let gn = GaussNewton::new(settings.clone())?.solve(&p, &theta0)?;
         let adaptive = |band| {
             GaussNewton::new(GaussNewtonSettings {
-                second_order: true,
-                adaptive: true,
-                band,
+                step_model: StepModel::Adaptive,
+                linear_solver: if band { LinearSolver::Auto } else { LinearSolver::Sparse },
                 ..settings.clone()
             })?
             .solve(&p, &theta0)
         };
         let (a, sparse) = (adaptive(true)?, adaptive(false)?);
         assert!(
-            gn.status.converged() && a.status.converged(),
+            gn.status.is_converged() && a.status.is_converged(),
             "{:?} {:?}",
             gn.status,
             a.status
@@ -363,13 +366,12 @@ fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
     let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
     let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
     let adaptive = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
-        adaptive: true,
+        step_model: StepModel::Adaptive,
         ..GaussNewtonSettings::default()
     })?
     .solve(&p, &theta)?;
     assert_eq!(gn.iterations, adaptive.iterations);
-    assert_eq!(gn.theta, adaptive.theta);
+    assert_eq!(gn.x, adaptive.x);
     // and no curvature probes: without S they could not change the choice
     assert_eq!(adaptive.residual_evals, gn.residual_evals);
     Ok(())
@@ -390,9 +392,9 @@ fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
     let theta = perturbed(&theta0, 3.0);
     let mut r = vec![0.0; p.n_residuals()];
     p.residuals(&theta, &mut r)?;
-    let pattern = p.second_order_pattern().expect("pattern");
+    let pattern = SecondOrder::pattern(&p);
     let mut values = vec![0.0; pattern.row_idx().len()];
-    assert!(p.second_order_values(&theta, &r, &mut values)?);
+    assert!(SecondOrder::values(&p, &theta, &r, &mut values)?);
     for seed in 0..3 {
         let delta: Vec<f64> = (0..p.n_params())
             .map(|i| ((i * 7 + seed * 13) as f64 * 0.61).sin())
@@ -403,7 +405,7 @@ fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
                 expected += values[pattern.col_ptr()[j] + q] * delta[i] * delta[j];
             }
         }
-        let form = p.second_order_form(&theta, &r, &delta)?.expect("form");
+        let form = SecondOrder::form(&p, &theta, &r, &delta)?.expect("form");
         assert!(
             (form - expected).abs() <= 1e-10 * expected.abs().max(1.0),
             "{form} vs {expected}"
@@ -411,11 +413,11 @@ fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
         assert!(expected.abs() > 1e-6, "S is negligible: {expected}");
     }
     // wrong sizes are errors; no second derivatives, no form
-    assert!(p.second_order_form(&theta, &r, &theta[1..]).is_err());
+    assert!(SecondOrder::form(&p, &theta, &r, &theta[1..]).is_err());
     let (q, theta) = altered_problem(30, 2.0, |_: &mut [f64]| false)?;
     let mut r = vec![0.0; q.n_residuals()];
     q.residuals(&theta, &mut r)?;
-    assert_eq!(q.second_order_form(&theta, &r, &theta)?, None);
+    assert_eq!(SecondOrder::form(&q, &theta, &r, &theta)?, None);
     Ok(())
 }
 
@@ -444,12 +446,20 @@ impl<P: LeastSquaresProblem> LeastSquaresProblem for WithoutForm<P> {
         self.0.jacobian_values(theta, values)
     }
 
-    fn second_order_pattern(&self) -> Option<faer::sparse::SymbolicSparseColMat<usize>> {
-        self.0.second_order_pattern()
+    fn second_order(&self) -> Option<&dyn SecondOrder> {
+        Some(self)
+    }
+}
+
+impl<P: LeastSquaresProblem> SecondOrder for WithoutForm<P> {
+    fn pattern(&self) -> faer::sparse::SymbolicSparseColMat<usize> {
+        self.0.second_order().expect("the inner problem has S").pattern()
     }
 
-    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
-        self.0.second_order_values(theta, r, values)
+    fn values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
+        self.0
+            .second_order()
+            .map_or(Ok(false), |so| so.values(theta, r, values))
     }
 }
 
@@ -461,13 +471,12 @@ impl<P: LeastSquaresProblem> LeastSquaresProblem for WithoutForm<P> {
 fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
     let (p, theta0) = pendulum_swingup(150, 1e2)?;
     let settings = GaussNewtonSettings {
-        second_order: true,
-        adaptive: true,
+        step_model: StepModel::Adaptive,
         ..GaussNewtonSettings::default()
     };
     let exact = GaussNewton::new(settings.clone())?.solve(&p, &theta0)?;
     let probed = GaussNewton::new(settings)?.solve(&WithoutForm(p), &theta0)?;
-    assert!(exact.status.converged() && probed.status.converged());
+    assert!(exact.status.is_converged() && probed.status.is_converged());
     assert!(
         (exact.cost - probed.cost).abs() <= 1e-9 * exact.cost,
         "{} vs {}",
@@ -486,7 +495,7 @@ fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
 }
 
 /// The benchmark pendulum with call counters, and with or without its
-/// second-order term alone in band form (`band_second_order_part`).
+/// second-order term alone in band form (`BandForm::second_order_part`).
 struct Counting {
     inner: Eq3Problem<Pendulum, TrackingCost>,
     forward_s: bool,
@@ -510,43 +519,29 @@ impl LeastSquaresProblem for Counting {
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
         self.inner.jacobian_values(theta, values)
     }
-    fn second_order_pattern(&self) -> Option<faer::sparse::SymbolicSparseColMat<usize>> {
-        self.inner.second_order_pattern()
+    fn second_order(&self) -> Option<&dyn SecondOrder> {
+        self.inner.second_order()
     }
-    fn second_order_values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> Result<bool> {
-        self.inner.second_order_values(theta, r, values)
+    fn band_form(&self) -> Option<&dyn BandForm> {
+        Some(self)
     }
-    fn band_layout(&self) -> Option<trajopt::banded::BandLayout> {
-        self.inner.band_layout()
+}
+
+impl BandForm for Counting {
+    fn layout(&self) -> BandLayout {
+        self.inner.layout()
     }
-    fn band_normal_equations(
-        &self,
-        theta: &[f64],
-        r: &[f64],
-        layout: &trajopt::banded::BandLayout,
-        h: &mut trajopt::banded::BandedSym,
-        grad: &mut [f64],
-        second_order: Option<&mut [f64]>,
-    ) -> Result<bool> {
+    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool> {
         self.normal_equations.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        self.inner
-            .band_normal_equations(theta, r, layout, h, grad, second_order)
+        self.inner.normal_equations(at, layout, out)
     }
-    fn band_second_order_part(
-        &self,
-        part: usize,
-        parts: usize,
-        theta: &[f64],
-        r: &[f64],
-        layout: &trajopt::banded::BandLayout,
-        s: &mut trajopt::banded::BandedSym,
-    ) -> Result<bool> {
+    fn second_order_part(&self, part: Part, at: Point<'_>, layout: &BandLayout, s: &mut BandedSym) -> Result<bool> {
         if !self.forward_s {
             return Ok(false);
         }
         self.second_order_alone
             .fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        self.inner.band_second_order_part(part, parts, theta, r, layout, s)
+        self.inner.second_order_part(part, at, layout, s)
     }
 }
 
@@ -558,7 +553,7 @@ impl LeastSquaresProblem for Counting {
 fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
     use std::sync::atomic::Ordering::Relaxed;
     let solver = GaussNewton::new(GaussNewtonSettings {
-        second_order: true,
+        step_model: StepModel::Newton,
         ..GaussNewtonSettings::default()
     })?;
     let run = |forward_s: bool| -> Result<(trajopt::GaussNewtonResult, usize, usize)> {
@@ -586,7 +581,7 @@ fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
     );
     assert_eq!(calls, subtracted.iterations);
     assert_eq!(s_calls, calls_again - formed_again.iterations);
-    assert!(subtracted.status.converged() && formed_again.status.converged());
+    assert!(subtracted.status.is_converged() && formed_again.status.is_converged());
     assert!((subtracted.cost - formed_again.cost).abs() <= 1e-10 * formed_again.cost);
     assert!(subtracted.iterations.abs_diff(formed_again.iterations) <= 2);
     Ok(())

@@ -14,11 +14,12 @@
 //! [`LeastSquaresProblem`](crate::LeastSquaresProblem) sits in the band
 //! matrix, and [`GaussNewton`](crate::GaussNewton) uses it when the problem
 //! can form its normal equations in band form
-//! ([`LeastSquaresProblem::band_layout`](crate::LeastSquaresProblem::band_layout)).
+//! ([`BandForm`](crate::BandForm)).
 
-use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::atomic::AtomicBool;
 
 use crate::error::{Result, TrajoptError};
+use crate::linalg::kernels::CholeskyKernel;
 
 /// Where the parameters go in a band matrix: parameter `i` is row and
 /// column `position[i]`, and the matrix has half-bandwidth
@@ -334,135 +335,6 @@ impl BandedSym {
     }
 }
 
-/// The band Cholesky factorisation's loops, compiled for the widest vector
-/// instructions the processor has (chosen at run time by `pulp`). The
-/// rounding is the same on every path: each update is one fused
-/// multiply-add ([`f64::mul_add`], rounded once), an FMA instruction on
-/// the vector paths and exact in software on any other. Two columns at a
-/// time: the trailing entries are loaded and stored once for both, which
-/// the factorisation's speed is bound by.
-struct CholeskyKernel<'a> {
-    n: usize,
-    /// The columns to eliminate (`n` for the whole factorisation).
-    columns: usize,
-    kd: usize,
-    ab: &'a mut [f64],
-    /// Shared with other eliminations of one matrix's parts: set on a
-    /// failure, and a failure when found set (checked every
-    /// `ABORT_CHECK` columns).
-    abort: Option<&'a AtomicBool>,
-}
-
-/// How often an elimination with an abort flag looks at it.
-const ABORT_CHECK: usize = 16;
-
-impl pulp::WithSimd for CholeskyKernel<'_> {
-    type Output = bool;
-
-    /// Columns two at a time: each entry below them gets column $j$'s
-    /// update and then column $j+1$'s, as one column at a time would give
-    /// it (the same bits), but is loaded and stored once for both.
-    #[inline(always)]
-    fn with_simd<S: pulp::Simd>(self, _simd: S) -> bool {
-        let (n, kd) = (self.n, self.kd);
-        let w = kd + 1;
-        let columns = self.columns.min(n);
-        let fail = |abort: Option<&AtomicBool>| {
-            if let Some(abort) = abort {
-                abort.store(true, Ordering::Relaxed);
-            }
-            false
-        };
-        let mut j = 0;
-        while j < columns {
-            if let Some(abort) = self.abort
-                && j % ABORT_CHECK == 0
-                && abort.load(Ordering::Relaxed)
-            {
-                return false;
-            }
-            let kn0 = kd.min(n - 1 - j);
-            if j + 1 == columns {
-                // the last column alone
-                let (head, tail) = self.ab.split_at_mut((j + 1) * w);
-                let col = &mut head[j * w..];
-                if !factor_column(col, kn0) {
-                    return fail(self.abort);
-                }
-                // A[j+c.., j+c] -= L[j+c.., j] L[j+c, j]
-                for c in 1..=kn0 {
-                    let lc = col[c];
-                    if lc != 0.0 {
-                        update_column(&mut tail[(c - 1) * w..(c - 1) * w + (kn0 - c + 1)], &col[c..=kn0], lc);
-                    }
-                }
-                j += 1;
-                continue;
-            }
-            let (head, tail) = self.ab.split_at_mut((j + 2) * w);
-            let (c0, c1) = head[j * w..].split_at_mut(w);
-            if !factor_column(c0, kn0) {
-                return fail(self.abort);
-            }
-            // column j + 1 takes column j's update before its own pivot
-            if kn0 > 0 && c0[1] != 0.0 {
-                update_column(&mut c1[..kn0], &c0[1..=kn0], c0[1]);
-            }
-            let kn1 = kd.min(n - 2 - j);
-            if !factor_column(c1, kn1) {
-                return fail(self.abort);
-            }
-            // column t = j + 1 + cp (offset c = cp + 1 from column j): rows
-            // t..=j+kn0 from both columns, the rows below from column j + 1
-            for cp in 1..=kn1 {
-                let c = cp + 1;
-                let (lc0, lc1) = (if c <= kn0 { c0[c] } else { 0.0 }, c1[cp]);
-                let target = &mut tail[(cp - 1) * w..(cp - 1) * w + (kn1 - cp + 1)];
-                match (lc0 != 0.0, lc1 != 0.0) {
-                    (true, true) => {
-                        let len0 = kn0 - c + 1;
-                        let (both, below) = target.split_at_mut(len0);
-                        for ((t, &a), &b) in both.iter_mut().zip(&c0[c..=kn0]).zip(&c1[cp..cp + len0]) {
-                            *t = (-b).mul_add(lc1, (-a).mul_add(lc0, *t));
-                        }
-                        update_column(below, &c1[cp + len0..=kn1], lc1);
-                    }
-                    (true, false) => update_column(&mut target[..kn0 - c + 1], &c0[c..=kn0], lc0),
-                    (false, true) => update_column(target, &c1[cp..=kn1], lc1),
-                    (false, false) => {}
-                }
-            }
-            j += 2;
-        }
-        true
-    }
-}
-
-/// Turns the band entries `col` of a column (diagonal first, `kn` below
-/// it) into the factor's; false if the pivot is not positive and finite.
-#[inline(always)]
-fn factor_column(col: &mut [f64], kn: usize) -> bool {
-    let d = col[0];
-    if !(d > 0.0 && d.is_finite()) {
-        return false;
-    }
-    let l = d.sqrt();
-    col[0] = l;
-    let inv = 1.0 / l;
-    for v in &mut col[1..=kn] {
-        *v *= inv;
-    }
-    true
-}
-
-/// `target -= lc * src`, fused.
-#[inline(always)]
-fn update_column(target: &mut [f64], src: &[f64], lc: f64) {
-    for (t, &lr) in target.iter_mut().zip(src) {
-        *t = (-lr).mul_add(lc, *t);
-    }
-}
-
 /// The Cholesky factor of a [`BandedSym`], from
 /// [`BandedSym::cholesky_in_place`].
 #[derive(Debug, Clone)]
@@ -495,6 +367,7 @@ mod tests {
     use faer::Mat;
     use faer::linalg::solvers::Solve;
     use proptest::prelude::*;
+    use std::sync::atomic::Ordering;
 
     /// A random symmetric band matrix made positive definite by a diagonal shift.
     fn spd(n: usize, kd: usize, seed: u64, shift: f64) -> BandedSym {

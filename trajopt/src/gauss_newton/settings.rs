@@ -1,0 +1,207 @@
+//! [`GaussNewtonSettings`] and its choices: the [`StepModel`] and the
+//! [`LinearSolver`].
+//!
+//! | field | default | range | meaning |
+//! |---|---|---|---|
+//! | `max_iterations` | 200 | any | iteration cap |
+//! | `tol_grad` | 1e-10 | finite, $\ge 0$ | stop when $\lVert J^\top r \rVert_\infty \le$ `tol_grad` $\max(1, F)$ |
+//! | `tol_step` | 1e-12 | finite, $\ge 0$ | stop when $\lVert \delta \rVert \le$ `tol_step` $(\lVert \theta \rVert + $ `tol_step`$)$ |
+//! | `tol_cost` | 1e-14 | finite, $\ge 0$ | stop when an accepted step lowers $F$ by less than `tol_cost` $F$ |
+//! | `initial_damping` | 1e-6 | finite, $\ge 0$ | $\mu_0$ (relative to $D$) |
+//! | `step_model` | [`StepModel::GaussNewton`] | | which quadratic model each step minimises |
+//! | `linear_solver` | [`LinearSolver::Auto`] | | the band form of the normal equations when the problem has one |
+//! | `one_thread_fallback` | true | | [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel) goes on alone when its helpers answer late |
+
+use crate::error::{Result, TrajoptError};
+
+/// Which quadratic model of $F$ each step of [`GaussNewton`](crate::GaussNewton)
+/// minimises.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
+pub enum StepModel {
+    /// The Gauss-Newton model $J^\top J$ (always convex; converges only
+    /// linearly when the residuals stay large at the solution).
+    #[default]
+    GaussNewton,
+    /// The Newton model $J^\top J + S$ with the problem's exact
+    /// second-order term $S = \sum_i r_i \nabla^2 r_i$
+    /// ([`LeastSquaresProblem::second_order`](crate::LeastSquaresProblem::second_order)):
+    /// damped Newton steps, which converge quadratically on large-residual
+    /// problems. Ignored with bounds, and at points where the problem
+    /// cannot evaluate $S$ (a problem without [`SecondOrder`](crate::SecondOrder)
+    /// takes Gauss-Newton steps).
+    ///
+    /// On the benchmark pendulum
+    /// ([`pendulum_swingup`](crate::problems::pendulum_swingup)) with
+    /// $\lambda = 10^2$ it needs 17-21 iterations instead of 101-113 at
+    /// horizons 150 to 20000; but with $\lambda \ge 10^3$ (dynamics nearly
+    /// enforced) it is worse: at $N = 1000$ neither mode converges within
+    /// 200 iterations for $\lambda = 10^3, 10^4$ and Gauss-Newton does in
+    /// 102 for $10^5$, and the Newton mode ends at a higher cost each time.
+    Newton,
+    /// At every iteration, the model (Gauss-Newton or Newton) whose
+    /// predicted reduction for the last step was relatively closer to the
+    /// actual reduction (the model switch of NL2SOL: Dennis, Gay and
+    /// Welsch, ACM TOMS 7, 1981). $S$ is formed only at iterations that use
+    /// it; the other model's prediction needs $\delta^\top S \delta$, from
+    /// [`SecondOrder::form`](crate::SecondOrder::form)
+    /// ([`Eq3Problem`](crate::Eq3Problem) evaluates it exactly, per step),
+    /// or else from central differences of the residuals along the step
+    /// (two residual evaluations per iteration, counted in
+    /// `residual_evals`; a probe the problem cannot evaluate leaves the
+    /// choice as it was). Nothing is spent on the choice until the problem
+    /// has given $S$ once.
+    ///
+    /// On the benchmark pendulum at $N = 1000$ it takes 44, 175 and 446
+    /// iterations at $\lambda = 10^2, 10^3, 10^4$, where Gauss-Newton takes
+    /// 113, 358 and 446 and the Newton mode 17, 301 and no convergence in
+    /// 1000.
+    Adaptive,
+}
+
+impl StepModel {
+    /// Whether the model may use the second-order term $S$.
+    pub fn uses_second_order(self) -> bool {
+        !matches!(self, Self::GaussNewton)
+    }
+}
+
+/// How [`GaussNewton`](crate::GaussNewton) solves its linear systems.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
+pub enum LinearSolver {
+    /// The band form of the normal equations when the problem has one
+    /// ([`LeastSquaresProblem::band_form`](crate::LeastSquaresProblem::band_form);
+    /// [`Eq3Problem`](crate::Eq3Problem) does), its band is narrow and
+    /// there are no bounds: the problem forms $J^\top J$ (and $S$) directly
+    /// in band storage and a band Cholesky factorisation replaces the
+    /// sparse one. Otherwise the general sparse path.
+    #[default]
+    Auto,
+    /// Always the general sparse path: a sparse Jacobian, $J^\top J$ by a
+    /// sparse product, a sparse Cholesky factorisation. The iterates are
+    /// the band form's up to rounding.
+    Sparse,
+}
+
+/// Settings of [`GaussNewton`](crate::GaussNewton); see the
+/// [module docs](self) for the defaults.
+#[derive(Debug, Clone, PartialEq)]
+pub struct GaussNewtonSettings {
+    /// Iteration cap.
+    pub max_iterations: usize,
+    /// Gradient tolerance, relative to $\max(1, F)$.
+    pub tol_grad: f64,
+    /// Step tolerance, relative to $\lVert \theta \rVert$.
+    pub tol_step: f64,
+    /// Relative cost-decrease tolerance.
+    pub tol_cost: f64,
+    /// Initial damping $\mu_0$ (0: start with pure Gauss-Newton steps).
+    pub initial_damping: f64,
+    /// Which model each step minimises ([`StepModel`]).
+    pub step_model: StepModel,
+    /// How the linear systems are solved ([`LinearSolver`]).
+    pub linear_solver: LinearSolver,
+    /// Let [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)
+    /// go on with one thread when its helpers do not start or answer in
+    /// time (a busy machine), instead of waiting for them at every
+    /// hand-over. On by default; off, the result depends only on the
+    /// number of threads, bit for bit, however slow the machine
+    /// (reproducible runs, tests of the parallel path).
+    pub one_thread_fallback: bool,
+}
+
+impl Default for GaussNewtonSettings {
+    fn default() -> Self {
+        Self {
+            max_iterations: 200,
+            tol_grad: 1e-10,
+            tol_step: 1e-12,
+            tol_cost: 1e-14,
+            initial_damping: 1e-6,
+            step_model: StepModel::GaussNewton,
+            linear_solver: LinearSolver::Auto,
+            one_thread_fallback: true,
+        }
+    }
+}
+
+impl GaussNewtonSettings {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        for (name, v) in [
+            ("tol_grad", self.tol_grad),
+            ("tol_step", self.tol_step),
+            ("tol_cost", self.tol_cost),
+            ("initial_damping", self.initial_damping),
+        ] {
+            if !(v.is_finite() && v >= 0.0) {
+                return Err(TrajoptError::InvalidParameter {
+                    name,
+                    reason: format!("must be finite and nonnegative, got {v}"),
+                });
+            }
+        }
+        Ok(())
+    }
+
+    /// Whether the steps may use the second-order term.
+    pub(crate) fn second_order(&self) -> bool {
+        self.step_model.uses_second_order()
+    }
+
+    /// Whether the iterations choose between the two models.
+    pub(crate) fn adaptive(&self) -> bool {
+        self.step_model == StepModel::Adaptive
+    }
+
+    /// Whether the band form may be used.
+    pub(crate) fn band(&self) -> bool {
+        self.linear_solver == LinearSolver::Auto
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_are_gauss_newton_on_the_band_form() {
+        let s = GaussNewtonSettings::default();
+        assert!(!s.second_order() && !s.adaptive() && s.band());
+        assert_eq!(s.max_iterations, 200);
+        s.validate().expect("defaults are valid");
+    }
+
+    #[test]
+    fn the_step_models_map_to_the_old_switches() {
+        let with = |step_model| GaussNewtonSettings {
+            step_model,
+            ..GaussNewtonSettings::default()
+        };
+        assert!(with(StepModel::Newton).second_order() && !with(StepModel::Newton).adaptive());
+        assert!(with(StepModel::Adaptive).second_order() && with(StepModel::Adaptive).adaptive());
+        let sparse = GaussNewtonSettings {
+            linear_solver: LinearSolver::Sparse,
+            ..GaussNewtonSettings::default()
+        };
+        assert!(!sparse.band());
+    }
+
+    #[test]
+    fn validate_names_the_bad_field() {
+        for field in ["tol_grad", "tol_step", "tol_cost", "initial_damping"] {
+            let mut s = GaussNewtonSettings::default();
+            match field {
+                "tol_grad" => s.tol_grad = f64::NAN,
+                "tol_step" => s.tol_step = -1.0,
+                "tol_cost" => s.tol_cost = f64::INFINITY,
+                _ => s.initial_damping = -1e-3,
+            }
+            match s.validate() {
+                Err(TrajoptError::InvalidParameter { name, .. }) => assert_eq!(name, field),
+                other => panic!("{field}: {other:?}"),
+            }
+        }
+    }
+}

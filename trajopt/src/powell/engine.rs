@@ -1,0 +1,299 @@
+//! Powell's iteration: a sweep of line searches over the direction set,
+//! the replacement test, the stopping tests and the restart on a bound.
+
+use super::line_search::{Line, feasible_interval, fill_trial};
+use super::{PowellSettings, PowellStatus, invalid};
+use crate::error::{TrajoptError, check_finite};
+
+/// The state of one Powell run, shared by [`Powell::solve`](super::Powell::solve)
+/// and [`PowellArgmin`](super::PowellArgmin).
+#[derive(Debug, Clone)]
+pub(super) struct Engine {
+    pub(super) n: usize,
+    pub(super) x: Vec<f64>,
+    pub(super) fx: f64,
+    /// Row-major $n \times n$: row $i$ is direction $u_i$.
+    pub(super) dirs: Vec<f64>,
+    /// The first bracketing trial along each direction: the step length
+    /// accepted by the last line search along it ($1$ at the start).
+    steps: Vec<f64>,
+    x_start: Vec<f64>,
+    new_dir: Vec<f64>,
+    trial: Vec<f64>,
+    bounds: Option<(Vec<f64>, Vec<f64>)>,
+    pub(super) evals: usize,
+    pub(super) iters: usize,
+    max_iterations: usize,
+    max_cost_evals: usize,
+    tol_x: f64,
+    tol_f: f64,
+    tol_line: f64,
+    initial_step: f64,
+    /// The direction set is the coordinate set (no replacement since the
+    /// start or the last restart).
+    fresh: bool,
+    pub(super) status: Option<PowellStatus>,
+}
+
+enum Which {
+    Row(usize),
+    New,
+}
+
+impl Engine {
+    pub(super) fn start<F, E>(settings: &PowellSettings, x0: &[f64], eval: &mut F) -> std::result::Result<Self, E>
+    where
+        F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
+        E: From<TrajoptError>,
+    {
+        settings.validate()?;
+        let n = x0.len();
+        if n == 0 {
+            return Err(invalid("x0", "the start point is empty").into());
+        }
+        check_finite("x0", x0)?;
+        let mut x = x0.to_vec();
+        if let Some((lower, upper)) = &settings.bounds {
+            if lower.len() != n {
+                return Err(TrajoptError::DimensionMismatch {
+                    what: "bounds",
+                    expected: n,
+                    actual: lower.len(),
+                }
+                .into());
+            }
+            for ((t, &l), &u) in x.iter_mut().zip(lower).zip(upper) {
+                *t = t.max(l).min(u);
+            }
+        }
+        let fx = eval(&x)?;
+        if !fx.is_finite() {
+            return Err(TrajoptError::NonFiniteStart { value: fx }.into());
+        }
+        let mut dirs = vec![0.0; n * n];
+        for i in 0..n {
+            dirs[i * n + i] = settings.initial_step;
+        }
+        Ok(Self {
+            n,
+            trial: x.clone(),
+            x_start: x.clone(),
+            new_dir: vec![0.0; n],
+            x,
+            fx,
+            dirs,
+            steps: vec![1.0; n],
+            bounds: settings.bounds.clone(),
+            evals: 1,
+            iters: 0,
+            max_iterations: settings.max_iterations.unwrap_or(1000 * n),
+            max_cost_evals: settings.max_cost_evals.unwrap_or(1000 * n),
+            tol_x: settings.tol_x,
+            tol_f: settings.tol_f,
+            tol_line: settings.tol_line,
+            initial_step: settings.initial_step,
+            fresh: true,
+            status: None,
+        })
+    }
+
+    /// One line minimisation along a stored direction from the current point;
+    /// moves there if the cost went down. Returns the step length.
+    fn line_search<F, E>(
+        &mut self,
+        which: Which,
+        known: Option<(f64, f64)>,
+        eval: &mut F,
+    ) -> std::result::Result<f64, E>
+    where
+        F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
+    {
+        let n = self.n;
+        let (dir, step) = match which {
+            Which::Row(i) => (&self.dirs[i * n..(i + 1) * n], self.steps[i]),
+            Which::New => (&self.new_dir[..], 1.0),
+        };
+        let bounds = self.bounds.as_ref();
+        let (lo, hi) = feasible_interval(&self.x, dir, bounds);
+        let mut line = Line {
+            origin: &self.x,
+            dir,
+            bounds,
+            trial: &mut self.trial,
+            eval,
+            evals: &mut self.evals,
+            max_cost_evals: self.max_cost_evals,
+        };
+        let (alpha, f) = line.minimise(self.fx, lo, hi, step, known, self.tol_line)?;
+        if alpha != 0.0 && f < self.fx {
+            if let Which::Row(i) = which {
+                self.steps[i] = alpha;
+            }
+            // the same arithmetic as the evaluated trial: bit-identical point
+            fill_trial(&mut self.trial, &self.x, dir, alpha, bounds);
+            self.x.copy_from_slice(&self.trial);
+            self.fx = f;
+            Ok(alpha)
+        } else {
+            Ok(0.0)
+        }
+    }
+
+    /// One iteration; returns the status once finished.
+    pub(super) fn iterate<F, E>(&mut self, eval: &mut F) -> std::result::Result<Option<PowellStatus>, E>
+    where
+        F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
+    {
+        if let Some(status) = self.status {
+            return Ok(Some(status));
+        }
+        let n = self.n;
+        let f_start = self.fx;
+        self.x_start.copy_from_slice(&self.x);
+        let (mut biggest, mut delta) = (0, 0.0);
+        for i in 0..n {
+            let f_before = self.fx;
+            self.line_search(Which::Row(i), None, eval)?;
+            if f_before - self.fx > delta {
+                delta = f_before - self.fx;
+                biggest = i;
+            }
+        }
+        self.iters += 1;
+        if let Some(status) = self.check(f_start) {
+            if !(status.is_converged() && self.restart_on_bound()) {
+                self.status = Some(status);
+                return Ok(Some(status));
+            }
+        } else {
+            self.replace_direction(f_start, delta, biggest, eval)?;
+        }
+        let status = if self.evals >= self.max_cost_evals {
+            Some(PowellStatus::MaxEvaluations)
+        } else if self.iters >= self.max_iterations {
+            Some(PowellStatus::MaxIterations)
+        } else {
+            None
+        };
+        self.status = status;
+        Ok(status)
+    }
+
+    /// Powell's replacement step after a sweep from `x_start` (cost
+    /// `f_start`) whose largest single decrease `delta` was along direction
+    /// `biggest`.
+    fn replace_direction<F, E>(
+        &mut self,
+        f_start: f64,
+        delta: f64,
+        biggest: usize,
+        eval: &mut F,
+    ) -> std::result::Result<(), E>
+    where
+        F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
+    {
+        let n = self.n;
+        // the extrapolated point x_n + d, d = x_n - x_0, pulled back into the box
+        for ((d, &x), &x0) in self.new_dir.iter_mut().zip(&self.x).zip(&self.x_start) {
+            *d = x - x0;
+        }
+        let (_, hi) = feasible_interval(&self.x, &self.new_dir, self.bounds.as_ref());
+        let reach = hi.min(1.0);
+        if reach <= 0.0 || self.evals >= self.max_cost_evals {
+            return Ok(());
+        }
+        fill_trial(&mut self.trial, &self.x, &self.new_dir, reach, self.bounds.as_ref());
+        self.evals += 1;
+        let fe = eval(&self.trial)?;
+        let fe = if fe.is_finite() { fe } else { f64::INFINITY };
+        let fx = self.fx;
+        if fe >= f_start {
+            return Ok(());
+        }
+        let t = 2.0 * (f_start - 2.0 * fx + fe) * (f_start - fx - delta).powi(2) - delta * (f_start - fe).powi(2);
+        if t >= 0.0 {
+            if fe < fx {
+                // keep the set, but not a better point already paid for
+                self.x.copy_from_slice(&self.trial);
+                self.fx = fe;
+            }
+            return Ok(());
+        }
+        let alpha = self.line_search(Which::New, Some((reach, fe)), eval)?;
+        if alpha != 0.0 {
+            for d in &mut self.new_dir {
+                *d *= alpha;
+            }
+            // u_m <- u_n, u_n <- alpha d
+            self.dirs.copy_within((n - 1) * n..n * n, biggest * n);
+            self.dirs[(n - 1) * n..].copy_from_slice(&self.new_dir);
+            self.steps[biggest] = self.steps[n - 1];
+            self.steps[n - 1] = 1.0;
+            self.fresh = false;
+        }
+        Ok(())
+    }
+
+    /// On a stall with some coordinate on a bound and a direction set that
+    /// has changed since the start (or the last restart): resets the set to
+    /// the coordinate directions and returns true.
+    fn restart_on_bound(&mut self) -> bool {
+        let Some((lower, upper)) = &self.bounds else {
+            return false;
+        };
+        let on_bound = self
+            .x
+            .iter()
+            .zip(lower.iter().zip(upper))
+            .any(|(&x, (&l, &u))| x == l || x == u);
+        if self.fresh || !on_bound {
+            return false;
+        }
+        let n = self.n;
+        self.dirs.fill(0.0);
+        for i in 0..n {
+            self.dirs[i * n + i] = self.initial_step;
+        }
+        self.steps.fill(1.0);
+        self.fresh = true;
+        true
+    }
+
+    /// The tests after the direction sweep.
+    fn check(&self, f_start: f64) -> Option<PowellStatus> {
+        let fx = self.fx;
+        if self.evals >= self.max_cost_evals {
+            // the sweep may have been cut short: not a convergence
+            return Some(PowellStatus::MaxEvaluations);
+        }
+        if 2.0 * (f_start - fx) <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
+            return Some(PowellStatus::ConvergedCost);
+        }
+        let small_step = self
+            .x
+            .iter()
+            .zip(&self.x_start)
+            .all(|(&x, &x0)| (x - x0).abs() <= self.tol_x * (1.0 + x.abs()));
+        small_step.then_some(PowellStatus::ConvergedStep)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::error::Result;
+
+    #[test]
+    fn first_trials_are_the_last_accepted_steps() {
+        // separable: one sweep along the coordinates lands on c, with the
+        // steps c_i; a second sweep then starts each search at c_i
+        let c = [0.5, -2.0, 3.0];
+        let mut eval = |x: &Vec<f64>| -> Result<f64> { Ok(x.iter().zip(&c).map(|(x, c)| (x - c).powi(2)).sum()) };
+        let mut engine = Engine::start(&PowellSettings::default(), &[0.0; 3], &mut eval).expect("start");
+        assert_eq!(engine.steps, vec![1.0; 3]);
+        engine.iterate(&mut eval).expect("sweep");
+        for (step, c) in engine.steps.iter().zip(&c) {
+            assert!((step - c).abs() < 1e-6, "{:?}", engine.steps);
+        }
+    }
+}
