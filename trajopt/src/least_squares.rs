@@ -461,7 +461,7 @@ mod tests {
         }
         fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
             let m = self.t.len();
-            SymbolicSparseRowMat::new_checked(m, 2, (0..=m).map(|i| 2 * i).collect(), None, vec![0, 1].repeat(m))
+            SymbolicSparseRowMat::new_checked(m, 2, (0..=m).map(|i| 2 * i).collect(), None, [0, 1].repeat(m))
         }
         fn jacobian_values(&self, p: &[f64], values: &mut [f64]) -> Result<()> {
             for (row, &t) in values.chunks_exact_mut(2).zip(&self.t) {

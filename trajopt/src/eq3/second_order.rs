@@ -138,7 +138,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     }
 
     /// $\delta^\top S \delta$ from the per-step second derivatives; see
-    /// [`LeastSquaresProblem::second_order_form`]. `None` also when it is
+    /// [`SecondOrder::form`](crate::SecondOrder::form). `None` also when it is
     /// not finite (the solver then probes the residuals instead).
     pub(super) fn second_order_form_impl(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> Result<Option<f64>> {
         expect_len("parameters", self.n_params(), theta.len())?;

@@ -7,7 +7,7 @@
 //!   spread over the basis coefficients as Kronecker products
 //!   ([`crate::eq3`]'s band assembly), with the 4 x 4 basis-row shapes
 //!   unrolled ([`KronWindow::kron`]).
-//! - [`with_fixed_shape`]: the (states, controls, stage-cost residuals)
+//! - [`with_fixed_shape`] holds the (states, controls, stage-cost residuals)
 //!   sizes for which the band assembly is compiled with its dimensions known.
 //!
 //! Each kernel is compiled for the widest vector instructions the
@@ -468,7 +468,7 @@ impl BasisRows<'_> {
             x,
             x,
             Block {
-                q: q,
+                q,
                 stride: nz,
                 at: (0, 0),
             },
@@ -479,7 +479,7 @@ impl BasisRows<'_> {
                 u,
                 x,
                 Block {
-                    q: q,
+                    q,
                     stride: nz,
                     at: (n, 0),
                 },
@@ -489,7 +489,7 @@ impl BasisRows<'_> {
                 u,
                 u,
                 Block {
-                    q: q,
+                    q,
                     stride: nz,
                     at: (n, n),
                 },

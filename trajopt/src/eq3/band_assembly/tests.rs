@@ -51,7 +51,7 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
     let mut diag_s = vec![0.0; n_p];
     let with_s = problem
         .normal_equations(
-            Point { theta: theta, r: &r },
+            Point { theta, r: &r },
             &layout,
             BandNormalEquations {
                 h: &mut jtj,
@@ -63,7 +63,7 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
     assert!(!with_s);
     let with_s = problem
         .normal_equations(
-            Point { theta: theta, r: &r },
+            Point { theta, r: &r },
             &layout,
             BandNormalEquations {
                 h: &mut full,
@@ -116,7 +116,7 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
                             index: part,
                             count: parts
                         },
-                        Point { theta: theta, r: &r },
+                        Point { theta, r: &r },
                         &layout,
                         &mut part_s
                     )
@@ -146,7 +146,7 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
     assert!(
         problem
             .normal_equations(
-                Point { theta: theta, r: &r },
+                Point { theta, r: &r },
                 &layout,
                 BandNormalEquations {
                     h: &mut small,
@@ -201,7 +201,7 @@ fn check_parts_add_up<P: BandForm>(
                             index: part,
                             count: parts,
                         },
-                        Point { theta: theta, r: r },
+                        Point { theta, r },
                         layout,
                         BandNormalEquations {
                             h: &mut part_h,
@@ -239,7 +239,7 @@ fn check_parts_add_up<P: BandForm>(
         problem
             .normal_equations_part(
                 Part { index: 2, count: 2 },
-                Point { theta: theta, r: r },
+                Point { theta, r },
                 layout,
                 BandNormalEquations {
                     h: &mut h,
