@@ -61,15 +61,15 @@ fn eq3_plan(lambda: f64) -> (f64, f64, Mat<f64>) {
     .expect("x0");
     let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
     let settings = GaussNewtonSettings {
-        max_iters: 50,
+        max_iterations: 50,
         ..GaussNewtonSettings::default()
     };
     let result = GaussNewton::new(settings)
         .expect("settings")
         .solve(&problem, &theta0)
         .expect("solve");
-    let parts = problem.cost_breakdown(&result.theta).expect("cost");
-    let (states, _) = problem.trajectory(&result.theta).expect("trajectory");
+    let parts = problem.cost_breakdown(&result.x).expect("cost");
+    let (states, _) = problem.trajectory(&result.x).expect("trajectory");
     (parts.task, parts.max_mismatch, states)
 }
 

@@ -196,12 +196,12 @@ pub fn plan<M: trajopt::Model>(
     let p = &cfg.planner;
     let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
     let solver = GaussNewton::new(GaussNewtonSettings {
-        max_iters: p.max_iters,
+        max_iterations: p.max_iters,
         tol_cost: p.tol_cost,
         ..GaussNewtonSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
-        max_evals: Some(p.powell_evals),
+        max_cost_evals: Some(p.powell_evals),
         ..PowellSettings::default()
     })?;
     let mut lambda = if p.lambda_start > 0.0 && p.lambda_start < p.lambda {
@@ -229,15 +229,15 @@ pub fn plan<M: trajopt::Model>(
             let r = powell.solve(&problem, &theta)?;
             iterations += r.iterations;
             evaluations += r.cost_evals;
-            seconds += r.elapsed.as_secs_f64();
+            seconds += r.solve_time.as_secs_f64();
             theta.clone_from(&r.x);
             (format!("{:?}", r.status), r.cost)
         } else {
             let r = solver.solve(&problem, &theta)?;
             iterations += r.iterations;
             evaluations += r.residual_evals;
-            seconds += r.elapsed.as_secs_f64();
-            theta.clone_from(&r.theta);
+            seconds += r.solve_time.as_secs_f64();
+            theta.clone_from(&r.x);
             (format!("{:?}", r.status), r.cost)
         };
         if lambda >= p.lambda {
