@@ -179,7 +179,7 @@ fn run_command() -> anyhow::Result<()> {
             Ok(())
         }
         Command::Learn(args) => learn(&args),
-        Command::Fit(args) => swingup::fit_cmd::fit_command(&args),
+        Command::Fit(args) => Ok(swingup::fit_cmd::fit_command(&args)?),
         Command::Experiments(args) => experiments(&args),
         Command::Sensitivity(args) => sensitivity(&args),
     }
