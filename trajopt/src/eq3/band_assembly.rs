@@ -489,7 +489,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             if let Some(rows_k) = &rows_k {
                 let ranges = rows_k.ranges(terminal);
                 if !window.holds(ranges.0, ranges.1) {
-                    window.flush(h)?;
+                    window.flush(|i, j, v| h.add(i, j, v))?;
                     window.open(ranges.0, ranges.1, (ncx, ncu), &base, &layout.position);
                 }
                 pulp::Arch::new().dispatch(StepSpread {
@@ -502,14 +502,14 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                     terminal,
                 });
             } else {
-                window.flush(h)?;
+                window.flush(|i, j, v| h.add(i, j, v))?;
                 spread_block(h, &q, nz, dim, &spread);
                 if !terminal && !S_ONLY {
                     spread_cross(h, &cross, n, nz, &spread, &next);
                 }
             }
         }
-        window.flush(h)?;
+        window.flush(|i, j, v| h.add(i, j, v))?;
         debug_assert!(k1 <= self.horizon || row + self.initial_state.as_ref().map_or(0, |_| n) == self.n_residuals());
         grad.copy_from_slice(&grad_acc);
         if let Some(diag) = second_order {

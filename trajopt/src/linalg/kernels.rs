@@ -17,7 +17,6 @@
 use std::sync::atomic::{AtomicBool, Ordering};
 
 use crate::error::Result;
-use crate::linalg::band::BandedSym;
 
 /// A computation compiled for `NX` states, `NU` controls and `NC`
 /// stage-cost residuals known at compile time (all 0: the sizes are known
@@ -334,19 +333,22 @@ impl KronWindow {
         }
     }
 
-    /// Adds $H = A + A^\top$ into `h` and closes the window.
-    pub(crate) fn flush(&mut self, h: &mut BandedSym) -> Result<()> {
+    /// Adds $H = A + A^\top$ into a symmetric matrix through `add(i, j, v)`
+    /// (e.g. [`BandedSym::add`](crate::linalg::BandedSym::add), which this
+    /// file does not import: the band type uses these kernels) and closes
+    /// the window.
+    pub(crate) fn flush(&mut self, mut add: impl FnMut(usize, usize, f64) -> Result<()>) -> Result<()> {
         let size = self.size;
         for s1 in 0..size {
             let p1 = self.slot_pos[s1];
             let v = 2.0 * self.acc[s1 * size + s1];
             if v != 0.0 {
-                h.add(p1, p1, v)?;
+                add(p1, p1, v)?;
             }
             for s2 in s1 + 1..size {
                 let v = self.acc[s1 * size + s2] + self.acc[s2 * size + s1];
                 if v != 0.0 {
-                    h.add(p1, self.slot_pos[s2], v)?;
+                    add(p1, self.slot_pos[s2], v)?;
                 }
             }
         }
