@@ -2,7 +2,7 @@
 //!
 //! [`check_jacobian`] compares every entry of $J(\theta)$ that a
 //! [`LeastSquaresProblem`] returns with the central difference
-//! $(r(\theta + h e_j) - r(\theta - h e_j)) / 2h$, $h = \sqrt[3]{\epsilon}
+//! $(r(\theta + h e_j) - r(\theta - h e_j)) / 2h$, $h = \epsilon^{1/3}
 //! \max(1, |\theta_j|)$ (truncation error $O(h^2)$, rounding
 //! $O(\epsilon / h)$), and reports the worst relative error
 //! $|J_{ij} - D_{ij}| / \max(1, |J_{ij}|, |D_{ij}|)$ and where it occurred.

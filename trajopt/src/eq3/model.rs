@@ -36,7 +36,7 @@ pub trait Model {
     /// symmetric matrix, row-major, and returns `true`; or returns `false`
     /// (the default) when the model has no second derivatives. With them,
     /// [`GaussNewton`](crate::GaussNewton) can take exact Newton steps
-    /// ([`GaussNewtonSettings::second_order`](crate::GaussNewtonSettings::second_order)).
+    /// ([`GaussNewtonSettings::step_model`](crate::GaussNewtonSettings::step_model)).
     /// Its nonzeros must lie where some row $i$ of the
     /// [Jacobian structure](Self::jacobian_structure) has both entries.
     fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
@@ -45,7 +45,7 @@ pub trait Model {
     }
 
     /// The model's confidence at $(x, u)$, if it has one (a learned model's
-    /// support or inverse variance); used by [`Lambda::from_confidence`].
+    /// support or inverse variance); used by [`Lambda::from_confidence`](crate::Lambda::from_confidence).
     fn confidence(&self, x: &[f64], u: &[f64]) -> Option<f64> {
         let _ = (x, u);
         None
@@ -55,7 +55,7 @@ pub trait Model {
     /// ($K \times m$) and `next` ($K \times n$), row-major. The default
     /// takes one point at a time; a model whose evaluation is expensive (a
     /// learned model's regression) may evaluate the points in parallel.
-    /// [`Eq3Problem`] calls it once per residual evaluation. The results
+    /// [`Eq3Problem`](crate::Eq3Problem) calls it once per residual evaluation. The results
     /// must be those of `step`, point by point.
     fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
         let (n, m) = (self.state_dim(), self.control_dim());

@@ -151,16 +151,16 @@ impl GaussNewton {
     /// [`solve`](Self::solve) with the band normal equations formed, and
     /// the residuals evaluated, on `threads` threads: this one and
     /// `threads - 1` helpers living for the solve, each doing one part
-    /// ([`LeastSquaresProblem::band_normal_equations_part`],
-    /// [`LeastSquaresProblem::residuals_part`]). With two threads the
+    /// ([`BandForm::normal_equations_part`],
+    /// [`BandForm::residuals_part`]). With two threads the
     /// factorisations are split too: each thread eliminates the
     /// coefficients only its part touches (part 1 in reversed order) and
     /// this thread factorises the Schur complement on the overlap, a few
     /// dozen coefficients for Eq. 3 (the [module docs](self)); with more,
     /// the parts are added up and factorised on this thread. `threads` is capped at the cores the system reports
     /// ([`std::thread::available_parallelism`]); with one thread, or
-    /// without a band form (bounds, `band` off, or a problem without
-    /// [`LeastSquaresProblem::band_layout`]), it is [`solve`](Self::solve).
+    /// without a band form (bounds, [`LinearSolver::Sparse`], or a problem without
+    /// a [`BandForm`]), it is [`solve`](Self::solve).
     ///
     /// The parts' sums differ from one thread's by rounding only, so the
     /// iterates agree with [`solve`](Self::solve)'s to rounding (and the

@@ -270,7 +270,7 @@ pub(crate) fn relevance_means(runs: &[RunSummary]) -> Vec<Relevance> {
 /// of trials the model was learned from, the mean tuned scale of each input
 /// relative to its spread (top) and the fraction of models that set it to
 /// 0, i.e. found the input irrelevant (bottom); one line per input in each
-/// panel ([`relevance_means`]).
+/// panel (`relevance_means`).
 ///
 /// # Errors
 /// [`PlotError::NoData`] if no such run has a model.
