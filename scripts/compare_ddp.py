@@ -100,7 +100,7 @@ def croc_solve(make, horizon, repeats, maxiter=200):
 
 
 def ours(repeats):
-    cmd = ["cargo", "run", "--release", "-q", "-p", "ddp", "--example", "ddp_timing", "--", str(repeats)]
+    cmd = ["cargo", "run", "--release", "-q", "-p", "nprl-ddp", "--example", "ddp_timing", "--", str(repeats)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     return {(r["system"], r["horizon"]): r for r in map(json.loads, out.strip().splitlines())}
 

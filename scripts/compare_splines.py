@@ -4,7 +4,7 @@
     python3 scripts/compare_splines.py [SIZES...]      (default 100 1000 10000 100000)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
-on first use, runs `cargo run --release -p splines --example timing`, times the
+on first use, runs `cargo run --release -p nprl-splines --example timing`, times the
 Python libraries on the same inputs in the same run, and prints for each
 operation and size the median time per call, the ratio python / rust, and
 whether the results agree (a checksum of each result, recomputed here).
@@ -72,7 +72,7 @@ def python_results(n):
 def main():
     ensure_venv(__file__)
     sizes = [int(a) for a in sys.argv[1:]] or [100, 1000, 10000, 100000]
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "splines", "--example", "timing", "--", *map(str, sizes)]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-splines", "--example", "timing", "--", *map(str, sizes)]
     rust = [json.loads(line) for line in subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout.splitlines() if line.startswith("{")]
     print(f"{'operation':<34}{'n':>8}{'python':>12}{'rust':>12}{'ratio':>9}  agree")
     for n in sizes:

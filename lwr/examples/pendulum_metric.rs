@@ -12,7 +12,7 @@
 //! shows in the fitted slope (near zero for the hand inputs), or by tuning a
 //! local constant model.
 //!
-//! `cargo run --release -p lwr --example pendulum_metric`
+//! `cargo run --release -p nprl-lwr --example pendulum_metric`
 
 use lwr::{Kernel, LwrModel, LwrSettings, TuneSettings};
 

@@ -9,6 +9,10 @@ pub mod fit;
 pub mod strategies;
 pub mod wavelet;
 
+/// The faer version this crate's public signatures use (its `Mat`, `MatRef`,
+/// sparse matrices), re-exported so callers need no matching dependency.
+pub use faer;
+
 pub use basis::TrajectoryBasis;
 pub use bspline::BSplineBasis;
 pub use error::{Result, SplineError};

@@ -1,4 +1,4 @@
-//! [proptest] strategies for users who property-test code built on this crate
+//! Proptest strategies for users who property-test code built on this crate
 //! (enabled by the `proptest` feature). The crate's own property tests use them.
 //!
 //! Every strategy generates *valid* input: sorted knot vectors with a

@@ -14,7 +14,6 @@ use swingup::learn::run;
 use swingup::models::learned::learn_model;
 use swingup::models::{LearnedModel, PendulumRegression};
 use swingup::planning::eq3::plan;
-use swingup::plant::demo::demonstrate;
 
 /// The default configuration with the pure LWR, its model learned from
 /// the first two trials of seed 1, and the demonstration.
@@ -27,7 +26,7 @@ fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration) {
     cfg.model.kind = ModelKind::Lwr;
     let record = run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}).expect("learning run");
     let (model, summary) = learn_model(&cfg, &record.trials[..2]).expect("model");
-    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demo");
+    let demo = cfg.demonstration().expect("demo");
     let p = plan(&cfg, &demo, &model, None).expect("plan");
     eprintln!(
         "plan_lwr: model of {} points (bandwidth {:.3}, scales {:?}); the plan takes {} iterations ({})",

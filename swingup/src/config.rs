@@ -9,7 +9,8 @@ use serde::{Deserialize, Serialize};
 use crate::error::ensure_config;
 
 use crate::plant::PlantParams;
-use crate::plant::demo::HumanSwingup;
+use crate::plant::demo::{Demonstration, HumanSwingup, demonstrate};
+use crate::plant::lqr::Lqr;
 
 /// Everything a learning run depends on. `swingup config` prints the
 /// defaults as TOML; `--config FILE` reads one (missing fields keep their
@@ -312,6 +313,28 @@ impl Default for ModelConfig {
 }
 
 impl Config {
+    /// The human's demonstration on this configuration's `human` plant:
+    /// `horizon` samples of swing-up (the run's balancing part, `balance`
+    /// samples, is simulated to check the catch and then dropped).
+    ///
+    /// # Errors
+    /// [`Error::Controller`](crate::Error::Controller) when no LQR catch
+    /// can be designed for the human's plant.
+    pub fn demonstration(&self) -> crate::Result<Demonstration> {
+        demonstrate(&self.human, &self.human_swingup, self.horizon, self.balance)
+            .map(|(demo, _)| demo)
+            .ok_or(crate::Error::Controller { plant: "human" })
+    }
+
+    /// The robot's LQR catch near upright, with the weights every run uses.
+    ///
+    /// # Errors
+    /// [`Error::Controller`](crate::Error::Controller) when the design
+    /// fails for the robot's plant.
+    pub fn robot_catch(&self) -> crate::Result<Lqr> {
+        Lqr::design(&self.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })
+    }
+
     /// Checks the configuration.
     pub fn validate(&self) -> crate::Result<()> {
         self.human.validate().map_err(|e| crate::Error::config("human", e))?;
@@ -339,6 +362,9 @@ impl Config {
             ("planner.u_max", p.u_max),
             ("planner.x_max", p.x_max),
             ("model.cutoff", self.model.cutoff),
+            ("model.bandwidth", self.model.bandwidth),
+            ("planner.support_bandwidth", p.support_bandwidth),
+            ("planner.support_full", p.support_full),
         ];
         for (key, v) in positive {
             ensure_config!(
@@ -356,6 +382,9 @@ impl Config {
             ("model.ridge", self.model.ridge),
             ("model.slope_ridge", self.model.slope_ridge),
             ("model.prior_weight", self.model.prior_weight),
+            ("planner.lambda", p.lambda),
+            ("planner.support_weight", p.support_weight),
+            ("exploration", self.exploration),
         ];
         for (key, v) in nonnegative {
             ensure_config!(
@@ -364,7 +393,8 @@ impl Config {
                 "{key} must be finite and nonnegative, got {v}"
             );
         }
-        let arrays: [(&str, &[f64]); 4] = [
+        let arrays: [(&str, &[f64]); 5] = [
+            ("sensor_noise", &self.sensor_noise),
             ("feedback", &self.feedback),
             ("hand_servo", &self.hand_servo),
             ("planner.state_weights", &p.state_weights),
@@ -393,16 +423,6 @@ impl Config {
             self.success_seconds
         );
         ensure_config!(
-            "sensor_noise",
-            self.sensor_noise.iter().all(|s| s.is_finite() && *s >= 0.0),
-            "sensor noise must be finite and nonnegative"
-        );
-        ensure_config!(
-            "planner.lambda",
-            self.planner.lambda.is_finite() && self.planner.lambda >= 0.0,
-            "lambda must be finite and nonnegative"
-        );
-        ensure_config!(
             "planner.lambda_growth",
             self.planner.lambda_growth.is_finite()
                 && self.planner.lambda_growth > 0.0
@@ -414,47 +434,17 @@ impl Config {
             self.planner.state_coeffs >= 4 && self.planner.control_coeffs >= 4,
             "need at least 4 B-spline coefficients per channel"
         );
-        ensure_config!(
-            "model.bandwidth",
-            self.model.bandwidth > 0.0,
-            "the bandwidth must be positive"
-        );
-        ensure_config!(
-            "model.input_scales",
-            self.model.input_scales.iter().all(|m| m.is_finite() && *m >= 0.0)
-                && self.model.input_scales.iter().any(|m| *m > 0.0),
-            "model.input_scales must be finite and nonnegative, and not all 0, got {:?}",
-            self.model.input_scales
-        );
-        ensure_config!(
-            "planner.support_weight",
-            p.support_weight.is_finite() && p.support_weight >= 0.0,
-            "planner.support_weight must be finite and nonnegative, got {}",
-            p.support_weight
-        );
-        ensure_config!(
-            "planner.support_bandwidth",
-            p.support_bandwidth.is_finite() && p.support_bandwidth > 0.0,
-            "planner.support_bandwidth must be finite and positive, got {}",
-            p.support_bandwidth
-        );
-        ensure_config!(
-            "planner.support_full",
-            p.support_full.is_finite() && p.support_full > 0.0,
-            "planner.support_full must be finite and positive, got {}",
-            p.support_full
-        );
-        ensure_config!(
-            "planner.support_scales",
-            p.support_scales.iter().all(|m| m.is_finite() && *m >= 0.0) && p.support_scales.iter().any(|m| *m > 0.0),
-            "planner.support_scales must be finite and nonnegative, and not all 0, got {:?}",
-            p.support_scales
-        );
-        ensure_config!(
-            "exploration",
-            self.exploration.is_finite() && self.exploration >= 0.0,
-            "exploration must be finite and nonnegative"
-        );
+        // metric scales: nonnegative, and at least one input in the distance
+        for (key, v) in [
+            ("model.input_scales", &self.model.input_scales),
+            ("planner.support_scales", &p.support_scales),
+        ] {
+            ensure_config!(
+                key,
+                v.iter().all(|m| m.is_finite() && *m >= 0.0) && v.iter().any(|m| *m > 0.0),
+                "{key} must be finite and nonnegative, and not all 0, got {v:?}"
+            );
+        }
         Ok(())
     }
 }

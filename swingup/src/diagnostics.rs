@@ -136,20 +136,7 @@ pub(crate) mod tests {
     use crate::record::{PlanSummary, TrialKind, TrialTiming};
 
     pub(crate) fn plan_of(states: Vec<[f64; 4]>, controls: Vec<f64>) -> PlanSummary {
-        PlanSummary {
-            planner: "gauss-newton".into(),
-            status: "ConvergedCost".into(),
-            cost: 1.0,
-            initial_cost: 2.0,
-            task: 1.0,
-            inconsistency: 0.0,
-            max_mismatch: 0.0,
-            iterations: 1,
-            evaluations: 1,
-            seconds: 0.0,
-            states,
-            controls,
-        }
+        PlanSummary::along("gauss-newton", "ConvergedCost".into(), states, controls)
     }
 
     pub(crate) fn trial_of(observed: Vec<[f64; 4]>, commands: Vec<f64>) -> TrialRecord {

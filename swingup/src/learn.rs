@@ -51,7 +51,7 @@ use crate::models::truth::TrueRegression;
 use crate::models::{KnownHand, PendulumRegression};
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
-use crate::plant::demo::{Demonstration, demonstrate, near_upright};
+use crate::plant::demo::{Demonstration, near_upright};
 use crate::plant::lqr::Lqr;
 use crate::plant::{Plant, PlantState, from_upright};
 use crate::record::{ModelSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
@@ -87,9 +87,8 @@ impl<F: FnMut(&TrialRecord)> Progress for F {
 /// it is done (to be saved).
 pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress) -> crate::Result<RunRecord> {
     cfg.validate()?;
-    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or(crate::Error::Controller { plant: "human" })?;
-    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })?;
+    let demo = cfg.demonstration()?;
+    let lqr = cfg.robot_catch()?;
     let robot = Plant::new(cfg.robot);
     let mut trials = previous;
     crate::error::ensure_data!(
@@ -369,9 +368,7 @@ mod tests {
     use super::*;
 
     fn demo(cfg: &Config) -> Demonstration {
-        demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-            .expect("lqr")
-            .0
+        cfg.demonstration().expect("demonstration")
     }
 
     /// Exploration commands stay within the amplitude (a B-spline lies in
@@ -413,7 +410,7 @@ mod tests {
     fn observed_window_needs_a_long_enough_trial() {
         let cfg = Config::default();
         let robot = Plant::new(cfg.robot);
-        let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).expect("lqr");
+        let lqr = cfg.robot_catch().expect("lqr");
         let d = demo(&cfg);
         let t = execute(
             &cfg,

@@ -55,6 +55,28 @@ pub struct PlanSummary {
     pub controls: Vec<f64>,
 }
 
+#[cfg(test)]
+impl PlanSummary {
+    /// A converged plan along `states` and `controls`, for tests of code
+    /// that reads plans (costs 1 from 2, one iteration).
+    pub(crate) fn along(planner: &str, status: String, states: Vec<[f64; 4]>, controls: Vec<f64>) -> Self {
+        Self {
+            planner: planner.into(),
+            status,
+            cost: 1.0,
+            initial_cost: 2.0,
+            task: 1.0,
+            inconsistency: 0.0,
+            max_mismatch: 0.0,
+            iterations: 1,
+            evaluations: 1,
+            seconds: 0.0,
+            states,
+            controls,
+        }
+    }
+}
+
 /// The learned model a trial's plan was made with.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct ModelSummary {

@@ -1,4 +1,4 @@
-//! [proptest] strategies generating well-posed problems with known solutions
+//! Proptest strategies generating well-posed problems with known solutions
 //! (feature `proptest`), so users can property-test their own solvers
 //! against ours on the same work. The crate's own property tests use them.
 

@@ -69,7 +69,7 @@ pub(super) fn claims(
     }
 
     if which.contains(&Experiment::Learning) {
-        let gn = find("learning", "gauss-newton/bspline");
+        let gn = find("learning", super::MAIN_VARIANT);
         let r = rate(gn).unwrap_or(0.0);
         out.push(claim(
             "C2",
@@ -92,7 +92,7 @@ pub(super) fn claims(
         // C7: tuned scale of x and x_dot relative to theta's, over all planned trials
         let scales: Vec<&Vec<f64>> = runs
             .iter()
-            .filter(|r| r.experiment == "learning" && r.variant == "gauss-newton/bspline")
+            .filter(|r| r.experiment == "learning" && r.variant == super::MAIN_VARIANT)
             .flat_map(|r| r.scales.iter())
             .filter(|v| v.len() == 5)
             .collect();

@@ -228,12 +228,19 @@ fn imitates(r: &RunSummary) -> bool {
     !r.variant.starts_with(SCRATCH_PREFIX)
 }
 
+/// The learning experiment's main variant, the paper's method (the only
+/// one whose runs keep their rollouts).
+pub(crate) const MAIN_VARIANT: &str = "gauss-newton/bspline";
+
 struct Job {
     experiment: &'static str,
     variant: String,
     cfg: Config,
     rollouts: bool,
 }
+
+/// A change to a run's configuration that makes a variant.
+type Tweak = Box<dyn Fn(&mut Config)>;
 
 fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
     let base = |seed: u64| {
@@ -246,53 +253,47 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
         c.planner.powell_evals = s.powell_evals;
         c
     };
+    let job = |experiment: &'static str, variant: String, seed: u64, rollouts: bool, tweak: &dyn Fn(&mut Config)| {
+        let mut cfg = base(seed);
+        tweak(&mut cfg);
+        Job {
+            experiment,
+            variant,
+            cfg,
+            rollouts,
+        }
+    };
+    // one variant over seeds 1..=seeds; only the main learning variant
+    // keeps its rollouts (for the figures)
+    let over_seeds = |out: &mut Vec<Job>, experiment, variant: String, seeds: u64, tweak: &dyn Fn(&mut Config)| {
+        let rollouts = variant == MAIN_VARIANT;
+        out.extend((1..=seeds).map(|seed| job(experiment, variant.clone(), seed, rollouts, tweak)));
+    };
     let mut out = Vec::new();
     for &e in which {
         match e {
             Experiment::Learning => {
-                for seed in 1..=s.learning_seeds {
-                    out.push(Job {
-                        experiment: "learning",
-                        variant: "gauss-newton/bspline".into(),
-                        cfg: base(seed),
-                        rollouts: true,
-                    });
-                }
-                for seed in 1..=s.wavelet_seeds {
-                    let mut c = base(seed);
-                    c.planner.basis = BasisKind::Wavelet;
-                    out.push(Job {
-                        experiment: "learning",
-                        variant: "gauss-newton/wavelet".into(),
-                        cfg: c,
-                        rollouts: false,
-                    });
-                }
-                for seed in 1..=s.powell_seeds {
-                    let mut c = base(seed);
+                over_seeds(&mut out, "learning", MAIN_VARIANT.into(), s.learning_seeds, &|_| {});
+                over_seeds(
+                    &mut out,
+                    "learning",
+                    "gauss-newton/wavelet".into(),
+                    s.wavelet_seeds,
+                    &|c| {
+                        c.planner.basis = BasisKind::Wavelet;
+                    },
+                );
+                // Powell: one stage at the final lambda, within its budget
+                over_seeds(&mut out, "learning", "powell/bspline".into(), s.powell_seeds, &|c| {
                     c.planner.solver = Solver::Powell;
-                    // Powell: one stage at the final lambda, within its budget
                     c.planner.lambda_start = 0.0;
-                    out.push(Job {
-                        experiment: "learning",
-                        variant: "powell/bspline".into(),
-                        cfg: c,
-                        rollouts: false,
-                    });
-                }
+                });
             }
             Experiment::Lambda => {
                 for &lambda in &s.lambdas {
-                    for seed in 1..=s.seeds {
-                        let mut c = base(seed);
+                    over_seeds(&mut out, "lambda", format!("lambda={lambda:e}"), s.seeds, &|c| {
                         c.planner.lambda = lambda;
-                        out.push(Job {
-                            experiment: "lambda",
-                            variant: format!("lambda={lambda:e}"),
-                            cfg: c,
-                            rollouts: false,
-                        });
-                    }
+                    });
                 }
             }
             Experiment::Planners => {
@@ -302,59 +303,48 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                         (ModelKind::Parametric, "parametric"),
                         (ModelKind::True, "true"),
                     ] {
-                        for seed in 1..=s.seeds {
-                            let mut c = base(seed);
+                        over_seeds(&mut out, "planners", format!("{sname}/{mname}"), s.seeds, &|c| {
                             c.planner.solver = solver;
                             c.model.kind = kind;
-                            out.push(Job {
-                                experiment: "planners",
-                                variant: format!("{sname}/{mname}"),
-                                cfg: c,
-                                rollouts: false,
-                            });
-                        }
+                        });
                     }
                 }
             }
             Experiment::Beyond => {
+                // every variant of a seed before the next seed
+                let mut variants: Vec<(String, Tweak)> = vec![
+                    (
+                        "lwr, confidence lambda".into(),
+                        Box::new(|c| {
+                            c.model.kind = ModelKind::Lwr;
+                            c.planner.confidence_floor = 0.01;
+                        }),
+                    ),
+                    (
+                        "lwr, lambda 1e2 x10 per trial".into(),
+                        Box::new(|c| {
+                            c.model.kind = ModelKind::Lwr;
+                            c.planner.lambda = 1e2;
+                            c.planner.lambda_growth = 10.0;
+                        }),
+                    ),
+                    (
+                        "lwr-parametric".into(),
+                        Box::new(|c| c.model.kind = ModelKind::LwrParametric),
+                    ),
+                ];
+                for (kind, name) in SCRATCH {
+                    variants.push((
+                        format!("{SCRATCH_PREFIX}{name}"),
+                        Box::new(move |c| {
+                            c.model.kind = kind;
+                            c.start = Start::Scratch;
+                        }),
+                    ));
+                }
                 for seed in 1..=s.seeds {
-                    let mut c = base(seed);
-                    c.model.kind = ModelKind::Lwr;
-                    c.planner.confidence_floor = 0.01;
-                    out.push(Job {
-                        experiment: "beyond",
-                        variant: "lwr, confidence lambda".into(),
-                        cfg: c,
-                        rollouts: false,
-                    });
-                    let mut c = base(seed);
-                    c.model.kind = ModelKind::Lwr;
-                    c.planner.lambda = 1e2;
-                    c.planner.lambda_growth = 10.0;
-                    out.push(Job {
-                        experiment: "beyond",
-                        variant: "lwr, lambda 1e2 x10 per trial".into(),
-                        cfg: c,
-                        rollouts: false,
-                    });
-                    let mut c = base(seed);
-                    c.model.kind = ModelKind::LwrParametric;
-                    out.push(Job {
-                        experiment: "beyond",
-                        variant: "lwr-parametric".into(),
-                        cfg: c,
-                        rollouts: false,
-                    });
-                    for (kind, name) in SCRATCH {
-                        let mut c = base(seed);
-                        c.model.kind = kind;
-                        c.start = Start::Scratch;
-                        out.push(Job {
-                            experiment: "beyond",
-                            variant: format!("{SCRATCH_PREFIX}{name}"),
-                            cfg: c,
-                            rollouts: false,
-                        });
+                    for (name, tweak) in &variants {
+                        out.push(job("beyond", name.clone(), seed, false, tweak.as_ref()));
                     }
                 }
             }

@@ -31,8 +31,6 @@ use crate::models::PendulumRegression;
 use crate::models::learned::learn_model;
 use crate::models::truth::TrueRegression;
 use crate::planning::eq3::plan;
-use crate::plant::demo::demonstrate;
-use crate::plant::lqr::Lqr;
 use crate::plant::{Plant, PlantParams};
 use crate::record::TrialKind;
 
@@ -115,9 +113,8 @@ pub fn open_loop_tolerance(
 ) -> crate::Result<Vec<SensitivityRow>> {
     cfg.validate()?;
     crate::error::ensure_data!(seeds >= 1, "sensitivity needs at least one seed");
-    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or(crate::Error::Controller { plant: "human" })?;
-    let lqr = Lqr::design(&cfg.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })?;
+    let demo = cfg.demonstration()?;
+    let lqr = cfg.robot_catch()?;
     let robot = Plant::new(cfg.robot);
     perturbations
         .par_iter()
@@ -198,8 +195,7 @@ pub struct ModelErrorReport {
 pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> crate::Result<ModelErrorReport> {
     cfg.validate()?;
     crate::error::ensure_data!(seeds >= 1 && max_trials >= 1, "need at least one seed and one trial");
-    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .ok_or(crate::Error::Controller { plant: "human" })?;
+    let demo = cfg.demonstration()?;
     let truth = TrueRegression::new(cfg.robot)?;
     let exact = plan(cfg, &demo, KnownHand::new(truth, cfg.robot.dt), None)?;
     let points: Vec<[f64; 5]> = exact

@@ -531,20 +531,7 @@ mod tests {
             (DdpStatus::NonFiniteDerivatives, "non-finite derivatives"),
         ] {
             assert_eq!(classify_ddp_status(status), name);
-            let summary = PlanSummary {
-                planner: "ddp".into(),
-                status: format!("{status:?}"),
-                cost: 1.0,
-                initial_cost: 2.0,
-                task: 1.0,
-                inconsistency: 0.0,
-                max_mismatch: 0.0,
-                iterations: 1,
-                evaluations: 2,
-                seconds: 0.0,
-                states: vec![[0.0; 4]],
-                controls: vec![0.0],
-            };
+            let summary = PlanSummary::along("ddp", format!("{status:?}"), vec![[0.0; 4]], vec![0.0]);
             assert_eq!(classify_ddp_failure(&summary), name);
         }
         let (cfg, demo) = setup(30, 5);

@@ -225,21 +225,32 @@ pub fn plan<M: trajopt::Model>(
             Lambda::Constant(lambda)
         };
         problem.set_lambda(weights)?;
-        let (status, cost) = if p.solver == Solver::Powell {
+        // (status, cost, x, iterations, evaluations, time) in the solvers' shared vocabulary
+        let (status, cost, x, iters, evals, time) = if p.solver == Solver::Powell {
             let r = powell.solve(&problem, &theta)?;
-            iterations += r.iterations;
-            evaluations += r.cost_evals;
-            seconds += r.solve_time.as_secs_f64();
-            theta.clone_from(&r.x);
-            (format!("{:?}", r.status), r.cost)
+            (
+                format!("{:?}", r.status),
+                r.cost,
+                r.x,
+                r.iterations,
+                r.cost_evals,
+                r.solve_time,
+            )
         } else {
             let r = solver.solve(&problem, &theta)?;
-            iterations += r.iterations;
-            evaluations += r.residual_evals;
-            seconds += r.solve_time.as_secs_f64();
-            theta.clone_from(&r.x);
-            (format!("{:?}", r.status), r.cost)
+            (
+                format!("{:?}", r.status),
+                r.cost,
+                r.x,
+                r.iterations,
+                r.residual_evals,
+                r.solve_time,
+            )
         };
+        iterations += iters;
+        evaluations += evals;
+        seconds += time.as_secs_f64();
+        theta = x;
         if lambda >= p.lambda {
             break (status, cost);
         }
@@ -275,12 +286,9 @@ mod tests {
 
     use crate::models::KnownHand;
     use crate::models::truth::TrueRegression;
-    use crate::plant::demo::demonstrate;
 
     fn demo(cfg: &Config) -> Demonstration {
-        demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-            .expect("lqr")
-            .0
+        cfg.demonstration().expect("demonstration")
     }
 
     /// From scratch the task cost's tracking part is zero upright at rest
