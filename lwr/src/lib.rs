@@ -120,6 +120,14 @@ mod settings;
 pub mod strategies;
 mod tune;
 
+/// The local fits' hand-written Cholesky factorisation and solve, public only
+/// so that `benches/cholesky.rs` times the crate's own code against nalgebra
+/// and faer (instead of a copy that could drift); not part of the API.
+#[doc(hidden)]
+pub mod bench {
+    pub use crate::factor::{chol_solve, cholesky};
+}
+
 pub use database::{Database, Neighbor};
 pub use error::{LwrError, Result};
 pub use loo::LooResult;
