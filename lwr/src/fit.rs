@@ -572,11 +572,7 @@ mod tests {
     fn linear_fast_path_equals_general_loop() {
         // predict_mean takes the compile-time-sized path for d <= 8, predict
         // (which wants confidence) the general one: bitwise the same mean
-        let mut seed = 3u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = crate::strategies::uniform(3u64);
         for d in 1..=9 {
             for kernel in [Kernel::Gaussian, Kernel::Tricube] {
                 let settings = LwrSettings {

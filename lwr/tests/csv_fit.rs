@@ -10,6 +10,7 @@ use lwr::csv_fit::{
     DegreeArg, FitArgs, FitError, FitReport, KernelArg, error_chain, fit_command, fit_report, fit_report_with,
     write_atomic,
 };
+use lwr::strategies::uniform;
 
 /// A temporary directory, removed when dropped.
 struct TempDir(PathBuf);
@@ -42,21 +43,15 @@ impl Drop for TempDir {
     }
 }
 
-/// Seeded uniform numbers in [-1, 1].
-fn uniform(seed: &mut u64) -> f64 {
-    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-}
-
 /// `a,b,c,y,z` with y = sin(3a) + 0.5 b + noise, z = cos(2b) + noise; c is
 /// irrelevant to both.
 fn data(n: usize, seed: u64) -> String {
-    let mut s = seed;
+    let mut rand = uniform(seed);
     let mut text = String::from("a,b,c,y,z\n");
     for _ in 0..n {
-        let (a, b, c) = (uniform(&mut s), uniform(&mut s), uniform(&mut s));
-        let y = (3.0 * a).sin() + 0.5 * b + 0.05 * uniform(&mut s);
-        let z = (2.0 * b).cos() + 0.05 * uniform(&mut s);
+        let (a, b, c) = (rand(), rand(), rand());
+        let y = (3.0 * a).sin() + 0.5 * b + 0.05 * rand();
+        let z = (2.0 * b).cos() + 0.05 * rand();
         text.push_str(&format!("{a},{b},{c},{y},{z}\n"));
     }
     text
@@ -372,9 +367,9 @@ fn data_too_small_for_the_model_is_refused_with_the_reason() {
 
     let mut wide = (0..300).map(|j| format!("x{j}")).collect::<Vec<_>>().join(",");
     wide.push_str(",y\n");
-    let mut seed = 3;
+    let mut rand = uniform(3);
     for _ in 0..10 {
-        let row: Vec<String> = (0..301).map(|_| uniform(&mut seed).to_string()).collect();
+        let row: Vec<String> = (0..301).map(|_| rand().to_string()).collect();
         wide.push_str(&row.join(","));
         wide.push('\n');
     }
