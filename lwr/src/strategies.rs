@@ -14,7 +14,7 @@ use proptest::prelude::*;
 
 use crate::error::Result;
 use crate::model::LwrModel;
-use crate::settings::{Kernel, LwrSettings};
+use crate::settings::{Degree, Kernel, LwrSettings};
 
 /// A data set: inputs and outputs, one row per point.
 #[derive(Debug, Clone, PartialEq)]
@@ -101,6 +101,17 @@ pub fn kernels() -> impl Strategy<Value = Kernel> {
         Just(Kernel::Epanechnikov),
         Just(Kernel::Bisquare)
     ]
+}
+
+/// Any of the three degrees.
+pub fn degrees() -> impl Strategy<Value = Degree> {
+    prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)]
+}
+
+/// Diagonal metric scales for `d` inputs: each 0 (the input ignored) or in
+/// $[0.3, 2)$.
+pub fn metric_scales(d: usize) -> impl Strategy<Value = Vec<f64>> {
+    vec(prop_oneof![Just(0.0), 0.3..2.0f64], d)
 }
 
 /// `n` input points in $[-1, 1]^d$; with `duplicates`, about one in five
