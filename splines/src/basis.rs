@@ -112,44 +112,33 @@ pub(crate) fn check_time(t: f64, (lo, hi): (f64, f64)) -> Result<()> {
     Ok(())
 }
 
-impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for &B {
-    fn n_coeffs(&self) -> usize {
-        (**self).n_coeffs()
-    }
-    fn domain(&self) -> (f64, f64) {
-        (**self).domain()
-    }
-    fn max_nonzeros(&self) -> usize {
-        (**self).max_nonzeros()
-    }
-    fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
-        (**self).basis_row(t, order, row)
-    }
-    fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
-        (**self).design_matrix_rows(times, order)
-    }
-    fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
-        (**self).evaluate(coeffs, times, order)
-    }
+/// Implements [`TrajectoryBasis`] for pointers to a basis (`$ptr` naming
+/// the pointee `B`), every method forwarding to the pointee, so that one
+/// basis can serve several fits. A macro since the impls differ only in
+/// the pointer type.
+macro_rules! forward_trajectory_basis {
+    ($($ptr:ty),*) => {$(
+        impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for $ptr {
+            fn n_coeffs(&self) -> usize {
+                (**self).n_coeffs()
+            }
+            fn domain(&self) -> (f64, f64) {
+                (**self).domain()
+            }
+            fn max_nonzeros(&self) -> usize {
+                (**self).max_nonzeros()
+            }
+            fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
+                (**self).basis_row(t, order, row)
+            }
+            fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
+                (**self).design_matrix_rows(times, order)
+            }
+            fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
+                (**self).evaluate(coeffs, times, order)
+            }
+        }
+    )*};
 }
 
-impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for std::sync::Arc<B> {
-    fn n_coeffs(&self) -> usize {
-        (**self).n_coeffs()
-    }
-    fn domain(&self) -> (f64, f64) {
-        (**self).domain()
-    }
-    fn max_nonzeros(&self) -> usize {
-        (**self).max_nonzeros()
-    }
-    fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
-        (**self).basis_row(t, order, row)
-    }
-    fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
-        (**self).design_matrix_rows(times, order)
-    }
-    fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
-        (**self).evaluate(coeffs, times, order)
-    }
-}
+forward_trajectory_basis!(&B, std::sync::Arc<B>);
