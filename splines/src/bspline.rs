@@ -93,17 +93,7 @@ impl BSplineBasis {
     /// uniformly spaced interior knots: `degree + 1` knots at each end, so
     /// the curve starts at the first coefficient and ends at the last.
     pub fn clamped_uniform(n_coeffs: usize, degree: usize, lo: f64, hi: f64) -> Result<Self> {
-        check_interval(lo, hi)?;
-        if n_coeffs < degree + 1 {
-            return Err(SplineError::InvalidParameter {
-                name: "n_coeffs",
-                reason: format!(
-                    "a degree-{degree} clamped basis needs at least {} coefficients, got {n_coeffs}",
-                    degree + 1
-                ),
-            });
-        }
-        let n_intervals = n_coeffs - degree;
+        let n_intervals = uniform_intervals(n_coeffs, degree, (lo, hi), "clamped basis")?;
         let breakpoints: Vec<f64> = (0..=n_intervals).map(|i| interpolate(lo, hi, i, n_intervals)).collect();
         Self::clamped(&breakpoints, degree)
     }
@@ -132,17 +122,7 @@ impl BSplineBasis {
     /// functions whose domain $[t_p, t_n]$ is `[lo, hi]`: all knots equally
     /// spaced, extending `degree` spacings beyond each end.
     pub fn uniform(n_coeffs: usize, degree: usize, lo: f64, hi: f64) -> Result<Self> {
-        check_interval(lo, hi)?;
-        if n_coeffs < degree + 1 {
-            return Err(SplineError::InvalidParameter {
-                name: "n_coeffs",
-                reason: format!(
-                    "a degree-{degree} basis needs at least {} coefficients, got {n_coeffs}",
-                    degree + 1
-                ),
-            });
-        }
-        let n_intervals = n_coeffs - degree;
+        let n_intervals = uniform_intervals(n_coeffs, degree, (lo, hi), "basis")?;
         let h = (hi - lo) / n_intervals as f64;
         let knots = (0..n_coeffs + degree + 1)
             .map(|i| {
@@ -428,6 +408,23 @@ fn cox_de_boor_fixed<const Q: usize>(knots: &[f64], s: usize, t: f64, out: &mut 
         n[j] = saved;
     }
     out[..=Q].copy_from_slice(&n[..=Q]);
+}
+
+/// Checks the arguments of a uniform basis (`what`, for the message) of
+/// `n_coeffs` functions of degree `degree` on `[lo, hi]`, and returns its
+/// number of knot intervals inside the domain.
+fn uniform_intervals(n_coeffs: usize, degree: usize, (lo, hi): (f64, f64), what: &str) -> Result<usize> {
+    check_interval(lo, hi)?;
+    if n_coeffs < degree + 1 {
+        return Err(SplineError::InvalidParameter {
+            name: "n_coeffs",
+            reason: format!(
+                "a degree-{degree} {what} needs at least {} coefficients, got {n_coeffs}",
+                degree + 1
+            ),
+        });
+    }
+    Ok(n_coeffs - degree)
 }
 
 fn check_interval(lo: f64, hi: f64) -> Result<()> {
