@@ -2,7 +2,7 @@
 
 use faer::sparse::{SparseColMat, SparseRowMat, SymbolicSparseRowMat};
 
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// A set of functions $\phi_j(t)$, $j = 0, \dots, n-1$, on a domain
 /// $[t_{\min}, t_{\max}]$, such that a trajectory is $y(t) = \sum_j c_j \phi_j(t)$.
@@ -87,13 +87,7 @@ pub trait TrajectoryBasis {
 
 /// Checks a coefficient vector's length and values.
 pub(crate) fn check_coeffs(n_coeffs: usize, coeffs: &[f64]) -> Result<()> {
-    if coeffs.len() != n_coeffs {
-        return Err(SplineError::LengthMismatch {
-            what: "coefficients",
-            expected: n_coeffs,
-            actual: coeffs.len(),
-        });
-    }
+    check_len("coefficients", n_coeffs, coeffs.len())?;
     check_finite("coefficients", coeffs)
 }
 

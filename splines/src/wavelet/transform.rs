@@ -5,7 +5,7 @@ use std::ops::Range;
 use super::kernels::{self, Filters};
 use super::{Boundary, Wavelet, dwt_coeff_len, dwt_max_level, max_level};
 use crate::basis::check_coeffs;
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// A multilevel wavelet transform planned for one signal length, wavelet,
 /// boundary mode and level, holding its scratch buffers, so that
@@ -128,8 +128,8 @@ impl WaveletTransform {
     /// [`SplineError::LengthMismatch`] for a signal or coefficient buffer of
     /// the wrong length, [`SplineError::NotFinite`] for NaN or infinite samples.
     pub fn analyse_into(&mut self, signal: &[f64], coeffs: &mut [f64]) -> Result<()> {
-        self.check_len("signal", self.signal_len(), signal.len())?;
-        self.check_len("coefficients", self.n_coeffs, coeffs.len())?;
+        check_len("signal", self.signal_len(), signal.len())?;
+        check_len("coefficients", self.n_coeffs, coeffs.len())?;
         if !all_finite(signal) {
             check_finite("signal", signal)?;
         }
@@ -163,11 +163,11 @@ impl WaveletTransform {
     /// [`SplineError::LengthMismatch`] for a coefficient or signal buffer of
     /// the wrong length, [`SplineError::NotFinite`] for NaN or infinite coefficients.
     pub fn synthesise_into(&mut self, coeffs: &[f64], signal: &mut [f64]) -> Result<()> {
-        self.check_len("coefficients", self.n_coeffs, coeffs.len())?;
+        check_len("coefficients", self.n_coeffs, coeffs.len())?;
         if !all_finite(coeffs) {
             check_coeffs(self.n_coeffs, coeffs)?;
         }
-        self.check_len("signal", self.signal_len(), signal.len())?;
+        check_len("signal", self.signal_len(), signal.len())?;
         let level = self.level();
         if level == 0 {
             signal.copy_from_slice(coeffs);
@@ -201,14 +201,6 @@ impl WaveletTransform {
 
     pub(super) fn filters(&self) -> &Filters {
         &self.filters
-    }
-
-    fn check_len(&self, what: &'static str, expected: usize, actual: usize) -> Result<()> {
-        if expected == actual {
-            Ok(())
-        } else {
-            Err(SplineError::LengthMismatch { what, expected, actual })
-        }
     }
 }
 
