@@ -134,12 +134,9 @@ impl WaveletTransform {
             check_finite("signal", signal)?;
         }
         let level = self.level();
-        if level == 0 {
-            coeffs.copy_from_slice(signal);
+        let Some((mut src, mut dst)) = halves_or_copy(&mut self.work, level, signal, coeffs) else {
             return Ok(());
-        }
-        let half = self.work.len() / 2;
-        let (mut src, mut dst) = self.work.split_at_mut(half);
+        };
         for l in 1..=level {
             let (n_in, m) = (self.lens[l - 1], self.lens[l]);
             let input: &[f64] = if l == 1 { signal } else { &src[..n_in] };
@@ -169,12 +166,9 @@ impl WaveletTransform {
         }
         check_len("signal", self.signal_len(), signal.len())?;
         let level = self.level();
-        if level == 0 {
-            signal.copy_from_slice(coeffs);
+        let Some((mut src, mut dst)) = halves_or_copy(&mut self.work, level, coeffs, signal) else {
             return Ok(());
-        }
-        let half = self.work.len() / 2;
-        let (mut src, mut dst) = self.work.split_at_mut(half);
+        };
         for l in (1..=level).rev() {
             let (m, n_out) = (self.lens[l], self.lens[l - 1]);
             let a: &[f64] = if l == level { &coeffs[..m] } else { &src[..m] };
@@ -202,6 +196,23 @@ impl WaveletTransform {
     pub(super) fn filters(&self) -> &Filters {
         &self.filters
     }
+}
+
+/// The two halves of the work buffer, between which the levels of a
+/// multilevel transform pass their intermediate results; `None`, with
+/// `from` copied into `to` (the whole transform), when there is no level.
+fn halves_or_copy<'w>(
+    work: &'w mut [f64],
+    level: usize,
+    from: &[f64],
+    to: &mut [f64],
+) -> Option<(&'w mut [f64], &'w mut [f64])> {
+    if level == 0 {
+        to.copy_from_slice(from);
+        return None;
+    }
+    let half = work.len() / 2;
+    Some(work.split_at_mut(half))
 }
 
 /// Whether every value is finite, in one vectorisable pass ($0 \cdot v$ is 0 for
