@@ -10,6 +10,7 @@
 #![allow(missing_docs)]
 
 use std::hint::black_box;
+use std::ops::{Index, IndexMut};
 use std::time::Duration;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
@@ -35,6 +36,33 @@ fn data(m: usize, n: usize) -> (Vec<f64>, Vec<f64>) {
         .map(|i| ((i * 5 + 1) % 13) as f64 / 13.0 - 0.5)
         .collect();
     (a, rhs)
+}
+
+/// Copies `a` ($m \times m$, row-major) into the matrix `l` and $-$`rhs`
+/// ($m \times c$, row-major) into the matrix `x`, as the library solvers
+/// want them (both faer's `Mat` and nalgebra's `DMatrix`); returns $c$.
+#[inline(always)]
+fn load<M: IndexMut<(usize, usize), Output = f64>>(a: &[f64], rhs: &[f64], m: usize, l: &mut M, x: &mut M) -> usize {
+    let c = rhs.len() / m;
+    for i in 0..m {
+        for j in 0..m {
+            l[(i, j)] = a[i * m + j];
+        }
+        for j in 0..c {
+            x[(i, j)] = -rhs[i * c + j];
+        }
+    }
+    c
+}
+
+/// Copies the solution matrix `x` ($m \times c$) into `out`, row-major.
+#[inline(always)]
+fn store<M: Index<(usize, usize), Output = f64>>(x: &M, m: usize, c: usize, out: &mut [f64]) {
+    for i in 0..m {
+        for j in 0..c {
+            out[i * c + j] = x[(i, j)];
+        }
+    }
 }
 
 /// The hand loop as `backward` uses it: factor, then one solve per column.
@@ -82,15 +110,7 @@ impl Faer {
     }
 
     fn solve(&mut self, a: &[f64], rhs: &[f64], m: usize, out: &mut [f64]) -> bool {
-        let c = rhs.len() / m;
-        for i in 0..m {
-            for j in 0..m {
-                self.l[(i, j)] = a[i * m + j];
-            }
-            for j in 0..c {
-                self.x[(i, j)] = -rhs[i * c + j];
-            }
-        }
+        let c = load(a, rhs, m, &mut self.l, &mut self.x);
         let stack = MemStack::new(&mut self.scratch);
         if llt::factor::cholesky_in_place(self.l.as_mut(), Default::default(), Par::Seq, stack, Default::default())
             .is_err()
@@ -103,11 +123,7 @@ impl Faer {
             Par::Seq,
             MemStack::new(&mut self.scratch),
         );
-        for i in 0..m {
-            for j in 0..c {
-                out[i * c + j] = self.x[(i, j)];
-            }
-        }
+        store(&self.x, m, c, out);
         true
     }
 }
@@ -121,15 +137,7 @@ struct Nalgebra {
 
 impl Nalgebra {
     fn solve(&mut self, a: &[f64], rhs: &[f64], m: usize, out: &mut [f64]) -> bool {
-        let c = rhs.len() / m;
-        for i in 0..m {
-            for j in 0..m {
-                self.l[(i, j)] = a[i * m + j];
-            }
-            for j in 0..c {
-                self.x[(i, j)] = -rhs[i * c + j];
-            }
-        }
+        let c = load(a, rhs, m, &mut self.l, &mut self.x);
         let l = std::mem::replace(&mut self.l, nalgebra::DMatrix::zeros(0, 0));
         let Some(chol) = nalgebra::linalg::Cholesky::new(l) else {
             self.l = nalgebra::DMatrix::zeros(m, m);
@@ -137,11 +145,7 @@ impl Nalgebra {
         };
         chol.solve_mut(&mut self.x);
         self.l = chol.unpack_dirty();
-        for i in 0..m {
-            for j in 0..c {
-                out[i * c + j] = self.x[(i, j)];
-            }
-        }
+        store(&self.x, m, c, out);
         true
     }
 }

@@ -6,6 +6,9 @@ use ddp::{
     Result,
 };
 
+mod common;
+use common::{solve, solve_with};
+
 /// $x_{k+1} = a x_k + u_k$ in one dimension, optionally lying about its
 /// derivatives or exploding outside $|x| < r$.
 struct Scalar {
@@ -79,10 +82,7 @@ fn an_unstable_model_blows_up_the_initial_rollout() {
         radius: f64::INFINITY,
     };
     let problem = DdpProblem::new(model, tracking(0.0, 1e-8), &[1.0], 100).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     // 3^17 > 1e8 = max_state_norm
     assert_eq!(r.status, DdpStatus::InitialRolloutDiverged { step: 17 });
     assert!(r.status.is_failure());
@@ -106,10 +106,7 @@ fn a_stabilising_warm_start_lets_ddp_control_the_unstable_model() {
         .expect("problem")
         .with_initial_controls(controls)
         .expect("controls");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::Converged);
     assert!(r.cost < 1.0 + 1e-6);
     assert_no_nans(&r);
@@ -124,10 +121,7 @@ fn a_model_exploding_outside_its_data_is_never_exploited_into_nans() {
         radius: 1.0,
     };
     let problem = DdpProblem::new(model, tracking(5.0, 1e-3), &[0.0], 30).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert_no_nans(&r);
     assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
     assert!(r.cost < r.initial_cost);
@@ -144,10 +138,7 @@ fn wrong_model_derivatives_end_in_no_descent() {
         radius: f64::INFINITY,
     };
     let problem = DdpProblem::new(model, tracking(1.0, 1e-2), &[0.0], 20).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::NoDescent);
     assert_eq!(r.cost, r.initial_cost);
     assert_no_nans(&r);
@@ -167,7 +158,7 @@ fn an_indefinite_cost_ends_in_not_positive_definite() {
         reg_max: 1.0,
         ..DdpSettings::default()
     };
-    let r = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
+    let r = solve_with(settings, &problem);
     assert_eq!(r.status, DdpStatus::NotPositiveDefinite);
     assert!(r.gains.is_empty());
     assert_no_nans(&r);
@@ -203,10 +194,7 @@ fn non_finite_derivatives_are_a_status() {
         radius: f64::INFINITY,
     };
     let problem = DdpProblem::new(model, NanCost, &[1.0], 10).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::NonFiniteDerivatives);
     assert_eq!(r.iterations, 0);
     assert_no_nans(&r);
@@ -214,33 +202,14 @@ fn non_finite_derivatives_are_a_status() {
 
 /// A "learned" model that only saw zero controls: any other control sends it
 /// to infinity.
-struct OnlyKnowsZero;
-
-impl Dynamics for OnlyKnowsZero {
-    fn state_dim(&self) -> usize {
-        1
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        next[0] = if u[0] == 0.0 { x[0] } else { f64::INFINITY };
-        Ok(())
-    }
-    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        fx[0] = 1.0;
-        fu[0] = 1.0;
-        Ok(())
-    }
+fn only_knows_zero(x: f64, u: f64) -> Result<f64> {
+    Ok(if u == 0.0 { x } else { f64::INFINITY })
 }
 
 #[test]
 fn every_trial_rollout_blowing_up_is_rollout_diverged() {
-    let problem = DdpProblem::new(OnlyKnowsZero, tracking(1.0, 1e-2), &[0.0], 20).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let problem = DdpProblem::new(Unit(only_knows_zero), tracking(1.0, 1e-2), &[0.0], 20).expect("problem");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::RolloutDiverged);
     assert_eq!(r.cost, r.initial_cost);
     assert!(r.states.iter().flatten().all(|x| *x == 0.0));
@@ -249,9 +218,18 @@ fn every_trial_rollout_blowing_up_is_rollout_diverged() {
 
 /// A model $x_{k+1} = x_k + u_k$ that refuses (returns an error) outside
 /// $|x| \le 1$.
-struct Refuses;
+fn refuses(x: f64, u: f64) -> Result<f64> {
+    if x.abs() > 1.0 {
+        return Err(DdpError::Model(format!("no data at x = {x}")));
+    }
+    Ok(x + u)
+}
 
-impl Dynamics for Refuses {
+/// A one-dimensional model $x_{k+1} = $ `step(x_k, u_k)` that reports the
+/// Jacobians $f_x = f_u = 1$ (exact for [`refuses`] where it answers).
+struct Unit<F>(F);
+
+impl<F: Fn(f64, f64) -> Result<f64>> Dynamics for Unit<F> {
     fn state_dim(&self) -> usize {
         1
     }
@@ -259,10 +237,7 @@ impl Dynamics for Refuses {
         1
     }
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        if x[0].abs() > 1.0 {
-            return Err(DdpError::Model(format!("no data at x = {}", x[0])));
-        }
-        next[0] = x[0] + u[0];
+        next[0] = (self.0)(x[0], u[0])?;
         Ok(())
     }
     fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
@@ -272,25 +247,25 @@ impl Dynamics for Refuses {
     }
 }
 
-/// [`Refuses`] with the trait's default (central-difference) Jacobians.
-struct RefusesDifferenced;
+/// Dynamics with the trait's default (central-difference) Jacobians.
+struct Differenced<D>(D);
 
-impl Dynamics for RefusesDifferenced {
+impl<D: Dynamics> Dynamics for Differenced<D> {
     fn state_dim(&self) -> usize {
-        1
+        self.0.state_dim()
     }
     fn control_dim(&self) -> usize {
-        1
+        self.0.control_dim()
     }
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        Refuses.step(x, u, next)
+        self.0.step(x, u, next)
     }
 }
 
 #[test]
 fn a_failed_step_in_the_line_search_is_a_diverged_trial() {
     // the target lies outside the region where the model answers
-    let problem = DdpProblem::new(Refuses, tracking(5.0, 1e-3), &[0.0], 30).expect("problem");
+    let problem = DdpProblem::new(Unit(refuses), tracking(5.0, 1e-3), &[0.0], 30).expect("problem");
     let r = Ddp::new(DdpSettings::default())
         .expect("settings")
         .solve(&problem)
@@ -310,7 +285,7 @@ fn a_failed_step_in_the_line_search_is_a_diverged_trial() {
 
 #[test]
 fn a_failed_step_in_the_warm_start_is_an_error() {
-    let problem = DdpProblem::new(Refuses, tracking(0.0, 1e-3), &[0.5], 10)
+    let problem = DdpProblem::new(Unit(refuses), tracking(0.0, 1e-3), &[0.5], 10)
         .expect("problem")
         .with_initial_controls(vec![vec![1.0]; 10])
         .expect("controls");
@@ -325,20 +300,14 @@ fn a_failed_step_in_the_warm_start_is_an_error() {
 #[test]
 fn default_derivatives_let_ddp_solve_a_tracking_problem() {
     // inside the model's region the default (differenced) Jacobians are exact
-    let problem = DdpProblem::new(RefusesDifferenced, tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let problem = DdpProblem::new(Differenced(Unit(refuses)), tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::Converged);
     // a linear-quadratic problem: one Newton step, the same plan as with
     // the analytic Jacobians
     assert!(r.iterations <= 2, "{} iterations", r.iterations);
-    let exact = DdpProblem::new(Refuses, tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
-    let r_exact = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&exact)
-        .expect("solve");
+    let exact = DdpProblem::new(Unit(refuses), tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
+    let r_exact = solve(&exact);
     assert!((r.cost - r_exact.cost).abs() <= 1e-9 * r_exact.cost);
     for (a, b) in r.controls.iter().zip(&r_exact.controls) {
         assert!((a[0] - b[0]).abs() < 1e-7, "{a:?} vs {b:?}");

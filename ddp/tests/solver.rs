@@ -6,6 +6,9 @@ use ddp::strategies::lq_problem;
 use ddp::{Ddp, DdpMethod, DdpProblem, DdpSettings, DdpStatus, Pendulum, QuadraticCost, Regularization};
 use proptest::prelude::*;
 
+mod common;
+use common::{solve, solve_with};
+
 fn assert_finite(r: &ddp::DdpResult) {
     assert!(
         r.states
@@ -27,7 +30,7 @@ fn pendulum_swingup_converges_with_ddp_and_ilqr_to_the_same_optimum() {
                 regularization,
                 ..DdpSettings::default()
             };
-            let r = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
+            let r = solve_with(settings, &problem);
             assert_eq!(r.status, DdpStatus::Converged, "{method:?} {regularization:?}");
             assert_eq!(r.method, method);
             let last = &r.states[300];
@@ -59,10 +62,7 @@ fn cartpole_swingup_decreases_the_cost_monotonically() {
         max_iterations: 100,
         ..DdpSettings::default()
     };
-    let r = Ddp::new(settings)
-        .expect("settings")
-        .solve(&cartpole_swingup(100).expect("problem"))
-        .expect("solve");
+    let r = solve_with(settings, &cartpole_swingup(100).expect("problem"));
     assert_eq!(r.status, DdpStatus::Converged);
     assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
     assert!(r.cost < 0.02 * r.initial_cost);
@@ -102,10 +102,7 @@ fn control_limits_are_respected_on_the_swingup() {
         .expect("problem")
         .with_control_limits(&[-limit], &[limit])
         .expect("limits");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::Converged);
     assert!(r.controls.iter().all(|u| u[0].abs() <= limit));
     assert!(
@@ -133,10 +130,7 @@ fn a_warm_start_outside_the_limits_is_clamped() {
         .expect("controls")
         .with_control_limits(&[-1.0], &[1.0])
         .expect("limits");
-    let r = Ddp::new(DdpSettings::default())
-        .expect("settings")
-        .solve(&problem)
-        .expect("solve");
+    let r = solve(&problem);
     assert!(r.controls.iter().all(|u| u[0].abs() <= 1.0));
     assert_finite(&r);
 }
@@ -156,7 +150,7 @@ proptest! {
         let problem = DdpProblem::new(dynamics, cost, &[theta0, omega0], horizon).expect("problem");
         let method = if full_ddp { DdpMethod::Ddp } else { DdpMethod::Ilqr };
         let settings = DdpSettings { method, max_iterations: 50, ..DdpSettings::default() };
-        let res = Ddp::new(settings).expect("settings").solve(&problem).expect("solve");
+        let res = solve_with(settings, &problem);
         prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]), "{:?}", res.cost_history);
         prop_assert!(res.cost <= res.initial_cost);
         let recomputed = problem.rollout_cost(&res.controls).expect("rollout");
@@ -174,7 +168,7 @@ proptest! {
         let m = lq.b.ncols();
         let lim = frac * umax;
         let problem = lq.to_ddp_problem().with_control_limits(&vec![-lim; m], &vec![lim; m]).expect("limits");
-        let res = Ddp::new(DdpSettings::default()).expect("settings").solve(&problem).expect("solve");
+        let res = solve(&problem);
         prop_assert_eq!(res.status, DdpStatus::Converged);
         prop_assert!(res.controls.iter().flatten().all(|u| u.abs() <= lim));
         prop_assert!(res.cost >= lq.riccati.cost * (1.0 - 1e-12));

@@ -9,10 +9,12 @@
 //! so a query should grow like $\log n$ (tree descent) plus a constant fit.
 
 use std::hint::black_box;
-use std::time::Duration;
 
 use criterion::{BatchSize, BenchmarkId, Criterion, Throughput, criterion_group, criterion_main};
 use lwr::{Kernel, LwrModel, LwrSettings, TuneSettings};
+
+mod common;
+use common::new_group;
 
 const SIZES: [usize; 3] = [1_000, 10_000, 100_000];
 const DIMS: [usize; 2] = [2, 5];
@@ -64,11 +66,7 @@ fn model(n: usize, d: usize) -> LwrModel {
 }
 
 fn queries(c: &mut Criterion) {
-    let mut group = c.benchmark_group("query");
-    group
-        .sample_size(20)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(1));
+    let mut group = new_group(c, "query", 20, 300, 1);
     for d in DIMS {
         for n in SIZES {
             let m = model(n, d);
@@ -102,11 +100,7 @@ fn queries(c: &mut Criterion) {
     }
     group.finish();
 
-    let mut group = c.benchmark_group("batch");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(1));
+    let mut group = new_group(c, "batch", 10, 300, 1);
     for d in DIMS {
         for n in SIZES {
             let m = model(n, d);
@@ -125,11 +119,7 @@ fn queries(c: &mut Criterion) {
 }
 
 fn inserts(c: &mut Criterion) {
-    let mut group = c.benchmark_group("insert");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(1));
+    let mut group = new_group(c, "insert", 10, 300, 1);
     for d in DIMS {
         for n in SIZES {
             let m = model(n, d);
@@ -153,11 +143,7 @@ fn inserts(c: &mut Criterion) {
 }
 
 fn cross_validation(c: &mut Criterion) {
-    let mut group = c.benchmark_group("loo");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(2));
+    let mut group = new_group(c, "loo", 10, 300, 2);
     for d in DIMS {
         for n in [1_000, 10_000] {
             let m = model(n, d);
@@ -169,11 +155,7 @@ fn cross_validation(c: &mut Criterion) {
     }
     group.finish();
 
-    let mut group = c.benchmark_group("tune");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(300))
-        .measurement_time(Duration::from_secs(3));
+    let mut group = new_group(c, "tune", 10, 300, 3);
     let m = model(500, 2);
     let tune = TuneSettings {
         max_evals: 30,
@@ -204,11 +186,7 @@ fn cross_validation(c: &mut Criterion) {
 
     // the default search on 10^4 points in 5 dimensions (the query benches'
     // data), and the same search cross-validating 2000 of the points
-    let mut group = c.benchmark_group("tune_large");
-    group
-        .sample_size(10)
-        .warm_up_time(Duration::from_millis(100))
-        .measurement_time(Duration::from_secs(30));
+    let mut group = new_group(c, "tune_large", 10, 100, 30);
     let m = model(10_000, 5);
     group.bench_function("n10000_d5_default", |b| {
         b.iter(|| m.tune(&TuneSettings::default()).expect("valid"))

@@ -13,8 +13,9 @@ use crate::settings::LwrSettings;
 /// (`benches/cholesky.rs`: factor and two solves, 159 ns against 338 and
 /// 267 ns at $p = 3$, 1.08 us against 1.54 and 1.62 us at $p = 10$; faer
 /// ties at $p = 4$), and the test `cholesky_agrees_with_nalgebra` checks it
-/// against nalgebra to $10^{-12}$.
-fn cholesky(a: &mut [f64], p: usize) -> Option<(f64, f64)> {
+/// against nalgebra to $10^{-12}$. Public (hidden, through `lwr::bench`) only
+/// so that the bench times this code rather than a copy of it.
+pub fn cholesky(a: &mut [f64], p: usize) -> Option<(f64, f64)> {
     let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
     for j in 0..p {
         let mut djj = a[j * p + j];
@@ -39,8 +40,9 @@ fn cholesky(a: &mut [f64], p: usize) -> Option<(f64, f64)> {
     Some((lo, hi))
 }
 
-/// Solves $L L^\top x = b$ in place.
-fn chol_solve(l: &[f64], p: usize, b: &mut [f64]) {
+/// Solves $L L^\top x = b$ in place, $L$ from [`cholesky`]. Public (hidden,
+/// through `lwr::bench`) for the Cholesky bench, as [`cholesky`].
+pub fn chol_solve(l: &[f64], p: usize, b: &mut [f64]) {
     for i in 0..p {
         let mut v = b[i];
         for k in 0..i {
@@ -151,27 +153,11 @@ mod tests {
     /// sizes, to $10^{-12}$ relative.
     #[test]
     fn cholesky_agrees_with_nalgebra() {
-        let mut seed = 9u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = crate::strategies::uniform(9u64);
         for p in 1..=10 {
             for _ in 0..20 {
                 // Z^T K Z + small ridge, as a local fit builds it
-                let mut a = vec![0.0; p * p];
-                for _ in 0..(p + 3) {
-                    let z: Vec<f64> = (0..p).map(|c| if c == 0 { 1.0 } else { rand() }).collect();
-                    let k = 0.6 + 0.4 * rand();
-                    for r in 0..p {
-                        for c in 0..p {
-                            a[r * p + c] += k * z[r] * z[c];
-                        }
-                    }
-                }
-                for r in 1..p {
-                    a[r * p + r] += 1e-3;
-                }
+                let a = crate::strategies::normal_matrix(p, p + 3, (0.6, 0.4), 1e-3, &mut rand);
                 let reference =
                     nalgebra::Cholesky::new(nalgebra::DMatrix::from_row_slice(p, p, &a)).expect("positive definite");
                 let mut l = a.clone();

@@ -271,8 +271,9 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
-/// Fits at `q` with this thread's scratch buffers. The caller has validated
-/// `settings`, `metric` (of the settings) and `q`.
+/// Fits at `q` with this thread's scratch buffers: finds the neighbours
+/// with the tree, sorts them by index and calls [`fit_found`]. The caller
+/// has validated `settings`, `metric` (of the settings) and `q`.
 pub(crate) fn local_fit(
     db: &Database,
     settings: &LwrSettings,
@@ -280,31 +281,21 @@ pub(crate) fn local_fit(
     q: &[f64],
     want: Want,
 ) -> Result<LocalFit> {
-    SCRATCH.with(|s| match s.try_borrow_mut() {
-        Ok(mut s) => local_fit_in(db, settings, metric, q, want, &mut s),
-        // re-entered on this thread (not done by this crate): fresh buffers
-        Err(_) => local_fit_in(db, settings, metric, q, want, &mut Scratch::default()),
-    })
-}
-
-/// Fits at `q` with the given scratch buffers: finds the neighbours with the
-/// tree, sorts them by index and calls [`fit_found`].
-pub(crate) fn local_fit_in(
-    db: &Database,
-    settings: &LwrSettings,
-    metric: &Metric,
-    q: &[f64],
-    want: Want,
-    scratch: &mut Scratch,
-) -> Result<LocalFit> {
     if db.is_empty() {
         return Err(LwrError::EmptyDatabase);
     }
-    let radius = settings.support_radius();
-    scratch.found.clear();
-    db.within_sq(q, metric, radius * radius, &mut scratch.found);
-    scratch.found.sort_unstable_by_key(|&(i, _)| i);
-    fit_found(db, settings, metric, q, want, scratch)
+    let fit_in = |scratch: &mut Scratch| {
+        let radius = settings.support_radius();
+        scratch.found.clear();
+        db.within_sq(q, metric, radius * radius, &mut scratch.found);
+        scratch.found.sort_unstable_by_key(|&(i, _)| i);
+        fit_found(db, settings, metric, q, want, scratch)
+    };
+    SCRATCH.with(|s| match s.try_borrow_mut() {
+        Ok(mut s) => fit_in(&mut s),
+        // re-entered on this thread (not done by this crate): fresh buffers
+        Err(_) => fit_in(&mut Scratch::default()),
+    })
 }
 
 /// Fits at `q` over the neighbours in `scratch.found`: every point with
@@ -572,11 +563,7 @@ mod tests {
     fn linear_fast_path_equals_general_loop() {
         // predict_mean takes the compile-time-sized path for d <= 8, predict
         // (which wants confidence) the general one: bitwise the same mean
-        let mut seed = 3u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = crate::strategies::uniform(3u64);
         for d in 1..=9 {
             for kernel in [Kernel::Gaussian, Kernel::Tricube] {
                 let settings = LwrSettings {

@@ -22,6 +22,14 @@ mod tune;
 /// sparse matrices), re-exported so callers need no matching dependency.
 pub use faer;
 
+/// The local fits' hand-written Cholesky factorisation and solve, public only
+/// so that `benches/cholesky.rs` times the crate's own code against nalgebra
+/// and faer (instead of a copy that could drift); not part of the API.
+#[doc(hidden)]
+pub mod bench {
+    pub use crate::factor::{chol_solve, cholesky};
+}
+
 pub use database::{Database, Neighbor};
 pub use error::{LwrError, Result};
 pub use loo::LooResult;

@@ -562,11 +562,7 @@ mod tests {
     use super::*;
 
     fn model(n: usize) -> LwrModel {
-        let mut seed = 5u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = crate::strategies::uniform(5u64);
         let settings = LwrSettings {
             bandwidth: 0.2,
             ..Default::default()

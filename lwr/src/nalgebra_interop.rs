@@ -107,11 +107,7 @@ mod tests {
     use super::*;
 
     fn data() -> (DMatrix<f64>, DMatrix<f64>) {
-        let mut seed = 11u64;
-        let mut rand = move || {
-            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-            (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-        };
+        let mut rand = crate::strategies::uniform(11u64);
         let x = DMatrix::from_fn(120, 3, |_, _| rand());
         let y = DMatrix::from_fn(120, 2, |i, o| {
             let r = x.row(i);

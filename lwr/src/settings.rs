@@ -196,15 +196,26 @@ fn invalid(name: &'static str, reason: String) -> LwrError {
     LwrError::InvalidParameter { name, reason }
 }
 
+/// What a scalar setting must be, in words, and the test of it.
+type Requirement = (&'static str, fn(f64) -> bool);
+
+const FINITE_POSITIVE: Requirement = ("finite and positive", |v| v.is_finite() && v > 0.0);
+const FINITE_NONNEGATIVE: Requirement = ("finite and >= 0", |v| v.is_finite() && v >= 0.0);
+
+/// `Ok` if `value` meets the requirement, else an [`LwrError::InvalidParameter`]
+/// naming the setting: "must be (what), got (value)".
+fn require(name: &'static str, value: f64, (what, ok): Requirement) -> Result<()> {
+    if ok(value) {
+        Ok(())
+    } else {
+        Err(invalid(name, format!("must be {what}, got {value}")))
+    }
+}
+
 impl LwrSettings {
     /// Checks every field for `n_inputs`-dimensional inputs.
     pub fn validate(&self, n_inputs: usize) -> Result<()> {
-        if !(self.bandwidth.is_finite() && self.bandwidth > 0.0) {
-            return Err(invalid(
-                "bandwidth",
-                format!("must be finite and positive, got {}", self.bandwidth),
-            ));
-        }
+        require("bandwidth", self.bandwidth, FINITE_POSITIVE)?;
         if !self.scales.is_empty() && self.scales.len() != n_inputs {
             return Err(LwrError::DimensionMismatch {
                 what: "metric scales",
@@ -236,45 +247,21 @@ impl LwrSettings {
                 ),
             ));
         }
-        if !(self.ridge.is_finite() && self.ridge >= 0.0) {
-            return Err(invalid("ridge", format!("must be finite and >= 0, got {}", self.ridge)));
-        }
-        if !(self.slope_ridge.is_finite() && self.slope_ridge >= 0.0) {
-            return Err(invalid(
-                "slope_ridge",
-                format!("must be finite and >= 0, got {}", self.slope_ridge),
-            ));
-        }
-        if !(self.intercept_ridge.is_finite() && self.intercept_ridge >= 0.0) {
-            return Err(invalid(
-                "intercept_ridge",
-                format!("must be finite and >= 0, got {}", self.intercept_ridge),
-            ));
-        }
-        if !(self.gaussian_cutoff.is_finite() && self.gaussian_cutoff > 0.0) {
-            return Err(invalid(
-                "gaussian_cutoff",
-                format!("must be finite and positive, got {}", self.gaussian_cutoff),
-            ));
-        }
-        if !(self.confidence_level > 0.0 && self.confidence_level < 1.0) {
-            return Err(invalid(
-                "confidence_level",
-                format!("must be in (0, 1), got {}", self.confidence_level),
-            ));
-        }
-        if !(self.max_condition.is_finite() && self.max_condition > 1.0) {
-            return Err(invalid(
-                "max_condition",
-                format!("must be finite and > 1, got {}", self.max_condition),
-            ));
-        }
-        if !(self.fallback_ridge.is_finite() && self.fallback_ridge > 0.0) {
-            return Err(invalid(
-                "fallback_ridge",
-                format!("must be finite and positive, got {}", self.fallback_ridge),
-            ));
-        }
+        require("ridge", self.ridge, FINITE_NONNEGATIVE)?;
+        require("slope_ridge", self.slope_ridge, FINITE_NONNEGATIVE)?;
+        require("intercept_ridge", self.intercept_ridge, FINITE_NONNEGATIVE)?;
+        require("gaussian_cutoff", self.gaussian_cutoff, FINITE_POSITIVE)?;
+        require(
+            "confidence_level",
+            self.confidence_level,
+            ("in (0, 1)", |v| v > 0.0 && v < 1.0),
+        )?;
+        require(
+            "max_condition",
+            self.max_condition,
+            ("finite and > 1", |v| v.is_finite() && v > 1.0),
+        )?;
+        require("fallback_ridge", self.fallback_ridge, FINITE_POSITIVE)?;
         Ok(())
     }
 

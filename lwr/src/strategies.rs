@@ -14,7 +14,7 @@ use proptest::prelude::*;
 
 use crate::error::Result;
 use crate::model::LwrModel;
-use crate::settings::{Kernel, LwrSettings};
+use crate::settings::{Degree, Kernel, LwrSettings};
 
 /// A data set: inputs and outputs, one row per point.
 #[derive(Debug, Clone, PartialEq)]
@@ -44,6 +44,55 @@ impl DataSet {
     }
 }
 
+/// Seeded uniform numbers in $[-1, 1)$: the top 53 bits of Knuth's MMIX
+/// linear congruential generator, so that tests, examples and benches that
+/// want fixed data (outside proptest) draw the same numbers on every
+/// platform.
+///
+/// ```
+/// let mut rand = lwr::strategies::uniform(1);
+/// let x = rand();
+/// assert!((-1.0..1.0).contains(&x));
+/// assert_eq!(x, lwr::strategies::uniform(1)());
+/// ```
+pub fn uniform(seed: u64) -> impl FnMut() -> f64 {
+    let mut state = seed;
+    move || {
+        state = state
+            .wrapping_mul(6364136223846793005)
+            .wrapping_add(1442695040888963407);
+        (state >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
+    }
+}
+
+/// A local fit's normal matrix $Z^\top K Z + \lambda \operatorname{diag}(0, 1, \dots, 1)$
+/// ($p \times p$, row-major, symmetric positive definite for enough rows):
+/// `rows` design rows $z = [1, u_1, \dots, u_{p-1}]$ and kernel weights
+/// $k = k_0 + k_1 u$ (`weight` $= (k_0, k_1)$), every $u$ drawn from `rand`
+/// in that order. For the Cholesky's test and bench.
+pub fn normal_matrix(
+    p: usize,
+    rows: usize,
+    weight: (f64, f64),
+    ridge: f64,
+    rand: &mut impl FnMut() -> f64,
+) -> Vec<f64> {
+    let mut a = vec![0.0; p * p];
+    for _ in 0..rows {
+        let z: Vec<f64> = (0..p).map(|c| if c == 0 { 1.0 } else { rand() }).collect();
+        let k = weight.0 + weight.1 * rand();
+        for r in 0..p {
+            for c in 0..p {
+                a[r * p + c] += k * z[r] * z[c];
+            }
+        }
+    }
+    for r in 1..p {
+        a[r * p + r] += ridge;
+    }
+    a
+}
+
 /// Any of the four kernels.
 pub fn kernels() -> impl Strategy<Value = Kernel> {
     prop_oneof![
@@ -52,6 +101,17 @@ pub fn kernels() -> impl Strategy<Value = Kernel> {
         Just(Kernel::Epanechnikov),
         Just(Kernel::Bisquare)
     ]
+}
+
+/// Any of the three degrees.
+pub fn degrees() -> impl Strategy<Value = Degree> {
+    prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)]
+}
+
+/// Diagonal metric scales for `d` inputs: each 0 (the input ignored) or in
+/// $[0.3, 2)$.
+pub fn metric_scales(d: usize) -> impl Strategy<Value = Vec<f64>> {
+    vec(prop_oneof![Just(0.0), 0.3..2.0f64], d)
 }
 
 /// `n` input points in $[-1, 1]^d$; with `duplicates`, about one in five

@@ -10,6 +10,7 @@ use lwr::csv_fit::{
     DegreeArg, FitArgs, FitError, FitReport, KernelArg, error_chain, fit_command, fit_report, fit_report_with,
     write_atomic,
 };
+use lwr::strategies::uniform;
 
 /// A temporary directory, removed when dropped.
 struct TempDir(PathBuf);
@@ -42,21 +43,15 @@ impl Drop for TempDir {
     }
 }
 
-/// Seeded uniform numbers in [-1, 1].
-fn uniform(seed: &mut u64) -> f64 {
-    *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-    (*seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-}
-
 /// `a,b,c,y,z` with y = sin(3a) + 0.5 b + noise, z = cos(2b) + noise; c is
 /// irrelevant to both.
 fn data(n: usize, seed: u64) -> String {
-    let mut s = seed;
+    let mut rand = uniform(seed);
     let mut text = String::from("a,b,c,y,z\n");
     for _ in 0..n {
-        let (a, b, c) = (uniform(&mut s), uniform(&mut s), uniform(&mut s));
-        let y = (3.0 * a).sin() + 0.5 * b + 0.05 * uniform(&mut s);
-        let z = (2.0 * b).cos() + 0.05 * uniform(&mut s);
+        let (a, b, c) = (rand(), rand(), rand());
+        let y = (3.0 * a).sin() + 0.5 * b + 0.05 * rand();
+        let z = (2.0 * b).cos() + 0.05 * rand();
         text.push_str(&format!("{a},{b},{c},{y},{z}\n"));
     }
     text
@@ -187,63 +182,54 @@ fn train_error(name: &str, text: &str) -> (String, bool) {
 
 #[test]
 fn bad_training_files_name_row_and_column() {
-    let (msg, typed) = train_error("missing_target", "a,b,c\n1,2,3\n4,5,6\n");
-    assert!(typed);
-    assert!(
-        msg.contains("header (line 1)") && msg.contains("no column 'y'"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("non_numeric", "a,b,y\n1,2,3\n4,5,6\n7,abc,9\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 4 (data row 3), column 2 'b'") && msg.contains("'abc'"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("nan_cell", "a,b,y\n1,2,3\n4,5,NaN\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 3 (data row 2), column 3 'y'") && msg.contains("not a finite"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("empty_cell", "a,b,y\n1,,3\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 2 (data row 1), column 2 'b'") && msg.contains("empty cell"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("empty", "");
-    assert!(typed);
-    assert!(msg.contains("empty"), "{msg}");
-
-    let (msg, typed) = train_error("header_only", "a,b,y\n");
-    assert!(typed);
-    assert!(msg.contains("no data rows"), "{msg}");
-
-    let (msg, typed) = train_error("ragged_short", "a,b,y\n1,2,3\n4,5\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 3 (data row 2)") && msg.contains("column 3 'y' is missing"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("ragged_long", "a,b,y\n1,2,3,4\n");
-    assert!(typed);
-    assert!(
-        msg.contains("line 2 (data row 1)") && msg.contains("column 4 is extra"),
-        "{msg}"
-    );
-
-    let (msg, typed) = train_error("constant", "a,b,y\n1,2,3\n1,5,6\n1,4,2\n1,3,3\n1,1,1\n");
-    assert!(typed);
-    assert!(msg.contains("column 1 'a'") && msg.contains("constant"), "{msg}");
-
-    let (msg, typed) = train_error("only_targets", "y\n1\n2\n");
-    assert!(typed);
-    assert!(msg.contains("input"), "{msg}");
+    // each bad file, and what the message must say about it
+    let cases: [(&str, &str, &[&str]); 10] = [
+        (
+            "missing_target",
+            "a,b,c\n1,2,3\n4,5,6\n",
+            &["header (line 1)", "no column 'y'"],
+        ),
+        (
+            "non_numeric",
+            "a,b,y\n1,2,3\n4,5,6\n7,abc,9\n",
+            &["line 4 (data row 3), column 2 'b'", "'abc'"],
+        ),
+        (
+            "nan_cell",
+            "a,b,y\n1,2,3\n4,5,NaN\n",
+            &["line 3 (data row 2), column 3 'y'", "not a finite"],
+        ),
+        (
+            "empty_cell",
+            "a,b,y\n1,,3\n",
+            &["line 2 (data row 1), column 2 'b'", "empty cell"],
+        ),
+        ("empty", "", &["empty"]),
+        ("header_only", "a,b,y\n", &["no data rows"]),
+        (
+            "ragged_short",
+            "a,b,y\n1,2,3\n4,5\n",
+            &["line 3 (data row 2)", "column 3 'y' is missing"],
+        ),
+        (
+            "ragged_long",
+            "a,b,y\n1,2,3,4\n",
+            &["line 2 (data row 1)", "column 4 is extra"],
+        ),
+        (
+            "constant",
+            "a,b,y\n1,2,3\n1,5,6\n1,4,2\n1,3,3\n1,1,1\n",
+            &["column 1 'a'", "constant"],
+        ),
+        ("only_targets", "y\n1\n2\n", &["input"]),
+    ];
+    for (name, text, wants) in cases {
+        let (msg, typed) = train_error(name, text);
+        assert!(typed, "{name}: {msg}");
+        for want in wants {
+            assert!(msg.contains(want), "{name}: want '{want}' in: {msg}");
+        }
+    }
 
     let dir = TempDir::new("missing");
     let err = fit_report(&FitArgs::new(dir.path("nope.csv"), &["y"])).expect_err("no file");
@@ -372,9 +358,9 @@ fn data_too_small_for_the_model_is_refused_with_the_reason() {
 
     let mut wide = (0..300).map(|j| format!("x{j}")).collect::<Vec<_>>().join(",");
     wide.push_str(",y\n");
-    let mut seed = 3;
+    let mut rand = uniform(3);
     for _ in 0..10 {
-        let row: Vec<String> = (0..301).map(|_| uniform(&mut seed).to_string()).collect();
+        let row: Vec<String> = (0..301).map(|_| rand().to_string()).collect();
         wide.push_str(&row.join(","));
         wide.push('\n');
     }

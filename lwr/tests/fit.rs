@@ -1,9 +1,12 @@
 //! Local fits: exactness on polynomials, multi-output, conditioning,
 //! confidence and the exact query Jacobian.
 
-use lwr::strategies::{check_jacobian, kernels, linear_data, smooth_data};
+use lwr::strategies::{degrees, kernels, linear_data, metric_scales, smooth_data};
 use lwr::{Degree, FitStatus, Kernel, LwrError, LwrModel, LwrSettings};
 use proptest::prelude::*;
+
+mod common;
+use common::jacobian_matches_differences;
 
 fn lcg(seed: &mut u64) -> f64 {
     *seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
@@ -64,9 +67,9 @@ proptest! {
     fn jacobian_matches_central_differences(
         data in smooth_data(2, 2, 15..70, true, 0.05),
         kernel in kernels(),
-        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        degree in degrees(),
         bandwidth in 0.5..2.0f64,
-        scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 2),
+        scales in metric_scales(2),
         ridge in prop_oneof![Just(0.0), 1e-3..1e-1f64],
         intercept_ridge in prop_oneof![Just(0.0), 1e-2..2.0f64],
         slope_ridge in prop_oneof![Just(0.0), 1e-2..2.0f64],
@@ -74,21 +77,13 @@ proptest! {
     ) {
         let settings = LwrSettings {
             kernel, degree, bandwidth, scales: scales.clone(), ridge, intercept_ridge, slope_ridge,
-            gaussian_cutoff: 40.0, // no truncation: the Gaussian fit is smooth
             ..Default::default()
         };
-        let m = data.to_model(settings).expect("valid");
-        let Ok((p, jac)) = m.predict_with_jacobian(&q) else { return Ok(()) };
-        prop_assume!(matches!(p.status, FitStatus::Ok | FitStatus::NoDegreesOfFreedom));
-        prop_assume!(p.condition < 1e6);
-        if kernel != Kernel::Gaussian {
-            // keep every point away from the edge of the support
+        jacobian_matches_differences(&data, settings, &q, |m| {
+            // every point away from the edge of the support
             let near = m.database().within_radius(&q, &scales, 1.02 * bandwidth).expect("valid");
-            prop_assume!(near.iter().all(|n| (n.distance / bandwidth - 1.0).abs() > 0.02));
-        }
-        let c = check_jacobian(|q: &[f64]| m.predict_mean(q), &q, &jac, 1e-3);
-        prop_assert!(c.worst_error < 1e-5,
-            "d y{} / d q{}: fd {} vs analytic {}", c.output, c.input, c.numeric, c.analytic);
+            near.iter().all(|n| (n.distance / bandwidth - 1.0).abs() > 0.02)
+        })?;
     }
 }
 
@@ -389,7 +384,7 @@ fn settings_are_validated_on_use() {
 fn any_settings() -> impl Strategy<Value = LwrSettings> {
     (
         kernels(),
-        prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        degrees(),
         prop_oneof![Just(1e-9), Just(1e6), 1e-3..10.0f64],
         proptest::collection::vec(prop_oneof![Just(0.0), Just(1e-12), Just(1e8), 0.0..5.0f64], 3),
         prop_oneof![Just(0.0), Just(1e12), 0.0..1.0f64],

@@ -6,17 +6,8 @@
 use lwr::{Degree, FitStatus, Kernel, LwrModel, LwrSettings};
 use serde_json::Value;
 
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
-}
-
-fn rows(v: &Value) -> Vec<Vec<f64>> {
-    v.as_array().expect("array").iter().map(floats).collect()
-}
+mod common;
+use common::{floats, rows};
 
 fn close(what: &str, got: f64, want: f64) {
     assert!(

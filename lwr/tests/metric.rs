@@ -3,9 +3,14 @@
 //! data when $M$ is a rotation, an exact Jacobian, tuning along $M$'s axes,
 //! save and load, validation.
 
-use lwr::strategies::{check_jacobian, kernels, smooth_data};
+use faer::Mat;
+use lwr::strategies::{degrees, kernels, metric_scales, smooth_data, uniform};
 use lwr::{Degree, FitStatus, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneSettings};
 use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
+
+mod common;
+use common::jacobian_matches_differences;
 
 /// A rotation of $\mathbb{R}^3$ from three angles (row-major).
 fn rotation(a: f64, b: f64, c: f64) -> Vec<f64> {
@@ -35,7 +40,7 @@ fn close(a: f64, b: f64, tol: f64) -> bool {
 
 /// The two predictions agree in every reported number but the condition
 /// estimate (which depends on the coordinates).
-fn same_prediction(a: &Prediction, b: &Prediction, tol: f64) -> std::result::Result<(), String> {
+fn same_prediction(a: &Prediction, b: &Prediction, tol: f64) -> Result<(), TestCaseError> {
     let pairs = [
         ("n_lwr", a.n_lwr, b.n_lwr),
         ("p_lwr", a.p_lwr, b.p_lwr),
@@ -43,7 +48,7 @@ fn same_prediction(a: &Prediction, b: &Prediction, tol: f64) -> std::result::Res
     ];
     for (what, x, y) in pairs {
         if !close(x, y, tol) {
-            return Err(format!("{what}: {x} vs {y}"));
+            return Err(TestCaseError::fail(format!("{what}: {x} vs {y}")));
         }
     }
     for o in 0..a.mean.len() {
@@ -53,17 +58,35 @@ fn same_prediction(a: &Prediction, b: &Prediction, tol: f64) -> std::result::Res
             ("half width", a.confidence_half_width[o], b.confidence_half_width[o]),
         ] {
             if !close(x, y, tol) {
-                return Err(format!("{what}[{o}]: {x} vs {y}"));
+                return Err(TestCaseError::fail(format!("{what}[{o}]: {x} vs {y}")));
             }
         }
     }
     if a.n_neighbors != b.n_neighbors || a.status != b.status {
-        return Err(format!(
+        return Err(TestCaseError::fail(format!(
             "{} / {:?} vs {} / {:?}",
             a.n_neighbors, a.status, b.n_neighbors, b.status
-        ));
+        )));
     }
     Ok(())
+}
+
+/// Two models' predictions with Jacobians at one query: both fail, or both
+/// succeed and pass `check`.
+fn both_or_neither(
+    a: lwr::Result<(Prediction, Mat<f64>)>,
+    b: lwr::Result<(Prediction, Mat<f64>)>,
+    check: impl FnOnce((Prediction, Mat<f64>), (Prediction, Mat<f64>)) -> Result<(), TestCaseError>,
+) -> Result<(), TestCaseError> {
+    match (a, b) {
+        (Ok(a), Ok(b)) => check(a, b),
+        (Err(_), Err(_)) => Ok(()),
+        (a, b) => Err(TestCaseError::fail(format!(
+            "one failed: {:?} vs {:?}",
+            a.map(|p| p.0.mean),
+            b.map(|p| p.0.mean)
+        ))),
+    }
 }
 
 proptest! {
@@ -76,9 +99,9 @@ proptest! {
     fn diagonal_matrix_equals_diagonal_scales(
         data in smooth_data(3, 2, 10..80, true, 0.1),
         kernel in kernels(),
-        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        degree in degrees(),
         bandwidth in 0.4..2.0f64,
-        scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 3),
+        scales in metric_scales(3),
         diag in proptest::collection::vec(prop_oneof![Just(0.0), Just(1.0), -2.0..2.0f64], 3),
         ridge in prop_oneof![Just(0.0), 1e-3..1e-1f64],
         q in proptest::collection::vec(-0.8..0.8f64, 3),
@@ -88,21 +111,16 @@ proptest! {
         let full = data.to_model(LwrSettings { scales: scales.clone(), metric, ..base.clone() }).expect("valid");
         let product = scales.iter().zip(&diag).map(|(m, c)| (m * c).abs()).collect();
         let plain = data.to_model(LwrSettings { scales: product, ..base }).expect("valid");
-        match (full.predict_with_jacobian(&q), plain.predict_with_jacobian(&q)) {
-            (Ok((a, ja)), Ok((b, jb))) => {
-                prop_assume!(!a.mean[0].is_nan() && a.condition < 1e8 && b.condition < 1e8);
-                if let Err(e) = same_prediction(&a, &b, 1e-8) {
-                    prop_assert!(false, "{}", e);
-                }
-                for o in 0..2 {
-                    for j in 0..3 {
-                        prop_assert!(close(ja[(o, j)], jb[(o, j)], 1e-7), "jac {} vs {}", ja[(o, j)], jb[(o, j)]);
-                    }
+        both_or_neither(full.predict_with_jacobian(&q), plain.predict_with_jacobian(&q), |(a, ja), (b, jb)| {
+            prop_assume!(!a.mean[0].is_nan() && a.condition < 1e8 && b.condition < 1e8);
+            same_prediction(&a, &b, 1e-8)?;
+            for o in 0..2 {
+                for j in 0..3 {
+                    prop_assert!(close(ja[(o, j)], jb[(o, j)], 1e-7), "jac {} vs {}", ja[(o, j)], jb[(o, j)]);
                 }
             }
-            (Err(_), Err(_)) => {}
-            (a, b) => prop_assert!(false, "one failed: {:?} vs {:?}", a.map(|p| p.0.mean), b.map(|p| p.0.mean)),
-        }
+            Ok(())
+        })?;
         let (la, lb) = (full.loo().expect("nonempty"), plain.loo().expect("nonempty"));
         prop_assert_eq!(la.n_undetermined, lb.n_undetermined);
         prop_assert!(close(la.normalized_mse, lb.normalized_mse, 1e-6), "{} vs {}", la.normalized_mse, lb.normalized_mse);
@@ -115,9 +133,9 @@ proptest! {
     fn rotated_metric_equals_diagonal_metric_on_rotated_data(
         data in smooth_data(3, 1, 15..80, true, 0.1),
         kernel in kernels(),
-        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        degree in degrees(),
         bandwidth in 0.5..2.0f64,
-        scales in proptest::collection::vec(prop_oneof![Just(0.0), 0.3..2.0f64], 3),
+        scales in metric_scales(3),
         angles in proptest::collection::vec(-3.2..3.2f64, 3),
         q in proptest::collection::vec(-0.8..0.8f64, 3),
     ) {
@@ -129,21 +147,16 @@ proptest! {
             rotated.insert(&apply(&r, x), y).expect("finite");
         }
         let rq = apply(&r, &q);
-        match (full.predict_with_jacobian(&q), rotated.predict_with_jacobian(&rq)) {
-            (Ok((a, ja)), Ok((b, jb))) => {
-                prop_assume!(a.status != FitStatus::Regularized && b.status != FitStatus::Regularized);
-                prop_assume!(a.condition < 1e7 && b.condition < 1e7);
-                if let Err(e) = same_prediction(&a, &b, 1e-7) {
-                    prop_assert!(false, "{}", e);
-                }
-                for j in 0..3 {
-                    let want: f64 = (0..3).map(|k| jb[(0, k)] * r[k * 3 + j]).sum();
-                    prop_assert!(close(ja[(0, j)], want, 1e-6), "jac {j}: {} vs {want}", ja[(0, j)]);
-                }
+        both_or_neither(full.predict_with_jacobian(&q), rotated.predict_with_jacobian(&rq), |(a, ja), (b, jb)| {
+            prop_assume!(a.status != FitStatus::Regularized && b.status != FitStatus::Regularized);
+            prop_assume!(a.condition < 1e7 && b.condition < 1e7);
+            same_prediction(&a, &b, 1e-7)?;
+            for j in 0..3 {
+                let want: f64 = (0..3).map(|k| jb[(0, k)] * r[k * 3 + j]).sum();
+                prop_assert!(close(ja[(0, j)], want, 1e-6), "jac {j}: {} vs {want}", ja[(0, j)]);
             }
-            (Err(_), Err(_)) => {}
-            (a, b) => prop_assert!(false, "one failed: {:?} vs {:?}", a.map(|p| p.0.mean), b.map(|p| p.0.mean)),
-        }
+            Ok(())
+        })?;
         let (la, lb) = (full.loo().expect("nonempty"), rotated.loo().expect("nonempty"));
         prop_assume!(la.n_regularized == 0 && lb.n_regularized == 0);
         prop_assert_eq!(la.n_undetermined, lb.n_undetermined);
@@ -158,31 +171,21 @@ proptest! {
     fn full_metric_jacobian_matches_central_differences(
         data in smooth_data(3, 1, 20..80, true, 0.05),
         kernel in kernels(),
-        degree in prop_oneof![Just(Degree::Constant), Just(Degree::Linear), Just(Degree::Quadratic)],
+        degree in degrees(),
         bandwidth in 0.5..2.0f64,
         matrix in proptest::collection::vec(prop_oneof![Just(0.0), -1.5..1.5f64], 9),
         ridge in prop_oneof![Just(0.0), 1e-3..1e-1f64],
         q in proptest::collection::vec(-0.7..0.7f64, 3),
     ) {
-        let settings = LwrSettings {
-            kernel, degree, bandwidth, ridge, metric: matrix.clone(),
-            gaussian_cutoff: 40.0, // no truncation: the Gaussian fit is smooth
-            ..Default::default()
-        };
-        let m = data.to_model(settings).expect("valid");
-        let Ok((p, jac)) = m.predict_with_jacobian(&q) else { return Ok(()) };
-        prop_assume!(matches!(p.status, FitStatus::Ok | FitStatus::NoDegreesOfFreedom));
-        prop_assume!(p.condition < 1e6);
-        if kernel != Kernel::Gaussian {
-            // keep every point away from the edge of the support
-            for x in &data.inputs {
+        let settings = LwrSettings { kernel, degree, bandwidth, ridge, metric: matrix.clone(), ..Default::default() };
+        jacobian_matches_differences(&data, settings, &q, |_| {
+            // every point away from the edge of the support
+            data.inputs.iter().all(|x| {
                 let v: Vec<f64> = x.iter().zip(&q).map(|(a, b)| a - b).collect();
                 let u = apply(&matrix, &v).iter().map(|t| t * t).sum::<f64>().sqrt() / bandwidth;
-                prop_assume!((u - 1.0).abs() > 0.02);
-            }
-        }
-        let c = check_jacobian(|q: &[f64]| m.predict_mean(q), &q, &jac, 1e-3);
-        prop_assert!(c.worst_error < 1e-5, "d y / d q{}: fd {} vs analytic {}", c.input, c.numeric, c.analytic);
+                (u - 1.0).abs() > 0.02
+            })
+        })?;
     }
 }
 
@@ -191,11 +194,7 @@ proptest! {
 /// metric can do.
 #[test]
 fn tuning_along_the_metric_axes_drops_an_irrelevant_direction() {
-    let mut seed = 17u64;
-    let mut rand = move || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rand = uniform(17u64);
     let s = std::f64::consts::FRAC_1_SQRT_2;
     let settings = LwrSettings {
         bandwidth: 0.3,
@@ -221,11 +220,7 @@ fn tuning_along_the_metric_axes_drops_an_irrelevant_direction() {
 
 #[test]
 fn full_metric_saves_loads_and_old_files_load() {
-    let mut seed = 5u64;
-    let mut rand = move || {
-        seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
-        (seed >> 11) as f64 / (1u64 << 53) as f64 * 2.0 - 1.0
-    };
+    let mut rand = uniform(5u64);
     let settings = LwrSettings {
         kernel: Kernel::Bisquare,
         bandwidth: 0.8,

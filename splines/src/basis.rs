@@ -2,7 +2,7 @@
 
 use faer::sparse::{SparseColMat, SparseRowMat, SymbolicSparseRowMat};
 
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// A set of functions $\phi_j(t)$, $j = 0, \dots, n-1$, on a domain
 /// $[t_{\min}, t_{\max}]$, such that a trajectory is $y(t) = \sum_j c_j \phi_j(t)$.
@@ -87,13 +87,7 @@ pub trait TrajectoryBasis {
 
 /// Checks a coefficient vector's length and values.
 pub(crate) fn check_coeffs(n_coeffs: usize, coeffs: &[f64]) -> Result<()> {
-    if coeffs.len() != n_coeffs {
-        return Err(SplineError::LengthMismatch {
-            what: "coefficients",
-            expected: n_coeffs,
-            actual: coeffs.len(),
-        });
-    }
+    check_len("coefficients", n_coeffs, coeffs.len())?;
     check_finite("coefficients", coeffs)
 }
 
@@ -112,44 +106,33 @@ pub(crate) fn check_time(t: f64, (lo, hi): (f64, f64)) -> Result<()> {
     Ok(())
 }
 
-impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for &B {
-    fn n_coeffs(&self) -> usize {
-        (**self).n_coeffs()
-    }
-    fn domain(&self) -> (f64, f64) {
-        (**self).domain()
-    }
-    fn max_nonzeros(&self) -> usize {
-        (**self).max_nonzeros()
-    }
-    fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
-        (**self).basis_row(t, order, row)
-    }
-    fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
-        (**self).design_matrix_rows(times, order)
-    }
-    fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
-        (**self).evaluate(coeffs, times, order)
-    }
+/// Implements [`TrajectoryBasis`] for pointers to a basis (`$ptr` naming
+/// the pointee `B`), every method forwarding to the pointee, so that one
+/// basis can serve several fits. A macro since the impls differ only in
+/// the pointer type.
+macro_rules! forward_trajectory_basis {
+    ($($ptr:ty),*) => {$(
+        impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for $ptr {
+            fn n_coeffs(&self) -> usize {
+                (**self).n_coeffs()
+            }
+            fn domain(&self) -> (f64, f64) {
+                (**self).domain()
+            }
+            fn max_nonzeros(&self) -> usize {
+                (**self).max_nonzeros()
+            }
+            fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
+                (**self).basis_row(t, order, row)
+            }
+            fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
+                (**self).design_matrix_rows(times, order)
+            }
+            fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
+                (**self).evaluate(coeffs, times, order)
+            }
+        }
+    )*};
 }
 
-impl<B: TrajectoryBasis + ?Sized> TrajectoryBasis for std::sync::Arc<B> {
-    fn n_coeffs(&self) -> usize {
-        (**self).n_coeffs()
-    }
-    fn domain(&self) -> (f64, f64) {
-        (**self).domain()
-    }
-    fn max_nonzeros(&self) -> usize {
-        (**self).max_nonzeros()
-    }
-    fn basis_row(&self, t: f64, order: usize, row: &mut Vec<(usize, f64)>) -> Result<()> {
-        (**self).basis_row(t, order, row)
-    }
-    fn design_matrix_rows(&self, times: &[f64], order: usize) -> Result<SparseRowMat<usize, f64>> {
-        (**self).design_matrix_rows(times, order)
-    }
-    fn evaluate(&self, coeffs: &[f64], times: &[f64], order: usize) -> Result<Vec<f64>> {
-        (**self).evaluate(coeffs, times, order)
-    }
-}
+forward_trajectory_basis!(&B, std::sync::Arc<B>);

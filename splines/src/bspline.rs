@@ -93,17 +93,7 @@ impl BSplineBasis {
     /// uniformly spaced interior knots: `degree + 1` knots at each end, so
     /// the curve starts at the first coefficient and ends at the last.
     pub fn clamped_uniform(n_coeffs: usize, degree: usize, lo: f64, hi: f64) -> Result<Self> {
-        check_interval(lo, hi)?;
-        if n_coeffs < degree + 1 {
-            return Err(SplineError::InvalidParameter {
-                name: "n_coeffs",
-                reason: format!(
-                    "a degree-{degree} clamped basis needs at least {} coefficients, got {n_coeffs}",
-                    degree + 1
-                ),
-            });
-        }
-        let n_intervals = n_coeffs - degree;
+        let n_intervals = uniform_intervals(n_coeffs, degree, (lo, hi), "clamped basis")?;
         let breakpoints: Vec<f64> = (0..=n_intervals).map(|i| interpolate(lo, hi, i, n_intervals)).collect();
         Self::clamped(&breakpoints, degree)
     }
@@ -132,17 +122,7 @@ impl BSplineBasis {
     /// functions whose domain $[t_p, t_n]$ is `[lo, hi]`: all knots equally
     /// spaced, extending `degree` spacings beyond each end.
     pub fn uniform(n_coeffs: usize, degree: usize, lo: f64, hi: f64) -> Result<Self> {
-        check_interval(lo, hi)?;
-        if n_coeffs < degree + 1 {
-            return Err(SplineError::InvalidParameter {
-                name: "n_coeffs",
-                reason: format!(
-                    "a degree-{degree} basis needs at least {} coefficients, got {n_coeffs}",
-                    degree + 1
-                ),
-            });
-        }
-        let n_intervals = n_coeffs - degree;
+        let n_intervals = uniform_intervals(n_coeffs, degree, (lo, hi), "basis")?;
         let h = (hi - lo) / n_intervals as f64;
         let knots = (0..n_coeffs + degree + 1)
             .map(|i| {
@@ -224,18 +204,7 @@ impl BSplineBasis {
             5 => cox_de_boor_fixed::<5>(knots, s, t, out),
             _ => {
                 let (left, right) = scratch.split_at_mut(p + 1);
-                out[0] = 1.0;
-                for j in 1..=q {
-                    left[j] = t - knots[s + 1 - j];
-                    right[j] = knots[s + j] - t;
-                    let mut saved = 0.0;
-                    for r in 0..j {
-                        let temp = out[r] / (right[r + 1] + left[j - r]);
-                        out[r] = saved + right[r + 1] * temp;
-                        saved = left[j - r] * temp;
-                    }
-                    out[j] = saved;
-                }
+                cox_de_boor(&knots[s + 1 - q..=s + q], q, t, left, right, out);
             }
         }
         // raise degree d-1 -> d by the derivative rule, in place from the top
@@ -414,11 +383,21 @@ fn cox_de_boor_fixed<const Q: usize>(knots: &[f64], s: usize, t: f64, out: &mut 
     let mut left = [0.0; 6];
     let mut right = [0.0; 6];
     let mut n = [0.0; 6];
-    let lo = &knots[s + 1 - Q..=s + Q];
+    cox_de_boor(&knots[s + 1 - Q..=s + Q], Q, t, &mut left, &mut right, &mut n);
+    out[..=Q].copy_from_slice(&n[..=Q]);
+}
+
+/// Cox-de Boor (Piegl & Tiller A2.2): the values at `t` of the `q + 1`
+/// degree-`q` functions nonzero on span $s$, into `n[..=q]`, from the knots
+/// around it, `lo` $= t_{s+1-q}, \dots, t_{s+q}$; `left` and `right` are
+/// scratch of `q + 1` values. Inlined, so that [`cox_de_boor_fixed`]'s
+/// constant degree unrolls the loops.
+#[inline(always)]
+fn cox_de_boor(lo: &[f64], q: usize, t: f64, left: &mut [f64], right: &mut [f64], n: &mut [f64]) {
     n[0] = 1.0;
-    for j in 1..=Q {
-        left[j] = t - lo[Q - j];
-        right[j] = lo[Q + j - 1] - t;
+    for j in 1..=q {
+        left[j] = t - lo[q - j];
+        right[j] = lo[q + j - 1] - t;
         let mut saved = 0.0;
         for r in 0..j {
             let temp = n[r] / (right[r + 1] + left[j - r]);
@@ -427,7 +406,23 @@ fn cox_de_boor_fixed<const Q: usize>(knots: &[f64], s: usize, t: f64, out: &mut 
         }
         n[j] = saved;
     }
-    out[..=Q].copy_from_slice(&n[..=Q]);
+}
+
+/// Checks the arguments of a uniform basis (`what`, for the message) of
+/// `n_coeffs` functions of degree `degree` on `[lo, hi]`, and returns its
+/// number of knot intervals inside the domain.
+fn uniform_intervals(n_coeffs: usize, degree: usize, (lo, hi): (f64, f64), what: &str) -> Result<usize> {
+    check_interval(lo, hi)?;
+    if n_coeffs < degree + 1 {
+        return Err(SplineError::InvalidParameter {
+            name: "n_coeffs",
+            reason: format!(
+                "a degree-{degree} {what} needs at least {} coefficients, got {n_coeffs}",
+                degree + 1
+            ),
+        });
+    }
+    Ok(n_coeffs - degree)
 }
 
 fn check_interval(lo: f64, hi: f64) -> Result<()> {

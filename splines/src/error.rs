@@ -105,3 +105,12 @@ pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
         None => Ok(()),
     }
 }
+
+/// Checks that an input (`what`) has the length it must have.
+pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
+    if expected == actual {
+        Ok(())
+    } else {
+        Err(SplineError::LengthMismatch { what, expected, actual })
+    }
+}

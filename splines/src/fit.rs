@@ -22,7 +22,7 @@ use faer::sparse::{SparseColMat, Triplet};
 use faer::{Mat, MatRef, Side};
 
 use crate::basis::TrajectoryBasis;
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// Settings of a least-squares fit.
 ///
@@ -60,13 +60,7 @@ impl FitSettings {
             });
         }
         if let Some(w) = &self.weights {
-            if w.len() != n_samples {
-                return Err(SplineError::LengthMismatch {
-                    what: "weights",
-                    expected: n_samples,
-                    actual: w.len(),
-                });
-            }
+            check_len("weights", n_samples, w.len())?;
             check_finite("weights", w)?;
             if let Some(index) = w.iter().position(|&v| v < 0.0) {
                 return Err(SplineError::InvalidParameter {
@@ -98,13 +92,7 @@ pub fn fit_channel<B: TrajectoryBasis + ?Sized>(
     values: &[f64],
     settings: &FitSettings,
 ) -> Result<Vec<f64>> {
-    if values.len() != times.len() {
-        return Err(SplineError::LengthMismatch {
-            what: "values",
-            expected: times.len(),
-            actual: values.len(),
-        });
-    }
+    check_len("values", times.len(), values.len())?;
     let y = MatRef::from_column_major_slice(values, values.len(), 1);
     let c = fit_matrix(basis, times, y, settings)?;
     Ok(c.col(0).iter().copied().collect())
@@ -121,13 +109,7 @@ pub fn fit_matrix<B: TrajectoryBasis + ?Sized>(
     if times.is_empty() {
         return Err(SplineError::Empty { what: "times" });
     }
-    if samples.nrows() != times.len() {
-        return Err(SplineError::LengthMismatch {
-            what: "sample rows",
-            expected: times.len(),
-            actual: samples.nrows(),
-        });
-    }
+    check_len("sample rows", times.len(), samples.nrows())?;
     for j in 0..samples.ncols() {
         if let Some((index, &value)) = samples.col(j).iter().enumerate().find(|(_, v)| !v.is_finite()) {
             return Err(SplineError::NotFinite {
@@ -234,13 +216,7 @@ pub struct Trajectory<B> {
 impl<B: TrajectoryBasis> Trajectory<B> {
     /// A trajectory from its basis and coefficient matrix.
     pub fn new(basis: B, coeffs: Mat<f64>) -> Result<Self> {
-        if coeffs.nrows() != basis.n_coeffs() {
-            return Err(SplineError::LengthMismatch {
-                what: "coefficient rows",
-                expected: basis.n_coeffs(),
-                actual: coeffs.nrows(),
-            });
-        }
+        check_len("coefficient rows", basis.n_coeffs(), coeffs.nrows())?;
         Ok(Self { basis, coeffs })
     }
 

@@ -89,7 +89,7 @@ use std::str::FromStr;
 pub use basis::WaveletBasis;
 pub use transform::WaveletTransform;
 
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// An orthogonal wavelet: Haar or a Daubechies wavelet with $N$ vanishing
 /// moments (`DbN`, filter length $2N$).
@@ -364,13 +364,7 @@ pub fn idwt(approx: &[f64], detail: &[f64], wavelet: Wavelet, boundary: Boundary
     if approx.is_empty() {
         return Err(SplineError::Empty { what: "approximation" });
     }
-    if detail.len() != approx.len() {
-        return Err(SplineError::LengthMismatch {
-            what: "detail coefficients",
-            expected: approx.len(),
-            actual: detail.len(),
-        });
-    }
+    check_len("detail coefficients", approx.len(), detail.len())?;
     check_finite("approximation", approx)?;
     check_finite("detail", detail)?;
     let m = approx.len();

@@ -6,30 +6,26 @@ use serde_json::Value;
 use splines::strategies::{bspline_basis, sample_times, signal};
 use splines::{BSplineBasis, FitSettings, SplineError, Trajectory, TrajectoryBasis, fit_channel};
 
+mod common;
+use common::{floats, golden, rows};
+
 fn close(a: f64, b: f64, rel: f64) -> bool {
     (a - b).abs() <= rel * b.abs().max(1.0)
 }
 
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
+/// The scipy cases under `key`, each with its name and basis.
+fn cases(key: &str) -> Vec<(String, BSplineBasis, Value)> {
+    let g = golden("scipy_bspline.json");
+    let cases = g[key].as_array().expect(key);
+    cases
         .iter()
-        .map(|x| x.as_f64().expect("number"))
+        .map(|case| {
+            let name = case["name"].as_str().expect("name").to_owned();
+            let degree = case["degree"].as_u64().expect("degree") as usize;
+            let basis = BSplineBasis::new(floats(&case["knots"]), degree).expect("golden knots are valid");
+            (name, basis, case.clone())
+        })
         .collect()
-}
-
-fn rows(v: &Value) -> Vec<Vec<f64>> {
-    v.as_array().expect("array").iter().map(floats).collect()
-}
-
-fn golden() -> Value {
-    let text = include_str!("data/scipy_bspline.json");
-    serde_json::from_str(text).expect("valid golden json")
-}
-
-fn basis_of(case: &Value) -> BSplineBasis {
-    let degree = case["degree"].as_u64().expect("degree") as usize;
-    BSplineBasis::new(floats(&case["knots"]), degree).expect("golden knots are valid")
 }
 
 fn dense_design(basis: &BSplineBasis, times: &[f64], order: usize) -> Vec<Vec<f64>> {
@@ -41,12 +37,9 @@ fn dense_design(basis: &BSplineBasis, times: &[f64], order: usize) -> Vec<Vec<f6
 
 #[test]
 fn design_matrices_match_scipy() {
-    let g = golden();
-    let cases = g["bases"].as_array().expect("bases");
+    let cases = cases("bases");
     assert!(cases.len() >= 6);
-    for case in cases {
-        let name = case["name"].as_str().expect("name");
-        let basis = basis_of(case);
+    for (name, basis, case) in cases {
         let times = floats(&case["times"]);
         let mut expected = vec![(0usize, rows(&case["design"]))];
         for (order, m) in case["derivatives"].as_object().expect("derivatives") {
@@ -79,10 +72,7 @@ fn design_matrices_match_scipy() {
 
 #[test]
 fn least_squares_fits_match_scipy() {
-    let g = golden();
-    for case in g["fits"].as_array().expect("fits") {
-        let name = case["name"].as_str().expect("name");
-        let basis = basis_of(case);
+    for (name, basis, case) in cases("fits") {
         let settings = FitSettings {
             weights: Some(floats(&case["weights"])),
             ..FitSettings::default()
@@ -101,10 +91,7 @@ fn least_squares_fits_match_scipy() {
 
 #[test]
 fn knot_insertion_matches_scipy() {
-    let g = golden();
-    for case in g["inserts"].as_array().expect("inserts") {
-        let name = case["name"].as_str().expect("name");
-        let basis = basis_of(case);
+    for (name, basis, case) in cases("inserts") {
         let at = case["at"].as_f64().expect("at");
         let (refined, c) = basis.insert_knot(at, &floats(&case["coeffs"])).expect("insert");
         for (a, b) in refined.knots().iter().zip(floats(&case["new_knots"])) {

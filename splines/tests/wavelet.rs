@@ -12,6 +12,9 @@ use splines::wavelet::{
 };
 use splines::{SplineError, TrajectoryBasis};
 
+mod common;
+use common::{floats, rows};
+
 /// $|a - b| \le \text{tol} \max(1, |b|)$ elementwise, lengths equal.
 fn assert_close(actual: &[f64], expected: &[f64], tol: f64, context: &str) {
     assert_eq!(actual.len(), expected.len(), "{context}: lengths differ");
@@ -25,17 +28,7 @@ fn assert_close(actual: &[f64], expected: &[f64], tol: f64, context: &str) {
 }
 
 fn golden() -> Value {
-    let text = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/tests/data/pywt_golden.json"))
-        .expect("golden data file");
-    serde_json::from_str(&text).expect("valid json")
-}
-
-fn floats(v: &Value) -> Vec<f64> {
-    v.as_array()
-        .expect("array")
-        .iter()
-        .map(|x| x.as_f64().expect("number"))
-        .collect()
+    common::golden("pywt_golden.json")
 }
 
 fn case_params(case: &Value) -> (Wavelet, Boundary) {
@@ -155,7 +148,7 @@ mod golden {
             let n = case["n"].as_u64().unwrap();
             let level = case["level"].as_u64().unwrap() as usize;
             let x = golden_signal(&data, n);
-            let coeffs: Vec<Vec<f64>> = case["coeffs"].as_array().unwrap().iter().map(floats).collect();
+            let coeffs = rows(&case["coeffs"]);
             let context = format!("wavedec {w} {b} n={n} level={level}");
             let dec = wavedec(&x, w, b, Some(level)).unwrap();
             assert_eq!(dec.level(), level, "{context}");

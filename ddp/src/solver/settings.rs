@@ -155,54 +155,24 @@ mod tests {
     use super::*;
     use crate::solver::Ddp;
 
+    /// Makes one setting invalid.
+    type Spoil = fn(&mut DdpSettings);
+
     #[test]
     fn default_settings_are_valid_and_bad_ones_are_named() {
         assert!(Ddp::new(DdpSettings::default()).is_ok());
-        let cases: [(DdpSettings, &str); 6] = [
-            (
-                DdpSettings {
-                    reg_min: 0.0,
-                    ..DdpSettings::default()
-                },
-                "reg_min",
-            ),
-            (
-                DdpSettings {
-                    reg_factor: 1.0,
-                    ..DdpSettings::default()
-                },
-                "reg_factor",
-            ),
-            (
-                DdpSettings {
-                    line_search_factor: 1.0,
-                    ..DdpSettings::default()
-                },
-                "line_search_factor",
-            ),
-            (
-                DdpSettings {
-                    n_line_search: 0,
-                    ..DdpSettings::default()
-                },
-                "n_line_search",
-            ),
-            (
-                DdpSettings {
-                    max_state_norm: f64::NAN,
-                    ..DdpSettings::default()
-                },
-                "max_state_norm",
-            ),
-            (
-                DdpSettings {
-                    tol_expected_reduction: -1.0,
-                    ..DdpSettings::default()
-                },
-                "tol_expected_reduction",
-            ),
+        // one bad setting at a time, and the name the error must give
+        let cases: [(Spoil, &str); 6] = [
+            (|s| s.reg_min = 0.0, "reg_min"),
+            (|s| s.reg_factor = 1.0, "reg_factor"),
+            (|s| s.line_search_factor = 1.0, "line_search_factor"),
+            (|s| s.n_line_search = 0, "n_line_search"),
+            (|s| s.max_state_norm = f64::NAN, "max_state_norm"),
+            (|s| s.tol_expected_reduction = -1.0, "tol_expected_reduction"),
         ];
-        for (settings, name) in cases {
+        for (spoil, name) in cases {
+            let mut settings = DdpSettings::default();
+            spoil(&mut settings);
             match Ddp::new(settings) {
                 Err(DdpError::InvalidParameter { name: n, .. }) => assert_eq!(n, name),
                 other => panic!("{name}: {other:?}"),

@@ -221,6 +221,25 @@ fn extend_polyphase(x: &[f64], boundary: Boundary, left: usize, even: &mut [f64]
     }
 }
 
+/// Calls `$kernel::<H>($args)` monomorphised for `$wavelet`'s number of
+/// polyphase taps $H = F/2$ (1 for Haar, $N$ for db$N$): the one map from
+/// the runtime wavelet to the const-generic kernels. A macro because a
+/// function cannot take a kernel generic over `H` as an argument.
+macro_rules! with_taps {
+    ($wavelet:expr, $kernel:ident($($arg:expr),* $(,)?)) => {
+        match $wavelet {
+            Wavelet::Haar => $kernel::<1>($($arg),*),
+            Wavelet::Db2 => $kernel::<2>($($arg),*),
+            Wavelet::Db3 => $kernel::<3>($($arg),*),
+            Wavelet::Db4 => $kernel::<4>($($arg),*),
+            Wavelet::Db5 => $kernel::<5>($($arg),*),
+            Wavelet::Db6 => $kernel::<6>($($arg),*),
+            Wavelet::Db7 => $kernel::<7>($($arg),*),
+            Wavelet::Db8 => $kernel::<8>($($arg),*),
+        }
+    };
+}
+
 /// One analysis level: `a` and `d` (same length, [`super::dwt_coeff_len`]) from
 /// the nonempty signal `x`; `ext` is scratch of at least [`analysis_ext_len`].
 pub(super) fn analyse_level(
@@ -242,16 +261,7 @@ pub(super) fn analyse_level(
     extend_polyphase(x, boundary, left, even, odd);
     let (even, odd) = (&*even, &*odd);
     let (lo, hi) = (&filters.lo_rev, &filters.hi_rev);
-    match filters.wavelet {
-        Wavelet::Haar => analyse_fixed::<1>(even, odd, lo, hi, a, d),
-        Wavelet::Db2 => analyse_fixed::<2>(even, odd, lo, hi, a, d),
-        Wavelet::Db3 => analyse_fixed::<3>(even, odd, lo, hi, a, d),
-        Wavelet::Db4 => analyse_fixed::<4>(even, odd, lo, hi, a, d),
-        Wavelet::Db5 => analyse_fixed::<5>(even, odd, lo, hi, a, d),
-        Wavelet::Db6 => analyse_fixed::<6>(even, odd, lo, hi, a, d),
-        Wavelet::Db7 => analyse_fixed::<7>(even, odd, lo, hi, a, d),
-        Wavelet::Db8 => analyse_fixed::<8>(even, odd, lo, hi, a, d),
-    }
+    with_taps!(filters.wavelet, analyse_fixed(even, odd, lo, hi, a, d));
 }
 
 /// Outputs computed together: independent accumulators the compiler keeps in
@@ -265,6 +275,34 @@ fn dot<const N: usize>(f: &[f64; N], w: &[f64; N]) -> f64 {
         s += a * b;
     }
     s
+}
+
+/// One block of outputs of a two-input, two-output filter bank:
+/// $u_i = \sum_t p_t x_{s+i+t} + q_t y_{s+i+t}$ and
+/// $v_i = \sum_t r_t x_{s+i+t} + s_t y_{s+i+t}$ for $i <$ [`BLOCK`], from
+/// `start` $= s$ and the filters `[p, q, r, s]` (both analysis and synthesis
+/// are this, with their taps in different places); `None` if `x` or `y` ends
+/// before $s + $ `BLOCK` $+ H - 1$.
+#[inline(always)]
+#[allow(clippy::needless_range_loop)] // index loops over fixed-size arrays vectorise predictably
+fn block<const H: usize>(
+    x: &[f64],
+    y: &[f64],
+    start: usize,
+    [p, q, r, s]: [&[f64; H]; 4],
+) -> Option<([f64; BLOCK], [f64; BLOCK])> {
+    let xw = x.get(start..start + BLOCK + H - 1)?;
+    let yw = y.get(start..start + BLOCK + H - 1)?;
+    let mut u = [0.0; BLOCK];
+    let mut v = [0.0; BLOCK];
+    for t in 0..H {
+        let (xs, ys) = (xw[t..].first_chunk::<BLOCK>()?, yw[t..].first_chunk::<BLOCK>()?);
+        for i in 0..BLOCK {
+            u[i] += p[t] * xs[i] + q[t] * ys[i];
+            v[i] += r[t] * xs[i] + s[t] * ys[i];
+        }
+    }
+    Some((u, v))
 }
 
 /// Even and odd taps of a length-`2H` filter stored in a `MAX_F` array.
@@ -294,22 +332,10 @@ fn analyse_fixed<const H: usize>(
     let m = a.len().min(d.len());
     let n_blocks = m / BLOCK;
     for ((blk, ab), db) in a.chunks_exact_mut(BLOCK).enumerate().zip(d.chunks_exact_mut(BLOCK)) {
-        let o0 = blk * BLOCK;
-        let (Some(ew), Some(ow)) = (even.get(o0..o0 + BLOCK + H - 1), odd.get(o0..o0 + BLOCK + H - 1)) else {
+        let Some((sa, sd)) = block::<H>(even, odd, blk * BLOCK, [&le, &lo, &he, &ho]) else {
             debug_assert!(false, "analysis buffer too short");
             return;
         };
-        let mut sa = [0.0; BLOCK];
-        let mut sd = [0.0; BLOCK];
-        for t in 0..H {
-            let (Some(x), Some(y)) = (ew[t..].first_chunk::<BLOCK>(), ow[t..].first_chunk::<BLOCK>()) else {
-                return;
-            };
-            for i in 0..BLOCK {
-                sa[i] += le[t] * x[i] + lo[t] * y[i];
-                sd[i] += he[t] * x[i] + ho[t] * y[i];
-            }
-        }
         ab.copy_from_slice(&sa);
         db.copy_from_slice(&sd);
     }
@@ -351,16 +377,7 @@ pub(super) fn synthesise_level(
         (a, d)
     };
     let p = &filters.poly;
-    match filters.wavelet {
-        Wavelet::Haar => synthesise_fixed::<1>(ae, de, p, shift, out),
-        Wavelet::Db2 => synthesise_fixed::<2>(ae, de, p, shift, out),
-        Wavelet::Db3 => synthesise_fixed::<3>(ae, de, p, shift, out),
-        Wavelet::Db4 => synthesise_fixed::<4>(ae, de, p, shift, out),
-        Wavelet::Db5 => synthesise_fixed::<5>(ae, de, p, shift, out),
-        Wavelet::Db6 => synthesise_fixed::<6>(ae, de, p, shift, out),
-        Wavelet::Db7 => synthesise_fixed::<7>(ae, de, p, shift, out),
-        Wavelet::Db8 => synthesise_fixed::<8>(ae, de, p, shift, out),
-    }
+    with_taps!(filters.wavelet, synthesise_fixed(ae, de, p, shift, out));
 }
 
 /// Sample $p$ with $p + s = 2q + b$ is $\sum_t r^{(b)}_t a_{q+t} + \rho^{(b)}_t d_{q+t}$.
@@ -402,22 +419,10 @@ fn synthesise_fixed<const H: usize>(
     // blocks of BLOCK (even, odd) pairs
     let n_blocks = out.len() / (2 * BLOCK);
     for (blk, chunk) in out.chunks_exact_mut(2 * BLOCK).enumerate() {
-        let q0 = q + blk * BLOCK;
-        let (Some(aw), Some(dw)) = (ae.get(q0..q0 + BLOCK + H - 1), de.get(q0..q0 + BLOCK + H - 1)) else {
+        let Some((ev, od)) = block::<H>(ae, de, q + blk * BLOCK, [le, he, lo, ho]) else {
             debug_assert!(false, "synthesis buffer too short");
             return;
         };
-        let mut ev = [0.0; BLOCK];
-        let mut od = [0.0; BLOCK];
-        for t in 0..H {
-            let (Some(x), Some(y)) = (aw[t..].first_chunk::<BLOCK>(), dw[t..].first_chunk::<BLOCK>()) else {
-                return;
-            };
-            for i in 0..BLOCK {
-                ev[i] += le[t] * x[i] + he[t] * y[i];
-                od[i] += lo[t] * x[i] + ho[t] * y[i];
-            }
-        }
         for ((pair, e), o) in chunk.chunks_exact_mut(2).zip(ev).zip(od) {
             pair[0] = e;
             pair[1] = o;

@@ -5,7 +5,7 @@ use std::ops::Range;
 use super::kernels::{self, Filters};
 use super::{Boundary, Wavelet, dwt_coeff_len, dwt_max_level, max_level};
 use crate::basis::check_coeffs;
-use crate::error::{Result, SplineError, check_finite};
+use crate::error::{Result, SplineError, check_finite, check_len};
 
 /// A multilevel wavelet transform planned for one signal length, wavelet,
 /// boundary mode and level, holding its scratch buffers, so that
@@ -128,18 +128,15 @@ impl WaveletTransform {
     /// [`SplineError::LengthMismatch`] for a signal or coefficient buffer of
     /// the wrong length, [`SplineError::NotFinite`] for NaN or infinite samples.
     pub fn analyse_into(&mut self, signal: &[f64], coeffs: &mut [f64]) -> Result<()> {
-        self.check_len("signal", self.signal_len(), signal.len())?;
-        self.check_len("coefficients", self.n_coeffs, coeffs.len())?;
+        check_len("signal", self.signal_len(), signal.len())?;
+        check_len("coefficients", self.n_coeffs, coeffs.len())?;
         if !all_finite(signal) {
             check_finite("signal", signal)?;
         }
         let level = self.level();
-        if level == 0 {
-            coeffs.copy_from_slice(signal);
+        let Some((mut src, mut dst)) = halves_or_copy(&mut self.work, level, signal, coeffs) else {
             return Ok(());
-        }
-        let half = self.work.len() / 2;
-        let (mut src, mut dst) = self.work.split_at_mut(half);
+        };
         for l in 1..=level {
             let (n_in, m) = (self.lens[l - 1], self.lens[l]);
             let input: &[f64] = if l == 1 { signal } else { &src[..n_in] };
@@ -163,18 +160,15 @@ impl WaveletTransform {
     /// [`SplineError::LengthMismatch`] for a coefficient or signal buffer of
     /// the wrong length, [`SplineError::NotFinite`] for NaN or infinite coefficients.
     pub fn synthesise_into(&mut self, coeffs: &[f64], signal: &mut [f64]) -> Result<()> {
-        self.check_len("coefficients", self.n_coeffs, coeffs.len())?;
+        check_len("coefficients", self.n_coeffs, coeffs.len())?;
         if !all_finite(coeffs) {
             check_coeffs(self.n_coeffs, coeffs)?;
         }
-        self.check_len("signal", self.signal_len(), signal.len())?;
+        check_len("signal", self.signal_len(), signal.len())?;
         let level = self.level();
-        if level == 0 {
-            signal.copy_from_slice(coeffs);
+        let Some((mut src, mut dst)) = halves_or_copy(&mut self.work, level, coeffs, signal) else {
             return Ok(());
-        }
-        let half = self.work.len() / 2;
-        let (mut src, mut dst) = self.work.split_at_mut(half);
+        };
         for l in (1..=level).rev() {
             let (m, n_out) = (self.lens[l], self.lens[l - 1]);
             let a: &[f64] = if l == level { &coeffs[..m] } else { &src[..m] };
@@ -202,14 +196,23 @@ impl WaveletTransform {
     pub(super) fn filters(&self) -> &Filters {
         &self.filters
     }
+}
 
-    fn check_len(&self, what: &'static str, expected: usize, actual: usize) -> Result<()> {
-        if expected == actual {
-            Ok(())
-        } else {
-            Err(SplineError::LengthMismatch { what, expected, actual })
-        }
+/// The two halves of the work buffer, between which the levels of a
+/// multilevel transform pass their intermediate results; `None`, with
+/// `from` copied into `to` (the whole transform), when there is no level.
+fn halves_or_copy<'w>(
+    work: &'w mut [f64],
+    level: usize,
+    from: &[f64],
+    to: &mut [f64],
+) -> Option<(&'w mut [f64], &'w mut [f64])> {
+    if level == 0 {
+        to.copy_from_slice(from);
+        return None;
     }
+    let half = work.len() / 2;
+    Some(work.split_at_mut(half))
 }
 
 /// Whether every value is finite, in one vectorisable pass ($0 \cdot v$ is 0 for
