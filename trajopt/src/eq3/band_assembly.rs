@@ -20,8 +20,8 @@
 //! consecutive samples.
 
 use super::jacobian::{LocalDerivatives, central_differences};
-use super::{Eq3Problem, Model, StageCost, expect_len};
-use crate::error::{Result, TrajoptError};
+use super::{Eq3Problem, Model, StageCost};
+use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::kernels::{
     BasisRows, FixedShape, KronWindow, StepSpread, add_outer, contiguous_row, with_fixed_shape,
