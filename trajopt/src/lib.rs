@@ -59,7 +59,7 @@
 //! | its settings ([`StepModel`], [`LinearSolver`]), result and status | `gauss_newton/{settings,result}.rs` |
 //! | damping and the Newton shift | `gauss_newton/damping.rs` |
 //! | the normal equations: one trait, three back ends | `gauss_newton/normal_equations/{mod,sparse,band,split}.rs` |
-//! | helper threads; the two-domain split of a band matrix; the bounded step (a QP) | `parallel.rs`, `split.rs`, `qp.rs` |
+//! | helper threads; the two-domain split of a band matrix; the band model matrix both keep ($J^\top J$ alone on demand); the bounded step (a QP) | `parallel.rs`, `split.rs`, `band_model.rs`, `qp.rs` |
 //! | band matrices and their Cholesky factorisation | `linalg/band.rs` |
 //! | every SIMD kernel and the fixed-shape dispatch table | `linalg/kernels.rs` |
 //! | Eq. 3: the problem, residuals, cost breakdown | `eq3/mod.rs` |
@@ -71,12 +71,13 @@
 //!
 //! The modules' `use crate::...` lines (tests aside) point one way only,
 //! so there is no import cycle: `error` ← `linalg` ← `least_squares` ←
-//! {`check`, `qp`, `split` ← `parallel`} ← `gauss_newton`; `powell` uses
+//! {`check`, `qp`, `band_model` ← `split` ← `parallel`} ← `gauss_newton`; `powell` uses
 //! `error` alone; `eq3` uses `error`, `linalg`, `least_squares` (to
 //! implement the solvers' traits) and `powell` (to implement
 //! [`powell::Objective`]), and nothing uses `eq3` but `models`,
 //! `problems` and `strategies`.
 
+mod band_model;
 pub mod check;
 pub mod eq3;
 pub mod error;
