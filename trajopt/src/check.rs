@@ -19,8 +19,8 @@
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
-use crate::error::{Result, TrajoptError, check_finite};
-use crate::least_squares::LeastSquaresProblem;
+use crate::error::{Result, check_point};
+use crate::least_squares::{LeastSquaresProblem, check_jacobian_pattern};
 
 /// The worst disagreement found by [`check_jacobian`].
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -46,22 +46,9 @@ pub struct JacobianCheck {
 /// shape, or an error from evaluating the problem.
 pub fn check_jacobian<P: LeastSquaresProblem + ?Sized>(problem: &P, theta: &[f64]) -> Result<JacobianCheck> {
     let (n_p, n_r) = (problem.n_params(), problem.n_residuals());
-    if theta.len() != n_p {
-        return Err(TrajoptError::DimensionMismatch {
-            what: "parameters",
-            expected: n_p,
-            actual: theta.len(),
-        });
-    }
-    check_finite("parameters", theta)?;
+    check_point("parameters", n_p, theta)?;
     let pattern = problem.jacobian_pattern();
-    if pattern.nrows() != n_r || pattern.ncols() != n_p {
-        return Err(TrajoptError::DimensionMismatch {
-            what: "jacobian pattern rows",
-            expected: n_r,
-            actual: pattern.nrows(),
-        });
-    }
+    check_jacobian_pattern(&pattern, n_r, n_p)?;
     let mut values = vec![0.0; pattern.col_idx().len()];
     problem.jacobian_values(theta, &mut values)?;
     // the analytic Jacobian dense, column-major

@@ -66,3 +66,31 @@ pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
         None => Ok(()),
     }
 }
+
+/// Checks that a size is the expected one.
+pub(crate) fn expect_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
+    if expected != actual {
+        return Err(TrajoptError::DimensionMismatch { what, expected, actual });
+    }
+    Ok(())
+}
+
+/// Checks that a point has `expected` entries, all finite.
+pub(crate) fn check_point(what: &'static str, expected: usize, values: &[f64]) -> Result<()> {
+    expect_len(what, expected, values.len())?;
+    check_finite(what, values)
+}
+
+/// Checks that each named setting is finite and nonnegative; the error
+/// names the first that is not.
+pub(crate) fn check_nonnegative<const N: usize>(settings: [(&'static str, f64); N]) -> Result<()> {
+    for (name, v) in settings {
+        if !(v.is_finite() && v >= 0.0) {
+            return Err(TrajoptError::InvalidParameter {
+                name,
+                reason: format!("must be finite and nonnegative, got {v}"),
+            });
+        }
+    }
+    Ok(())
+}

@@ -289,6 +289,22 @@ pub(crate) fn band_form_of<P: LeastSquaresProblem + ?Sized>(problem: &P) -> Resu
     })
 }
 
+/// An error unless the Jacobian pattern is `n_residuals` by `n_params`.
+pub(crate) fn check_jacobian_pattern(
+    pattern: &SymbolicSparseRowMat<usize>,
+    n_residuals: usize,
+    n_params: usize,
+) -> Result<()> {
+    if pattern.nrows() != n_residuals || pattern.ncols() != n_params {
+        return Err(TrajoptError::DimensionMismatch {
+            what: "jacobian pattern rows",
+            expected: n_residuals,
+            actual: pattern.nrows(),
+        });
+    }
+    Ok(())
+}
+
 /// An error unless `part < parts`.
 pub(crate) fn check_part(part: usize, parts: usize) -> Result<()> {
     if part < parts {

@@ -1,4 +1,5 @@
 #![doc = include_str!("../README.md")]
+mod band_model;
 pub mod check;
 pub mod eq3;
 pub mod error;

@@ -190,6 +190,16 @@ pub fn powell_singular(x: &[f64]) -> f64 {
 mod tests {
     use super::*;
 
+    /// $z = (x, u)$ with $h$ added to its coordinate `c`.
+    fn shifted(mut x: [f64; 4], mut u: [f64; 1], c: usize, h: f64) -> ([f64; 4], [f64; 1]) {
+        if c < 4 {
+            x[c] += h;
+        } else {
+            u[0] += h;
+        }
+        (x, u)
+    }
+
     #[test]
     fn pendulum_jacobians_match_central_differences() {
         let p = Pendulum::default();
@@ -199,14 +209,7 @@ mod tests {
         let h = 1e-6;
         let (mut a, mut b) = ([0.0; 4], [0.0; 4]);
         for c in 0..5 {
-            let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
-            if c < 4 {
-                xp[c] += h;
-                xm[c] -= h;
-            } else {
-                up[0] += h;
-                um[0] -= h;
-            }
+            let ((xp, up), (xm, um)) = (shifted(x, u, c, h), shifted(x, u, c, -h));
             p.step(&xp, &up, &mut a).expect("ok");
             p.step(&xm, &um, &mut b).expect("ok");
             for i in 0..4 {
@@ -238,14 +241,7 @@ mod tests {
             g
         };
         for c in 0..5 {
-            let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
-            if c < 4 {
-                xp[c] += h;
-                xm[c] -= h;
-            } else {
-                up[0] += h;
-                um[0] -= h;
-            }
+            let ((xp, up), (xm, um)) = (shifted(x, u, c, h), shifted(x, u, c, -h));
             let (gp, gm) = (weighted_gradient(&xp, &up), weighted_gradient(&xm, &um));
             for a in 0..5 {
                 let fd = (gp[a] - gm[a]) / (2.0 * h);

@@ -31,6 +31,7 @@
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
+use crate::band_model::BandModel;
 use crate::error::Result;
 use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
 use crate::linalg::{BandLayout, BandedSym};
@@ -43,19 +44,14 @@ pub(crate) struct SplitPart {
     /// The problem's layout in this part's position order.
     layout: Arc<BandLayout>,
     n: usize,
-    /// $J^\top J$ (+ $S$ when `has_s`) of this part's residuals.
-    h: BandedSym,
-    has_s: bool,
-    /// $J^\top J$ alone when `h` holds $J^\top J + S$ (on demand).
-    jtj: Option<BandedSym>,
-    jtj_current: bool,
-    s_band: Option<BandedSym>,
+    /// $J^\top J$ (+ $S$) of this part's residuals, and $J^\top J$ alone
+    /// on demand.
+    band: BandModel,
     /// The damped matrix, eliminated.
     work: BandedSym,
     /// This part's $J^\top r$ and diag $S$ (parameter order).
     pub(crate) grad: Vec<f64>,
     pub(crate) diag_s: Vec<f64>,
-    scratch: Vec<f64>,
     /// The right-hand side, then the solution, in this part's order.
     x: Vec<f64>,
     product: Vec<f64>,
@@ -108,15 +104,10 @@ impl SplitPart {
             part,
             layout: Arc::new(layout),
             n,
-            h: BandedSym::zeros(n, kd),
-            has_s: false,
-            jtj: None,
-            jtj_current: false,
-            s_band: None,
+            band: BandModel::new(n, kd),
             work: BandedSym::zeros(n, kd),
             grad: vec![0.0; n],
             diag_s: vec![0.0; n],
-            scratch: vec![0.0; n],
             x: vec![0.0; n],
             product: vec![0.0; n],
             extent: None,
@@ -145,17 +136,17 @@ impl SplitPart {
         let part = self.part();
         let diag_s = want_s.then_some(&mut self.diag_s[..]);
         let out = BandNormalEquations {
-            h: &mut self.h,
+            h: &mut self.band.h,
             grad: &mut self.grad,
             second_order_diagonal: diag_s,
         };
-        self.has_s = band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
-        if !self.has_s {
+        self.band.has_s = band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
+        if !self.band.has_s {
             self.diag_s.fill(0.0);
         }
-        self.jtj_current = false;
+        self.band.jtj_current = false;
         self.scan();
-        Ok(self.has_s)
+        Ok(self.band.has_s)
     }
 
     /// This part of two.
@@ -169,7 +160,7 @@ impl SplitPart {
     /// Finds the extent and finiteness of the matrix and gradient just
     /// formed.
     fn scan(&mut self) {
-        let (extent, finite) = self.h.nonzero_extent_and_finite();
+        let (extent, finite) = self.band.h.nonzero_extent_and_finite();
         self.finite = finite && self.grad.iter().all(|v| v.is_finite());
         self.extent = extent.map(|(first, last)| {
             let (a, b) = (self.global(first), self.global(last));
@@ -191,28 +182,16 @@ impl SplitPart {
     /// Adds this part's diagonal into `out` (global positions).
     pub(crate) fn add_diagonal(&self, out: &mut [f64]) {
         for l in 0..self.n {
-            out[self.global(l)] += self.h.diagonal(l);
+            out[self.global(l)] += self.band.h.diagonal(l);
         }
     }
 
-    /// $J^\top J$ alone into `jtj` (and $J^\top r$ into the scratch
-    /// gradient); false if not finite.
+    /// This part's $J^\top J$ alone ([`BandModel::form_jtj`]); false if
+    /// not finite.
     fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
-        let jtj = self
-            .jtj
-            .get_or_insert_with(|| BandedSym::zeros(self.h.size(), self.h.half_bandwidth()));
-        let out = BandNormalEquations {
-            h: &mut *jtj,
-            grad: &mut self.scratch,
-            second_order_diagonal: None,
-        };
-        let part = Part {
-            index: self.part,
-            count: 2,
-        };
-        band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
-        self.jtj_current = true;
-        Ok(jtj.band().iter().chain(&self.scratch).all(|v| v.is_finite()))
+        let (part, layout) = (self.part(), &self.layout);
+        self.band
+            .form_jtj(|out| band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, layout, out))
     }
 
     /// After a non-finite $S$: $J^\top J$ alone becomes the matrix; false
@@ -226,13 +205,10 @@ impl SplitPart {
         if !self.form_jtj(problem, theta, r)? {
             return Ok(false);
         }
-        if let Some(jtj) = self.jtj.as_mut() {
-            std::mem::swap(&mut self.h, jtj);
-        }
-        self.grad.copy_from_slice(&self.scratch);
+        self.band.replace_by_jtj();
+        self.grad.copy_from_slice(&self.band.grad);
         self.diag_s.fill(0.0);
-        self.has_s = false;
-        self.jtj_current = false;
+        self.band.jtj_current = false;
         self.scan();
         Ok(true)
     }
@@ -245,32 +221,17 @@ impl SplitPart {
         theta: &[f64],
         r: &[f64],
     ) -> Result<bool> {
-        if !self.has_s || self.jtj_current {
+        if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
         }
-        let (n, kd) = (self.h.size(), self.h.half_bandwidth());
-        let s = self.s_band.get_or_insert_with(|| BandedSym::zeros(n, kd));
-        let part = Part {
-            index: self.part,
-            count: 2,
-        };
-        if band_form_of(problem)?.second_order_part(part, Point { theta, r }, &self.layout, s)? {
-            let jtj = self.jtj.get_or_insert_with(|| BandedSym::zeros(n, kd));
-            jtj.copy_from(&self.h);
-            jtj.add_scaled(-1.0, s);
-            if jtj.band().iter().all(|v| v.is_finite()) {
-                self.jtj_current = true;
-                return Ok(true);
-            }
+        let (part, layout) = (self.part(), &self.layout);
+        let from_s = self
+            .band
+            .jtj_from_second_order(|s| band_form_of(problem)?.second_order_part(part, Point { theta, r }, layout, s))?;
+        if from_s {
+            return Ok(true);
         }
         self.form_jtj(problem, theta, r)
-    }
-
-    fn model(&self, newton: bool) -> &BandedSym {
-        match (&self.jtj, self.has_s && !newton) {
-            (Some(jtj), true) => jtj,
-            _ => &self.h,
-        }
     }
 
     /// Eliminates the interior of the damped model matrix for the global
@@ -313,18 +274,16 @@ impl SplitPart {
                 debug_assert_eq!(self.part, 1, "part 0 needs the solver's S entries");
                 for l in 0..interior {
                     let i = self.parameter[l];
-                    let jtj = self.h.diagonal(l) - if self.has_s { self.diag_s[i] } else { 0.0 };
+                    let jtj = self.band.h.diagonal(l) - if self.band.has_s { self.diag_s[i] } else { 0.0 };
                     self.damp[l] = total * jtj.max(1e-12);
                     self.rhs[l] = -self.grad[i];
                 }
             }
         }
-        // the model matrix (taken out of self so that work can borrow it)
-        let mut work = std::mem::replace(&mut self.work, BandedSym::zeros(0, 0));
-        work.copy_leading_columns(self.model(newton), end);
-        work.add_to_diagonal(&self.damp[..interior]);
-        let ok = work.eliminate_leading(interior, abort);
-        self.work = work;
+        // the damped model matrix
+        self.work.copy_leading_columns(self.band.matrix(newton), end);
+        self.work.add_to_diagonal(&self.damp[..interior]);
+        let ok = self.work.eliminate_leading(interior, abort);
         self.interior = interior;
         self.newton = newton;
         if !ok {
@@ -368,9 +327,9 @@ impl SplitPart {
         for l in 0..interior {
             step[self.global(l)] = self.x[l];
         }
-        let mut out = std::mem::take(&mut self.product);
-        self.model(self.newton).mul_vec_leading(end, &self.x, &mut out);
-        self.product = out;
+        self.band
+            .matrix(self.newton)
+            .mul_vec_leading(end, &self.x, &mut self.product);
         for l in 0..end {
             product[self.global(l)] += self.product[l];
         }
@@ -382,9 +341,7 @@ impl SplitPart {
         for l in 0..self.n {
             self.x[l] = x[self.global(l)];
         }
-        let mut out = std::mem::take(&mut self.product);
-        self.model(newton).mul_vec(&self.x, &mut out);
-        self.product = out;
+        self.band.matrix(newton).mul_vec(&self.x, &mut self.product);
         for l in 0..self.n {
             product[self.global(l)] += self.product[l];
         }

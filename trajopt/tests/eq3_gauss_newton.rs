@@ -1,5 +1,8 @@
 //! Eq. 3 and the sparse Gauss-Newton / Levenberg-Marquardt solver.
 
+mod common;
+
+use common::{assert_iterations_close, assert_rel_close, assert_same_minimum, check_descent};
 use faer::Mat;
 use faer::prelude::*;
 use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
@@ -220,26 +223,13 @@ fn bad_input_gives_errors() {
         Err(TrajoptError::NotFinite { .. })
     ));
     let cost = TrackingCost::new(Mat::zeros(11, 2), Mat::zeros(10, 1), &[1.0, 1.0], &[1.0], &[1.0, 1.0]).expect("ok");
+    let with_lambda = |lambda| Eq3Problem::new(Pendulum { analytic: true }, cost.clone(), &xb, &ub, &times, lambda);
     assert!(matches!(
-        Eq3Problem::new(
-            Pendulum { analytic: true },
-            cost.clone(),
-            &xb,
-            &ub,
-            &times,
-            Lambda::Constant(-1.0)
-        ),
+        with_lambda(Lambda::Constant(-1.0)),
         Err(TrajoptError::InvalidParameter { name: "lambda", .. })
     ));
     assert!(matches!(
-        Eq3Problem::new(
-            Pendulum { analytic: true },
-            cost.clone(),
-            &xb,
-            &ub,
-            &times,
-            Lambda::PerStep(vec![1.0; 3])
-        ),
+        with_lambda(Lambda::PerStep(vec![1.0; 3])),
         Err(TrajoptError::DimensionMismatch { .. })
     ));
     assert!(matches!(
@@ -294,13 +284,7 @@ proptest! {
     ) {
         let (p, ..) = pendulum_problem(horizon, Lambda::Constant(lambda), seed % 2 == 0);
         let theta: Vec<f64> = (0..p.n_params()).map(|i| ((i as f64 + seed as f64) * 1.3).sin()).collect();
-        let res = GaussNewton::new(GaussNewtonSettings { max_iterations: 30, ..GaussNewtonSettings::default() })
-            .expect("settings")
-            .solve(&p, &theta)
-            .expect("solve");
-        prop_assert!(res.cost <= res.initial_cost);
-        prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
-        prop_assert!((p.cost(&res.x).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+        check_descent(&p, &theta, StepModel::GaussNewton)?;
     }
 }
 
@@ -426,12 +410,7 @@ fn powell_and_gauss_newton_agree_on_a_small_eq3_problem() {
         .solve(&p, &theta0)
         .expect("powell");
     assert!(pw.cost <= pw.initial_cost);
-    assert!(
-        (pw.cost - gn.cost).abs() <= 1e-4 * gn.cost,
-        "powell {} vs gauss-newton {}",
-        pw.cost,
-        gn.cost
-    );
+    assert_rel_close(pw.cost, gn.cost, 1e-4, "powell vs gauss-newton");
     assert!(
         pw.cost_evals > 50 * gn.residual_evals,
         "derivative-free costs many more evaluations: {} vs {}",
@@ -443,12 +422,7 @@ fn powell_and_gauss_newton_agree_on_a_small_eq3_problem() {
         .configure(|s| s.param(theta0.clone()).max_iters(500))
         .run()
         .expect("argmin run");
-    let best = res.state().best_cost;
-    assert!(
-        (best - gn.cost).abs() <= 1e-3 * gn.cost,
-        "argmin powell {best} vs {}",
-        gn.cost
-    );
+    assert_rel_close(res.state().best_cost, gn.cost, 1e-3, "argmin powell vs gauss-newton");
 }
 
 #[test]
@@ -532,30 +506,14 @@ fn band_and_sparse_normal_equations_take_the_same_steps() {
                 "{a} vs {b} (second order {second_order}, analytic {analytic})"
             );
         }
-        assert!(
-            (band.cost - sparse.cost).abs() <= 1e-8 * sparse.cost,
-            "{} vs {}",
-            band.cost,
-            sparse.cost
-        );
+        assert_rel_close(band.cost, sparse.cost, 1e-8, "band vs sparse");
     }
     // Newton steps need the model's second derivatives: the benchmark pendulum has them
     let (p, theta0) = trajopt::problems::pendulum_swingup(150, 1e2).expect("problem");
     let band = solve_with(&p, &theta0, true, true, 200);
     let sparse = solve_with(&p, &theta0, false, true, 200);
-    assert!(band.status.is_converged() && sparse.status.is_converged());
-    assert!(
-        (band.cost - sparse.cost).abs() <= 1e-10 * sparse.cost,
-        "{} vs {}",
-        band.cost,
-        sparse.cost
-    );
-    assert!(
-        band.iterations.abs_diff(sparse.iterations) <= 2,
-        "{} vs {}",
-        band.iterations,
-        sparse.iterations
-    );
+    assert_same_minimum(&band, &sparse, 1e-10, "band vs sparse");
+    assert_iterations_close(&band, &sparse, 2, "band vs sparse");
 }
 
 /// A model that evaluates its batches back to front and counts them: the

@@ -1,12 +1,15 @@
 //! `GaussNewton::solve_parallel`: the band normal equations formed in parts
 //! on helper threads.
 
-use splines::BSplineBasis;
-use trajopt::linalg::BandLayout;
+mod common;
+
+use common::{
+    Hooked, assert_iterations_close, assert_same_minimum, forward_band_form, forward_least_squares, swingup_problem,
+};
 use trajopt::problems::{PENDULUM_DT, Pendulum, pendulum_swingup, swingup_reference};
 use trajopt::{
-    BandForm, BandNormalEquations, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda,
-    LeastSquaresProblem, Model, Part, Point, Result, StepModel, TrackingCost, TrajoptError,
+    BandForm, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, LeastSquaresProblem, Model, Part,
+    Result, StepModel, TrackingCost, TrajoptError,
 };
 
 /// A horizon whose problem has at least `MIN_PARALLEL_PARAMS` parameters.
@@ -29,25 +32,9 @@ fn solver(second_order: bool, adaptive: bool) -> GaussNewton {
 }
 
 fn assert_close(a: &GaussNewtonResult, b: &GaussNewtonResult, what: &str) {
-    assert!(
-        a.status.is_converged() && b.status.is_converged(),
-        "{what}: {:?} {:?}",
-        a.status,
-        b.status
-    );
-    assert!(
-        (a.cost - b.cost).abs() <= 1e-10 * b.cost,
-        "{what}: {} vs {}",
-        a.cost,
-        b.cost
-    );
+    assert_same_minimum(a, b, 1e-10, what);
     // Gauss-Newton's slow tail meets the cost test at a rounding-dependent iteration
-    assert!(
-        a.iterations.abs_diff(b.iterations) <= 3.max(b.iterations / 10),
-        "{what}: {} vs {} iterations",
-        a.iterations,
-        b.iterations
-    );
+    assert_iterations_close(a, b, 3.max(b.iterations / 10), what);
     // the first steps are the same up to rounding
     for (x, y) in a.cost_history.iter().zip(&b.cost_history).take(5) {
         assert!((x - y).abs() <= 1e-9 * y, "{what}: {x} vs {y}");
@@ -85,43 +72,18 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
     Ok(())
 }
 
-/// The pendulum, with Jacobians that fail beyond an angle: only at the last
-/// time steps of the swing-up, so in the last part of a split.
-struct FailingLate {
-    inner: Pendulum,
-    max_angle: f64,
-}
-
-impl FailingLate {
-    fn check(&self, xs: &[f64]) -> Result<()> {
-        if xs.chunks(4).any(|x| x[0] > self.max_angle) {
+/// The pendulum, with Jacobians that fail beyond `max_angle`: only at the
+/// last time steps of the swing-up, so in the last part of a split.
+fn failing_late(max_angle: f64) -> Hooked<impl Fn(&[f64]) -> Result<()>, common::Unaltered> {
+    Hooked::before_jacobians(move |xs: &[f64]| {
+        if xs.chunks(4).any(|x| x[0] > max_angle) {
             return Err(TrajoptError::InvalidParameter {
                 name: "state",
                 reason: "outside the model's range".into(),
             });
         }
         Ok(())
-    }
-}
-
-impl Model for FailingLate {
-    fn state_dim(&self) -> usize {
-        4
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.inner.step(x, u, next)
-    }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.check(x)?;
-        self.inner.jacobians(x, u, fx, fu)
-    }
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.check(xs)?;
-        self.inner.jacobians_batch(xs, us, fx, fu)
-    }
+    })
 }
 
 /// The benchmark swing-up of `horizon` steps with another pendulum model
@@ -130,7 +92,6 @@ impl Model for FailingLate {
 /// at the last steps, in the last part of a split.
 fn swingup_with<M: Model>(horizon: usize, model: impl FnOnce(f64) -> M) -> Result<Eq3Problem<M, TrackingCost>> {
     let max_angle = swingup_reference(horizon * 95 / 100)[0];
-    let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * PENDULUM_DT).collect();
     let state_ref = faer::Mat::from_fn(horizon + 1, 4, |k, i| swingup_reference(k)[i]);
     let cost = TrackingCost::new(
         state_ref,
@@ -139,17 +100,7 @@ fn swingup_with<M: Model>(horizon: usize, model: impl FnOnce(f64) -> M) -> Resul
         &[0.01],
         &[1000.0, 100.0, 1000.0, 100.0],
     )?;
-    let state_basis = BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
-    let control_basis = BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
-    Eq3Problem::new(
-        model(max_angle),
-        cost,
-        &state_basis,
-        &control_basis,
-        &times,
-        Lambda::Constant(1e2),
-    )?
-    .with_consistency_scale(1.0 / PENDULUM_DT)
+    swingup_problem(horizon, model(max_angle), cost, 1e2)?.with_consistency_scale(1.0 / PENDULUM_DT)
 }
 
 /// An error in a helper's part is the solve's error, as without helpers.
@@ -157,10 +108,7 @@ fn swingup_with<M: Model>(horizon: usize, model: impl FnOnce(f64) -> M) -> Resul
 fn an_error_in_a_helper_part_is_returned() -> Result<()> {
     let horizon = HORIZON;
     let (p, theta0) = pendulum_swingup(horizon, 1e2)?;
-    let failing = swingup_with(horizon, |max_angle| FailingLate {
-        inner: Pendulum::default(),
-        max_angle,
-    })?;
+    let failing = swingup_with(horizon, failing_late)?;
     assert_eq!(failing.n_params(), p.n_params());
     let s = solver(false, false);
     let sequential = s.solve(&failing, &theta0);
@@ -173,37 +121,16 @@ fn an_error_in_a_helper_part_is_returned() -> Result<()> {
     Ok(())
 }
 
-/// The pendulum with second derivatives that overflow beyond an angle.
-struct OverflowLate {
-    inner: Pendulum,
-    max_angle: f64,
-}
-
-impl Model for OverflowLate {
-    fn state_dim(&self) -> usize {
-        4
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.inner.step(x, u, next)
-    }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.inner.jacobians(x, u, fx, fu)
-    }
-    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
-        self.inner.jacobian_structure(fx, fu)
-    }
-    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
-        self.inner.weighted_hessian(x, u, w, hess)?;
-        if x[0] > self.max_angle {
+/// The pendulum with second derivatives that overflow beyond `max_angle`.
+fn overflow_late(max_angle: f64) -> Hooked<common::Unchecked, impl Fn(&[f64], &mut [f64]) -> bool> {
+    Hooked::hessian(move |x: &[f64], hess: &mut [f64]| {
+        if x[0] > max_angle {
             for h in hess.iter_mut().filter(|h| **h != 0.0) {
                 *h = f64::MAX;
             }
         }
-        Ok(true)
-    }
+        true
+    })
 }
 
 /// $J^\top J + S$ overflows in the last steps only, so in the helper's
@@ -213,10 +140,7 @@ impl Model for OverflowLate {
 fn an_overflow_in_a_helper_part_gives_gauss_newton_steps() -> Result<()> {
     let horizon = HORIZON;
     let (_, theta0) = pendulum_swingup(horizon, 1e2)?;
-    let p = swingup_with(horizon, |max_angle| OverflowLate {
-        inner: Pendulum::default(),
-        max_angle,
-    })?;
+    let p = swingup_with(horizon, overflow_late)?;
     for adaptive in [false, true] {
         let s = solver(true, adaptive);
         let one = s.solve(&p, &theta0)?;
@@ -232,33 +156,11 @@ fn an_overflow_in_a_helper_part_gives_gauss_newton_steps() -> Result<()> {
 struct Unsplit(Eq3Problem<Pendulum, TrackingCost>);
 
 impl LeastSquaresProblem for Unsplit {
-    fn n_params(&self) -> usize {
-        self.0.n_params()
-    }
-    fn n_residuals(&self) -> usize {
-        self.0.n_residuals()
-    }
-    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        self.0.residuals(theta, r)
-    }
-    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
-        self.0.jacobian_pattern()
-    }
-    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
-        self.0.jacobian_values(theta, values)
-    }
-    fn band_form(&self) -> Option<&dyn BandForm> {
-        Some(self)
-    }
+    forward_least_squares!(0, band_form);
 }
 
 impl BandForm for Unsplit {
-    fn layout(&self) -> BandLayout {
-        self.0.layout()
-    }
-    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool> {
-        self.0.normal_equations(at, layout, out)
-    }
+    forward_band_form!(0);
 }
 
 #[test]
@@ -320,33 +222,11 @@ fn residual_parts_make_up_the_residuals() -> Result<()> {
 struct MissingRows(Eq3Problem<Pendulum, TrackingCost>);
 
 impl LeastSquaresProblem for MissingRows {
-    fn n_params(&self) -> usize {
-        self.0.n_params()
-    }
-    fn n_residuals(&self) -> usize {
-        self.0.n_residuals()
-    }
-    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        self.0.residuals(theta, r)
-    }
-    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
-        self.0.jacobian_pattern()
-    }
-    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
-        self.0.jacobian_values(theta, values)
-    }
-    fn band_form(&self) -> Option<&dyn BandForm> {
-        Some(self)
-    }
+    forward_least_squares!(0, band_form);
 }
 
 impl BandForm for MissingRows {
-    fn layout(&self) -> BandLayout {
-        self.0.layout()
-    }
-    fn normal_equations(&self, at: Point<'_>, layout: &BandLayout, out: BandNormalEquations<'_>) -> Result<bool> {
-        self.0.normal_equations(at, layout, out)
-    }
+    forward_band_form!(0);
     fn residuals_part(&self, part: Part, theta: &[f64], r: &mut [f64]) -> Result<std::ops::Range<usize>> {
         let rows = self.0.residuals_part(part, theta, r)?;
         // the last row of the last part is left out
@@ -378,49 +258,6 @@ fn residual_parts_that_miss_rows_are_an_error() -> Result<()> {
     Ok(())
 }
 
-/// The pendulum, whose Jacobians take 50 ms beyond an angle (the last
-/// steps, the helper's part) when a helper evaluates them, counting the
-/// calls made off the thread that solves.
-struct SlowLate {
-    inner: Pendulum,
-    max_angle: f64,
-    solver_thread: std::thread::ThreadId,
-    helper_calls: std::sync::atomic::AtomicUsize,
-}
-
-impl SlowLate {
-    fn delay(&self, xs: &[f64]) {
-        if std::thread::current().id() == self.solver_thread {
-            return;
-        }
-        self.helper_calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
-        if xs.chunks(4).any(|x| x[0] > self.max_angle) {
-            // far later than the solver's own part, however busy the machine
-            std::thread::sleep(std::time::Duration::from_millis(50));
-        }
-    }
-}
-
-impl Model for SlowLate {
-    fn state_dim(&self) -> usize {
-        4
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.inner.step(x, u, next)
-    }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.delay(x);
-        self.inner.jacobians(x, u, fx, fu)
-    }
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.delay(xs);
-        self.inner.jacobians_batch(xs, us, fx, fu)
-    }
-}
-
 /// A helper that answers late (here: its part is slow; on a busy machine:
 /// it waits for a core) makes the solve go on with one thread from the next
 /// iteration, instead of waiting for it at every hand-over; the result is
@@ -429,18 +266,31 @@ impl Model for SlowLate {
 fn a_late_helper_makes_the_solve_go_on_with_one_thread() -> Result<()> {
     let (_, theta0) = pendulum_swingup(HORIZON, 1e2)?;
     let solver_thread = std::thread::current().id();
-    let p = swingup_with(HORIZON, |max_angle| SlowLate {
-        inner: Pendulum::default(),
-        max_angle,
-        solver_thread,
-        helper_calls: std::sync::atomic::AtomicUsize::new(0),
-    })?;
+    // the pendulum, whose Jacobians take 50 ms beyond an angle (the last
+    // steps, the helper's part) when a helper evaluates them, counting the
+    // calls made off the thread that solves
+    let helper_calls = std::sync::atomic::AtomicUsize::new(0);
+    let slow_late = |max_angle: f64| {
+        let helper_calls = &helper_calls;
+        Hooked::before_jacobians(move |xs: &[f64]| {
+            if std::thread::current().id() == solver_thread {
+                return Ok(());
+            }
+            helper_calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
+            if xs.chunks(4).any(|x| x[0] > max_angle) {
+                // far later than the solver's own part, however busy the machine
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            Ok(())
+        })
+    };
+    let p = swingup_with(HORIZON, slow_late)?;
     let s = GaussNewton::new(GaussNewtonSettings::default())?;
     let one = s.solve(&p, &theta0)?;
     let two = s.solve_parallel(&p, &theta0, 2)?;
     assert_close(&two, &one, "late helper");
     // (on a busy machine the helper may not even start in time: then it never runs)
-    let helper_calls = p.model().helper_calls.load(std::sync::atomic::Ordering::Relaxed);
+    let helper_calls = helper_calls.load(std::sync::atomic::Ordering::Relaxed);
     // (without the fallback: at every one of the iterations)
     assert!(
         4 * helper_calls < two.iterations,

@@ -1,5 +1,11 @@
 //! The exact second-order term of Eq. 3 and the Newton mode of the solver.
 
+mod common;
+
+use common::{
+    Hooked, Unchecked, assert_iterations_close, assert_rel_close, assert_same_minimum, check_descent,
+    forward_least_squares, solve_in, swingup_problem,
+};
 use faer::prelude::*;
 use faer::sparse::{SparseColMat, SparseRowMat};
 use faer::{Mat, Side};
@@ -8,7 +14,7 @@ use trajopt::linalg::{BandLayout, BandedSym};
 use trajopt::problems::{Pendulum, pendulum_swingup};
 use trajopt::{
     BandForm, BandNormalEquations, Eq3Problem, GaussNewton, GaussNewtonSettings, LeastSquaresProblem, LinearSolver,
-    Model, Part, Point, Result, SecondOrder, StepModel, TrackingCost,
+    Part, Point, Result, SecondOrder, StepModel, TrackingCost,
 };
 
 /// $g(\theta) = J^\top r$.
@@ -91,19 +97,9 @@ fn second_order_term_equals_differences_of_the_gradient() -> Result<()> {
 #[test]
 fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<()> {
     let (p, theta0) = pendulum_swingup(150, 1e2)?;
-    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta0)?;
-    let newton = GaussNewton::new(GaussNewtonSettings {
-        step_model: StepModel::Newton,
-        ..GaussNewtonSettings::default()
-    })?
-    .solve(&p, &theta0)?;
-    assert!(gn.status.is_converged() && newton.status.is_converged());
-    assert!(
-        (gn.cost - newton.cost).abs() <= 1e-9 * gn.cost,
-        "{} vs {}",
-        gn.cost,
-        newton.cost
-    );
+    let gn = solve_in(StepModel::GaussNewton, &p, &theta0)?;
+    let newton = solve_in(StepModel::Newton, &p, &theta0)?;
+    assert_same_minimum(&newton, &gn, 1e-9, "Newton vs Gauss-Newton");
     // (4x: the shift of an indefinite J^T J + S shrinks fast after
     // well-predicted steps; with the plain IPOPT decrease it was 3.6x)
     assert!(
@@ -127,17 +123,21 @@ fn newton_reaches_the_gauss_newton_optimum_in_far_fewer_iterations() -> Result<(
     Ok(())
 }
 
+/// Without second derivatives the Newton and the adaptive modes can only
+/// take Gauss-Newton steps, at Gauss-Newton's cost.
 #[test]
-fn without_second_derivatives_newton_mode_is_gauss_newton() -> Result<()> {
-    let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
-    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
-    let newton = GaussNewton::new(GaussNewtonSettings {
-        step_model: StepModel::Newton,
-        ..GaussNewtonSettings::default()
-    })?
-    .solve(&p, &theta)?;
-    assert_eq!(gn.iterations, newton.iterations);
-    assert_eq!(gn.x, newton.x);
+fn without_second_derivatives_newton_and_adaptive_modes_are_gauss_newton() -> Result<()> {
+    let (p, theta) = altered_problem(90, 2.0, |_: &[f64], _: &mut [f64]| false)?;
+    let gn = solve_in(StepModel::GaussNewton, &p, &theta)?;
+    for step_model in [StepModel::Newton, StepModel::Adaptive] {
+        let other = solve_in(step_model, &p, &theta)?;
+        assert_eq!(gn.iterations, other.iterations, "{step_model:?}");
+        assert_eq!(gn.x, other.x, "{step_model:?}");
+        if step_model == StepModel::Adaptive {
+            // and no curvature probes: without S they could not change the choice
+            assert_eq!(other.residual_evals, gn.residual_evals);
+        }
+    }
     Ok(())
 }
 
@@ -184,74 +184,34 @@ proptest! {
     ) {
         let (p, theta0) = pendulum_swingup(horizon, lambda).expect("problem");
         let theta = perturbed(&theta0, seed as f64);
-        for adaptive in [false, true] {
-            let settings = GaussNewtonSettings { max_iterations: 30, step_model: if adaptive { StepModel::Adaptive } else { StepModel::Newton }, ..GaussNewtonSettings::default() };
-            let res = GaussNewton::new(settings).expect("settings").solve(&p, &theta).expect("solve");
-            prop_assert!(res.cost <= res.initial_cost);
-            prop_assert!(res.cost_history.windows(2).all(|w| w[1] <= w[0]));
-            prop_assert!((p.cost(&res.x).expect("cost") - res.cost).abs() <= 1e-9 * res.cost.max(1.0));
+        for step_model in [StepModel::Newton, StepModel::Adaptive] {
+            check_descent(&p, &theta, step_model)?;
         }
     }
 }
 
-/// The pendulum with its second derivatives altered by `F`, which says
-/// whether the model has them at all.
-struct AlteredHessian<F>(Pendulum, F);
+type AlteredProblem<F> = Eq3Problem<Hooked<Unchecked, F>, TrackingCost>;
 
-impl<F: Fn(&mut [f64]) -> bool> Model for AlteredHessian<F> {
-    fn state_dim(&self) -> usize {
-        4
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.0.step(x, u, next)
-    }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
-        self.0.jacobians(x, u, fx, fu)
-    }
-    fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
-        self.0.jacobian_structure(fx, fu)
-    }
-    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
-        self.0.weighted_hessian(x, u, w, hess)?;
-        Ok((self.1)(hess))
-    }
-}
-
-type AlteredProblem<F> = Eq3Problem<AlteredHessian<F>, TrackingCost>;
-
-/// A swing-up of `horizon` steps with the altered pendulum, tracking the
-/// benchmark's start (lambda 10), and a start away from it (`seed`).
-fn altered_problem<F: Fn(&mut [f64]) -> bool>(
+/// A swing-up of `horizon` steps with the pendulum's second derivatives
+/// altered by `alter` (which says whether the model has them at all),
+/// tracking the benchmark's start (lambda 10), and a start away from it
+/// (`seed`).
+fn altered_problem<F: Fn(&[f64], &mut [f64]) -> bool>(
     horizon: usize,
     seed: f64,
     alter: F,
 ) -> Result<(AlteredProblem<F>, Vec<f64>)> {
     let (reference, theta0) = pendulum_swingup(horizon, 1e2)?;
     let (x, _) = reference.trajectory(&theta0)?;
-    let times: Vec<f64> = (0..=horizon)
-        .map(|k| k as f64 * trajopt::problems::PENDULUM_DT)
-        .collect();
     let cost = TrackingCost::new(x, Mat::zeros(horizon, 1), &[1.0; 4], &[0.1], &[10.0; 4])?;
-    let xb = splines::BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, times[horizon])?;
-    let ub = splines::BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, times[horizon])?;
-    let p = Eq3Problem::new(
-        AlteredHessian(Pendulum::default(), alter),
-        cost,
-        &xb,
-        &ub,
-        &times,
-        trajopt::Lambda::Constant(10.0),
-    )?;
+    let p = swingup_problem(horizon, Hooked::hessian(alter), cost, 10.0)?;
     Ok((p, perturbed(&theta0, seed)))
 }
 
 #[test]
 fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result<()> {
     // theta and the hand position never meet in one row of the structure
-    let (p, start) = altered_problem(30, 3.0, |hess: &mut [f64]| {
+    let (p, start) = altered_problem(30, 3.0, |_: &[f64], hess: &mut [f64]| {
         hess[2] = 1.0;
         hess[10] = 1.0;
         true
@@ -275,7 +235,7 @@ fn a_second_derivative_outside_the_structure_is_an_error_not_a_panic() -> Result
 /// normal equations.
 #[test]
 fn an_overflowing_second_order_term_gives_gauss_newton_steps() -> Result<()> {
-    let (p, start) = altered_problem(30, 3.0, |hess: &mut [f64]| {
+    let (p, start) = altered_problem(30, 3.0, |_: &[f64], hess: &mut [f64]| {
         for h in hess.iter_mut().filter(|h| **h != 0.0) {
             *h = f64::MAX;
         }
@@ -327,13 +287,7 @@ fn adaptive_model_choice_takes_newton_steps_where_they_pay() -> Result<()> {
             .solve(&p, &theta0)
         };
         let (a, sparse) = (adaptive(true)?, adaptive(false)?);
-        assert!(
-            gn.status.is_converged() && a.status.is_converged(),
-            "{:?} {:?}",
-            gn.status,
-            a.status
-        );
-        assert!((gn.cost - a.cost).abs() <= 1e-9 * gn.cost, "{} vs {}", gn.cost, a.cost);
+        assert_same_minimum(&a, &gn, 1e-9, &format!("lambda {lambda}"));
         assert!(
             (a.iterations as f64) < max_ratio * gn.iterations as f64,
             "lambda {lambda}: {} adaptive vs {} Gauss-Newton iterations",
@@ -342,38 +296,10 @@ fn adaptive_model_choice_takes_newton_steps_where_they_pay() -> Result<()> {
         );
         // never a higher cost than the last
         assert!(a.cost_history.windows(2).all(|w| w[1] <= w[0]));
-        assert!(
-            (a.cost - sparse.cost).abs() <= 1e-10 * a.cost,
-            "{} vs {}",
-            a.cost,
-            sparse.cost
-        );
+        assert_rel_close(sparse.cost, a.cost, 1e-10, "sparse vs band");
         // rounding differences grow over hundreds of stiff iterations
-        assert!(
-            a.iterations.abs_diff(sparse.iterations) <= 2 + a.iterations / 20,
-            "{} vs {}",
-            a.iterations,
-            sparse.iterations
-        );
+        assert_iterations_close(&a, &sparse, 2 + a.iterations / 20, "band vs sparse");
     }
-    Ok(())
-}
-
-/// Without second derivatives the adaptive mode can only take Gauss-Newton
-/// steps, at Gauss-Newton's cost.
-#[test]
-fn without_second_derivatives_adaptive_mode_is_gauss_newton() -> Result<()> {
-    let (p, theta) = altered_problem(90, 2.0, |_: &mut [f64]| false)?;
-    let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&p, &theta)?;
-    let adaptive = GaussNewton::new(GaussNewtonSettings {
-        step_model: StepModel::Adaptive,
-        ..GaussNewtonSettings::default()
-    })?
-    .solve(&p, &theta)?;
-    assert_eq!(gn.iterations, adaptive.iterations);
-    assert_eq!(gn.x, adaptive.x);
-    // and no curvature probes: without S they could not change the choice
-    assert_eq!(adaptive.residual_evals, gn.residual_evals);
     Ok(())
 }
 
@@ -414,7 +340,7 @@ fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
     }
     // wrong sizes are errors; no second derivatives, no form
     assert!(SecondOrder::form(&p, &theta, &r, &theta[1..]).is_err());
-    let (q, theta) = altered_problem(30, 2.0, |_: &mut [f64]| false)?;
+    let (q, theta) = altered_problem(30, 2.0, |_: &[f64], _: &mut [f64]| false)?;
     let mut r = vec![0.0; q.n_residuals()];
     q.residuals(&theta, &mut r)?;
     assert_eq!(SecondOrder::form(&q, &theta, &r, &theta)?, None);
@@ -426,25 +352,7 @@ fn second_order_form_is_the_quadratic_form_of_s() -> Result<()> {
 struct WithoutForm<P>(P);
 
 impl<P: LeastSquaresProblem> LeastSquaresProblem for WithoutForm<P> {
-    fn n_params(&self) -> usize {
-        self.0.n_params()
-    }
-
-    fn n_residuals(&self) -> usize {
-        self.0.n_residuals()
-    }
-
-    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        self.0.residuals(theta, r)
-    }
-
-    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
-        self.0.jacobian_pattern()
-    }
-
-    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
-        self.0.jacobian_values(theta, values)
-    }
+    forward_least_squares!(0);
 
     fn second_order(&self) -> Option<&dyn SecondOrder> {
         Some(self)
@@ -470,25 +378,10 @@ impl<P: LeastSquaresProblem> SecondOrder for WithoutForm<P> {
 #[test]
 fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
     let (p, theta0) = pendulum_swingup(150, 1e2)?;
-    let settings = GaussNewtonSettings {
-        step_model: StepModel::Adaptive,
-        ..GaussNewtonSettings::default()
-    };
-    let exact = GaussNewton::new(settings.clone())?.solve(&p, &theta0)?;
-    let probed = GaussNewton::new(settings)?.solve(&WithoutForm(p), &theta0)?;
-    assert!(exact.status.is_converged() && probed.status.is_converged());
-    assert!(
-        (exact.cost - probed.cost).abs() <= 1e-9 * exact.cost,
-        "{} vs {}",
-        exact.cost,
-        probed.cost
-    );
-    assert!(
-        probed.iterations.abs_diff(exact.iterations) <= 3,
-        "{} vs {}",
-        probed.iterations,
-        exact.iterations
-    );
+    let exact = solve_in(StepModel::Adaptive, &p, &theta0)?;
+    let probed = solve_in(StepModel::Adaptive, &WithoutForm(p), &theta0)?;
+    assert_same_minimum(&probed, &exact, 1e-9, "probed vs exact");
+    assert_iterations_close(&probed, &exact, 3, "probed vs exact");
     // the probes: two residual evaluations per trial step
     assert!(probed.residual_evals >= exact.residual_evals + 2 * (probed.iterations - 1));
     Ok(())
@@ -504,26 +397,9 @@ struct Counting {
 }
 
 impl LeastSquaresProblem for Counting {
-    fn n_params(&self) -> usize {
-        self.inner.n_params()
-    }
-    fn n_residuals(&self) -> usize {
-        self.inner.n_residuals()
-    }
-    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        self.inner.residuals(theta, r)
-    }
-    fn jacobian_pattern(&self) -> faer::sparse::SymbolicSparseRowMat<usize> {
-        self.inner.jacobian_pattern()
-    }
-    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {
-        self.inner.jacobian_values(theta, values)
-    }
+    forward_least_squares!(inner, band_form);
     fn second_order(&self) -> Option<&dyn SecondOrder> {
         self.inner.second_order()
-    }
-    fn band_form(&self) -> Option<&dyn BandForm> {
-        Some(self)
     }
 }
 
@@ -552,10 +428,6 @@ impl BandForm for Counting {
 #[test]
 fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
     use std::sync::atomic::Ordering::Relaxed;
-    let solver = GaussNewton::new(GaussNewtonSettings {
-        step_model: StepModel::Newton,
-        ..GaussNewtonSettings::default()
-    })?;
     let run = |forward_s: bool| -> Result<(trajopt::GaussNewtonResult, usize, usize)> {
         let (inner, theta0) = pendulum_swingup(150, 1e2)?;
         let counting = Counting {
@@ -564,7 +436,7 @@ fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
             normal_equations: 0.into(),
             second_order_alone: 0.into(),
         };
-        let result = solver.solve(&counting, &theta0)?;
+        let result = solve_in(StepModel::Newton, &counting, &theta0)?;
         Ok((
             result,
             counting.normal_equations.load(Relaxed),
@@ -581,8 +453,7 @@ fn gauss_newton_fallbacks_subtract_the_second_order_term() -> Result<()> {
     );
     assert_eq!(calls, subtracted.iterations);
     assert_eq!(s_calls, calls_again - formed_again.iterations);
-    assert!(subtracted.status.is_converged() && formed_again.status.is_converged());
-    assert!((subtracted.cost - formed_again.cost).abs() <= 1e-10 * formed_again.cost);
-    assert!(subtracted.iterations.abs_diff(formed_again.iterations) <= 2);
+    assert_same_minimum(&subtracted, &formed_again, 1e-10, "subtracted vs formed again");
+    assert_iterations_close(&subtracted, &formed_again, 2, "subtracted vs formed again");
     Ok(())
 }

@@ -20,8 +20,8 @@
 //! consecutive samples.
 
 use super::jacobian::{LocalDerivatives, central_differences};
-use super::{Eq3Problem, Model, StageCost, expect_len};
-use crate::error::{Result, TrajoptError};
+use super::{Eq3Problem, Model, StageCost};
+use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::kernels::{
     BasisRows, FixedShape, KronWindow, StepSpread, add_outer, contiguous_row, with_fixed_shape,
@@ -601,15 +601,8 @@ fn spread_block(h: &mut BandedSym, q: &[f64], nz: usize, dim: usize, spread: &[S
         // a with b > a: distinct coefficients, each ordered pair once
         for (b, sb) in spread.iter().enumerate().take(dim).skip(a + 1) {
             let qab = q[a * nz + b];
-            if qab == 0.0 {
-                continue;
-            }
-            for &(pi, vi) in sa {
-                let qv = qab * vi;
-                for &(pj, vj) in sb {
-                    let (hi, lo) = if pi >= pj { (pi, pj) } else { (pj, pi) };
-                    h.add_lower(hi, lo, qv * vj);
-                }
+            if qab != 0.0 {
+                add_pair(h, qab, sa, sb);
             }
         }
     }
@@ -621,19 +614,26 @@ fn spread_cross(h: &mut BandedSym, cross: &[f64], n: usize, nz: usize, spread: &
     for (a, sa) in spread.iter().enumerate().take(nz) {
         for (i, sn) in next.iter().enumerate() {
             let e = cross[a * n + i];
-            if e == 0.0 {
-                continue;
+            if e != 0.0 {
+                add_pair(h, e, sa, sn);
             }
-            for &(pa, va) in sa {
-                let ev = e * va;
-                for &(pn, vn) in sn {
-                    // the same coefficient on both sides meets itself twice
-                    match pa.cmp(&pn) {
-                        std::cmp::Ordering::Greater => h.add_lower(pa, pn, ev * vn),
-                        std::cmp::Ordering::Less => h.add_lower(pn, pa, ev * vn),
-                        std::cmp::Ordering::Equal => h.add_lower(pa, pa, 2.0 * ev * vn),
-                    }
-                }
+        }
+    }
+}
+
+/// Adds $e\,(P_a^\top P_b + P_b^\top P_a)$ for the spreads `sa`, `sb` of two
+/// distinct local variables: each ordered pair of coefficients once, in
+/// the lower triangle; a coefficient on both sides (the same state channel
+/// at two samples) meets itself twice.
+#[inline(always)]
+fn add_pair(h: &mut BandedSym, e: f64, sa: &[(usize, f64)], sb: &[(usize, f64)]) {
+    for &(pa, va) in sa {
+        let ev = e * va;
+        for &(pb, vb) in sb {
+            match pa.cmp(&pb) {
+                std::cmp::Ordering::Greater => h.add_lower(pa, pb, ev * vb),
+                std::cmp::Ordering::Less => h.add_lower(pb, pa, ev * vb),
+                std::cmp::Ordering::Equal => h.add_lower(pa, pa, 2.0 * ev * vb),
             }
         }
     }

@@ -2,9 +2,8 @@
 
 use faer::Mat;
 
-use super::expect_len;
 use crate::eq3::model::Model;
-use crate::error::{Result, TrajoptError, check_finite};
+use crate::error::{Result, TrajoptError, check_finite, expect_len};
 
 /// The consistency weight $\lambda_k$ of each step.
 #[derive(Debug, Clone, PartialEq)]

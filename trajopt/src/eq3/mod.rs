@@ -21,7 +21,7 @@ use faer::Mat;
 use faer::sparse::{SparseRowMat, SymbolicSparseColMat, SymbolicSparseRowMat};
 use splines::TrajectoryBasis;
 
-use crate::error::{Result, TrajoptError, check_finite};
+use crate::error::{Result, TrajoptError, check_finite, expect_len};
 use crate::least_squares::{BandForm, LeastSquaresProblem, LinearBounds, Part, SecondOrder};
 
 mod band_assembly;
@@ -549,11 +549,4 @@ impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
     fn cost(&self, theta: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
         Eq3Problem::cost(self, theta).map_err(argmin::core::Error::new)
     }
-}
-
-fn expect_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
-    if expected != actual {
-        return Err(TrajoptError::DimensionMismatch { what, expected, actual });
-    }
-    Ok(())
 }

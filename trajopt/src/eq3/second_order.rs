@@ -4,8 +4,8 @@
 
 use faer::sparse::SymbolicSparseColMat;
 
-use super::{Eq3Problem, Model, StageCost, expect_len};
-use crate::error::{Result, TrajoptError};
+use super::{Eq3Problem, Model, StageCost};
+use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{LeastSquaresProblem, SecondOrder};
 
 impl<M: Model, C: StageCost> Eq3Problem<M, C> {

@@ -2,8 +2,7 @@
 
 use faer::Mat;
 
-use super::expect_len;
-use crate::error::{Result, TrajoptError, check_finite};
+use crate::error::{Result, TrajoptError, check_finite, expect_len};
 
 /// A stage cost in residual form, $c_k(x, u) = \lVert r^c_k(x, u) \rVert^2$.
 pub trait StageCost {

@@ -101,7 +101,7 @@ pub mod settings;
 
 use std::time::Instant;
 
-use crate::error::{Result, TrajoptError, check_finite};
+use crate::error::{Result, TrajoptError, check_point};
 use crate::least_squares::{BandForm, LeastSquaresProblem};
 use crate::parallel::Helpers;
 use damping::{
@@ -229,14 +229,7 @@ impl GaussNewton {
     ) -> Result<GaussNewtonResult> {
         let start = Instant::now();
         let (n_p, n_r) = (problem.n_params(), problem.n_residuals());
-        if theta0.len() != n_p {
-            return Err(TrajoptError::DimensionMismatch {
-                what: "initial parameters",
-                expected: n_p,
-                actual: theta0.len(),
-            });
-        }
-        check_finite("initial parameters", theta0)?;
+        check_point("initial parameters", n_p, theta0)?;
         let s = &self.settings;
 
         let mut theta = theta0.to_vec();

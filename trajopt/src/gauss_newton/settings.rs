@@ -12,7 +12,7 @@
 //! | `linear_solver` | [`LinearSolver::Auto`] | | the band form of the normal equations when the problem has one |
 //! | `one_thread_fallback` | true | | [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel) goes on alone when its helpers answer late |
 
-use crate::error::{Result, TrajoptError};
+use crate::error::{Result, check_nonnegative};
 
 /// Which quadratic model of $F$ each step of [`GaussNewton`](crate::GaussNewton)
 /// minimises.
@@ -129,20 +129,12 @@ impl Default for GaussNewtonSettings {
 impl GaussNewtonSettings {
     /// Checks every field; the error names the first bad one.
     pub fn validate(&self) -> Result<()> {
-        for (name, v) in [
+        check_nonnegative([
             ("tol_grad", self.tol_grad),
             ("tol_step", self.tol_step),
             ("tol_cost", self.tol_cost),
             ("initial_damping", self.initial_damping),
-        ] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(TrajoptError::InvalidParameter {
-                    name,
-                    reason: format!("must be finite and nonnegative, got {v}"),
-                });
-            }
-        }
-        Ok(())
+        ])
     }
 
     /// Whether the steps may use the second-order term.
@@ -164,6 +156,7 @@ impl GaussNewtonSettings {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::error::TrajoptError;
 
     #[test]
     fn defaults_are_gauss_newton_on_the_band_form() {

@@ -47,6 +47,23 @@ enum Bracket {
     },
 }
 
+impl Bracket {
+    /// [`Bracket::Interior`] through `(a, fa)`, `(b, fb)`, `(c, fc)`.
+    fn interior((a, fa): (f64, f64), (b, fb): (f64, f64), (c, fc): (f64, f64)) -> Self {
+        Self::Interior { a, b, c, fa, fb, fc }
+    }
+
+    /// [`Bracket::Edge`] from `(far, f_far)` to `(near, f_near)`.
+    fn edge((far, f_far): (f64, f64), (near, f_near): (f64, f64)) -> Self {
+        Self::Edge {
+            far,
+            near,
+            f_far,
+            f_near,
+        }
+    }
+}
+
 pub(super) fn fill_trial(
     trial: &mut [f64],
     origin: &[f64],
@@ -171,24 +188,14 @@ where
         }
         let mut c = clamp(b + GOLD * (b - a));
         if c == b {
-            return Ok(Bracket::Edge {
-                far: a,
-                near: b,
-                f_far: fa,
-                f_near: fb,
-            });
+            return Ok(Bracket::edge((a, fa), (b, fb)));
         }
         let mut fc = self.at(c)?;
         let mut rounds = 0;
         while fc < fb {
             rounds += 1;
             if self.exhausted() || rounds > MAX_BRACKET {
-                return Ok(Bracket::Edge {
-                    far: b,
-                    near: c,
-                    f_far: fb,
-                    f_near: fc,
-                });
+                return Ok(Bracket::edge((b, fb), (c, fc)));
             }
             // vertex of the parabola through (a, fa), (b, fb), (c, fc)
             let r = (b - a) * (fb - fc);
@@ -197,75 +204,42 @@ where
             let denom = 2.0 * diff.abs().max(TINY).copysign(diff);
             let mut u = b - ((b - c) * q - (b - a) * r) / denom;
             let u_limit = clamp(b + GROW_LIMIT * (c - b));
-            let mut fu;
+            // the value at `u` if evaluated; else `u` is the next point to
+            // try (a golden step beyond c, or the growth limit)
+            let mut fu = None;
             if (b - u) * (u - c) > 0.0 {
                 // between b and c
-                fu = self.at(u)?;
-                if fu < fc {
-                    return Ok(Bracket::Interior {
-                        a: b,
-                        b: u,
-                        c,
-                        fa: fb,
-                        fb: fu,
-                        fc,
-                    });
+                let f = self.at(u)?;
+                if f < fc {
+                    return Ok(Bracket::interior((b, fb), (u, f), (c, fc)));
                 }
-                if fu > fb {
-                    return Ok(Bracket::Interior {
-                        a,
-                        b,
-                        c: u,
-                        fa,
-                        fb,
-                        fc: fu,
-                    });
+                if f > fb {
+                    return Ok(Bracket::interior((a, fa), (b, fb), (u, f)));
                 }
                 u = clamp(c + GOLD * (c - b));
-                if u == c {
-                    return Ok(Bracket::Edge {
-                        far: b,
-                        near: c,
-                        f_far: fb,
-                        f_near: fc,
-                    });
-                }
-                fu = self.at(u)?;
             } else if (c - u) * (u - u_limit) > 0.0 {
                 // between c and the growth limit
-                fu = self.at(u)?;
-                if fu < fc {
-                    (b, fb, c, fc) = (c, fc, u, fu);
+                let f = self.at(u)?;
+                if f < fc {
+                    (b, fb, c, fc) = (c, fc, u, f);
                     u = clamp(c + GOLD * (c - b));
-                    if u == c {
-                        return Ok(Bracket::Edge {
-                            far: b,
-                            near: c,
-                            f_far: fb,
-                            f_near: fc,
-                        });
-                    }
-                    fu = self.at(u)?;
-                }
-            } else {
-                u = if (u - u_limit) * (u_limit - c) >= 0.0 {
-                    u_limit
                 } else {
-                    clamp(c + GOLD * (c - b))
-                };
-                if u == c {
-                    return Ok(Bracket::Edge {
-                        far: b,
-                        near: c,
-                        f_far: fb,
-                        f_near: fc,
-                    });
+                    fu = Some(f);
                 }
-                fu = self.at(u)?;
+            } else if (u - u_limit) * (u_limit - c) >= 0.0 {
+                u = u_limit;
+            } else {
+                u = clamp(c + GOLD * (c - b));
             }
+            let fu = match fu {
+                Some(f) => f,
+                // the step is blocked at c: an end of the interval
+                None if u == c => return Ok(Bracket::edge((b, fb), (c, fc))),
+                None => self.at(u)?,
+            };
             (a, fa, b, fb, c, fc) = (b, fb, c, fc, u, fu);
         }
-        Ok(Bracket::Interior { a, b, c, fa, fb, fc })
+        Ok(Bracket::interior((a, fa), (b, fb), (c, fc)))
     }
 
     /// Brent's method on $[a, b]$ from the best known point $x \in [a, b]$.

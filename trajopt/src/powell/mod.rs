@@ -151,7 +151,7 @@ mod line_search;
 
 use std::time::{Duration, Instant};
 
-use crate::error::{Result, TrajoptError};
+use crate::error::{Result, TrajoptError, check_nonnegative};
 use engine::Engine;
 
 pub use argmin::PowellArgmin;
@@ -237,15 +237,11 @@ pub(super) fn invalid(name: &'static str, reason: impl Into<String>) -> TrajoptE
 impl PowellSettings {
     /// Checks every field against its range (see the table above).
     pub fn validate(&self) -> Result<()> {
-        for (name, value) in [
+        check_nonnegative([
             ("tol_x", self.tol_x),
             ("tol_f", self.tol_f),
             ("tol_line", self.tol_line),
-        ] {
-            if !(value.is_finite() && value >= 0.0) {
-                return Err(invalid(name, format!("must be finite and >= 0, got {value}")));
-            }
-        }
+        ])?;
         if self.max_iterations == Some(0) {
             return Err(invalid("max_iterations", "must be at least 1"));
         }

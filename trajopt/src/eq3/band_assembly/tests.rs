@@ -49,30 +49,16 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
     let mut grad = vec![0.0; n_p];
     let mut grad_full = vec![0.0; n_p];
     let mut diag_s = vec![0.0; n_p];
-    let with_s = problem
-        .normal_equations(
-            Point { theta, r: &r },
-            &layout,
-            BandNormalEquations {
-                h: &mut jtj,
-                grad: &mut grad,
-                second_order_diagonal: None,
-            },
-        )
-        .expect("band");
-    assert!(!with_s);
-    let with_s = problem
-        .normal_equations(
-            Point { theta, r: &r },
-            &layout,
-            BandNormalEquations {
-                h: &mut full,
-                grad: &mut grad_full,
-                second_order_diagonal: Some(&mut diag_s),
-            },
-        )
-        .expect("band");
-    assert!(with_s);
+    let form = |theta: &[f64], h: &mut BandedSym, grad: &mut [f64], second_order_diagonal: Option<&mut [f64]>| {
+        let out = BandNormalEquations {
+            h,
+            grad,
+            second_order_diagonal,
+        };
+        problem.normal_equations(Point { theta, r: &r }, &layout, out)
+    };
+    assert!(!form(theta, &mut jtj, &mut grad, None).expect("band"));
+    assert!(form(theta, &mut full, &mut grad_full, Some(&mut diag_s)).expect("band"));
     assert_eq!(grad, grad_full);
     let pos = &layout.position;
     let scale = jtj_ref.iter().flatten().fold(0.0f64, |a, v| a.max(v.abs()));
@@ -143,35 +129,8 @@ fn check_band_equals_sparse<P: BandForm + SecondOrder>(problem: &P, theta: &[f64
     }
     // bad sizes are errors
     let mut small = BandedSym::zeros(n_p - 1, layout.half_bandwidth);
-    assert!(
-        problem
-            .normal_equations(
-                Point { theta, r: &r },
-                &layout,
-                BandNormalEquations {
-                    h: &mut small,
-                    grad: &mut grad,
-                    second_order_diagonal: None
-                }
-            )
-            .is_err()
-    );
-    assert!(
-        problem
-            .normal_equations(
-                Point {
-                    theta: &theta[1..],
-                    r: &r
-                },
-                &layout,
-                BandNormalEquations {
-                    h: &mut jtj,
-                    grad: &mut grad,
-                    second_order_diagonal: None
-                }
-            )
-            .is_err()
-    );
+    assert!(form(theta, &mut small, &mut grad, None).is_err());
+    assert!(form(&theta[1..], &mut jtj, &mut grad, None).is_err());
 }
 
 /// The parts of the normal equations (with and without $S$) add up to

@@ -6,6 +6,7 @@
 use std::sync::Arc;
 
 use super::{Damping, NormalEquations};
+use crate::band_model::BandModel;
 use crate::error::Result;
 use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
 use crate::linalg::{BandLayout, BandedSym};
@@ -17,60 +18,41 @@ pub(crate) struct BandSystem {
     layout: Arc<BandLayout>,
     /// Threads forming parts of the normal equations, if any.
     helpers: Option<Helpers>,
-    /// $S$ alone, for $J^\top J = H - S$ (formed on demand).
-    s_band: Option<BandedSym>,
     second_order: bool,
-    /// The model matrix: $J^\top J + S$ when `has_s`, else $J^\top J$.
-    h: BandedSym,
-    has_s: bool,
+    /// The model matrix ($J^\top J + S$ or $J^\top J$), and $J^\top J$
+    /// alone on demand.
+    band: BandModel,
     /// The diagonal of $S$ (parameter order), to recover $D$ from `h`.
     diag_s: Vec<f64>,
-    /// $J^\top J$ when `h` holds $J^\top J + S$ and a Gauss-Newton step is
-    /// wanted (formed on demand: most Newton iterations need no second pass).
-    jtj: Option<BandedSym>,
-    jtj_current: bool,
     /// The damped matrix and its factor (the same storage).
     work: Option<BandedSym>,
     /// Vectors in the band order.
     rhs: Vec<f64>,
     product: Vec<f64>,
-    scratch: Vec<f64>,
 }
 
 impl BandSystem {
     pub(crate) fn new(layout: BandLayout, second_order: bool, helpers: Option<Helpers>) -> Self {
         let n = layout.position.len();
-        let h = BandedSym::zeros(n, layout.half_bandwidth);
+        let band = BandModel::new(n, layout.half_bandwidth);
         Self {
             second_order,
-            work: Some(h.clone()),
-            h,
-            has_s: false,
+            work: Some(band.h.clone()),
+            band,
             diag_s: vec![0.0; n],
-            jtj: None,
-            jtj_current: false,
             layout: Arc::new(layout),
             helpers,
-            s_band: None,
             rhs: vec![0.0; n],
             product: vec![0.0; n],
-            scratch: vec![0.0; n],
         }
     }
 
-    /// Forms $J^\top J$ alone into `jtj`; false if it is not finite.
+    /// $J^\top J$ alone ([`BandModel::form_jtj`]); false if it is not
+    /// finite.
     fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
-        let jtj = self
-            .jtj
-            .get_or_insert_with(|| BandedSym::zeros(self.h.size(), self.h.half_bandwidth()));
-        let out = BandNormalEquations {
-            h: &mut *jtj,
-            grad: &mut self.scratch,
-            second_order_diagonal: None,
-        };
-        form_band(&mut self.helpers, problem, Point { theta, r }, &self.layout, out)?;
-        self.jtj_current = true;
-        Ok(jtj.band().iter().chain(&self.scratch).all(|v| v.is_finite()))
+        let (helpers, layout) = (&mut self.helpers, &self.layout);
+        self.band
+            .form_jtj(|out| form_band(helpers, problem, Point { theta, r }, layout, out))
     }
 
     /// $J^\top J = H - S$ from the problem's $S$ alone
@@ -83,30 +65,11 @@ impl BandSystem {
         theta: &[f64],
         r: &[f64],
     ) -> Result<bool> {
-        let (n, kd) = (self.h.size(), self.h.half_bandwidth());
-        let s = self.s_band.get_or_insert_with(|| BandedSym::zeros(n, kd));
-        let found = match &mut self.helpers {
-            Some(helpers) => helpers.band_second_order(problem, Point { theta, r }, &self.layout, s)?,
-            None => band_form_of(problem)?.second_order_part(Part::WHOLE, Point { theta, r }, &self.layout, s)?,
-        };
-        if !found {
-            return Ok(false);
-        }
-        let jtj = self.jtj.get_or_insert_with(|| BandedSym::zeros(n, kd));
-        jtj.copy_from(&self.h);
-        jtj.add_scaled(-1.0, s);
-        if !jtj.band().iter().all(|v| v.is_finite()) {
-            return Ok(false);
-        }
-        self.jtj_current = true;
-        Ok(true)
-    }
-
-    fn model(&self, newton: bool) -> &BandedSym {
-        match (&self.jtj, self.has_s && !newton) {
-            (Some(jtj), true) => jtj,
-            _ => &self.h,
-        }
+        let (helpers, layout, at) = (&mut self.helpers, &self.layout, Point { theta, r });
+        self.band.jtj_from_second_order(|s| match helpers {
+            Some(helpers) => helpers.band_second_order(problem, at, layout, s),
+            None => band_form_of(problem)?.second_order_part(Part::WHOLE, at, layout, s),
+        })
     }
 }
 
@@ -132,30 +95,27 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
     ) -> Result<Option<bool>> {
         let diag_s = (self.second_order && want_s).then_some(&mut self.diag_s[..]);
         let out = BandNormalEquations {
-            h: &mut self.h,
+            h: &mut self.band.h,
             grad,
             second_order_diagonal: diag_s,
         };
-        self.has_s = form_band(&mut self.helpers, problem, Point { theta, r }, &self.layout, out)?;
-        self.jtj_current = false;
+        self.band.has_s = form_band(&mut self.helpers, problem, Point { theta, r }, &self.layout, out)?;
+        self.band.jtj_current = false;
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
-        if !(finite(self.h.band()) && finite(grad)) {
+        if !(finite(self.band.h.band()) && finite(grad)) {
             // a non-finite S only rules out Newton steps
-            if !self.has_s || !self.form_jtj(problem, theta, r)? {
+            if !self.band.has_s || !self.form_jtj(problem, theta, r)? {
                 return Ok(None);
             }
-            self.has_s = false;
-            grad.copy_from_slice(&self.scratch);
-            if let Some(jtj) = self.jtj.as_mut() {
-                std::mem::swap(&mut self.h, jtj);
-            }
+            grad.copy_from_slice(&self.band.grad);
+            self.band.replace_by_jtj();
         }
-        Ok(Some(self.has_s))
+        Ok(Some(self.band.has_s))
     }
 
     /// Makes $J^\top J$ available for Gauss-Newton steps at this iterate.
     fn ensure_gauss_newton(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
-        if !self.has_s || self.jtj_current {
+        if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
         }
         if self.jtj_from_second_order(problem, theta, r)? {
@@ -167,7 +127,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
     /// The diagonal of $J^\top J$ in the parameter order.
     fn jtj_diagonal(&self, out: &mut [f64]) {
         for (i, (o, &p)) in out.iter_mut().zip(&self.layout.position).enumerate() {
-            *o = self.h.diagonal(p) - if self.has_s { self.diag_s[i] } else { 0.0 };
+            *o = self.band.h.diagonal(p) - if self.band.has_s { self.diag_s[i] } else { 0.0 };
         }
     }
 
@@ -177,7 +137,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
         let Some(mut work) = self.work.take() else {
             return false;
         };
-        work.copy_from(self.model(newton));
+        work.copy_from(self.band.matrix(newton));
         let pos = &self.layout.position;
         for ((&p, &d), &g) in pos.iter().zip(scale).zip(step.iter()) {
             self.rhs[p] = g;
@@ -205,11 +165,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
         for (&d, &p) in step.iter().zip(pos) {
             self.rhs[p] = d;
         }
-        let model = match (&self.jtj, self.has_s && !newton) {
-            (Some(jtj), true) => jtj,
-            _ => &self.h,
-        };
-        model.mul_vec(&self.rhs, &mut self.product);
+        self.band.matrix(newton).mul_vec(&self.rhs, &mut self.product);
         for (o, &p) in out.iter_mut().zip(pos) {
             *o = self.product[p];
         }

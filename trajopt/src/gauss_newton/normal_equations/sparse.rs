@@ -18,7 +18,7 @@ use faer::{Conj, MatMut, Par};
 
 use super::{Damping, NormalEquations};
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::{LeastSquaresProblem, LinearBounds};
+use crate::least_squares::{LeastSquaresProblem, LinearBounds, check_jacobian_pattern};
 
 /// For each value of the problem's $S$, its index and its position in the
 /// values of $H$; and $S$'s values.
@@ -250,13 +250,7 @@ fn augment_with_diagonal(
     n_residuals: usize,
     n_params: usize,
 ) -> Result<SymbolicSparseRowMat<usize>> {
-    if pattern.nrows() != n_residuals || pattern.ncols() != n_params {
-        return Err(TrajoptError::DimensionMismatch {
-            what: "jacobian pattern rows",
-            expected: n_residuals,
-            actual: pattern.nrows(),
-        });
-    }
+    check_jacobian_pattern(pattern, n_residuals, n_params)?;
     let mut row_ptr = pattern.row_ptr().to_vec();
     let mut col_idx = pattern.col_idx().to_vec();
     for j in 0..n_params {
