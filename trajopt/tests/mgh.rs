@@ -1,11 +1,34 @@
 //! The Moré-Garbow-Hillstrom set (`trajopt::problems::mgh`) through its
 //! public API: analytic Jacobians against central differences, the paper's
-//! minimisers against its optimal values, and starting values worked out
-//! by hand.
+//! minimisers against its optimal values, every residual against an
+//! independent NumPy implementation (`tests/data/mgh_golden.json`, from
+//! `scripts/golden/mgh_golden.py`), the starting values against those
+//! published with MINPACK-1's test results.
+
+use std::path::Path;
 
 use argmin::core::{CostFunction, Gradient};
+use serde_json::Value;
 use trajopt::problems::mgh::{self, MghFunction, MghProblem};
 use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem, TrajoptError, check_jacobian};
+
+fn golden() -> Value {
+    let path = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/data/mgh_golden.json");
+    let text = std::fs::read_to_string(&path).expect("tests/data/mgh_golden.json exists");
+    serde_json::from_str(&text).expect("valid JSON")
+}
+
+fn floats(v: &Value) -> Vec<f64> {
+    v.as_array()
+        .expect("an array")
+        .iter()
+        .map(|x| x.as_f64().expect("a number"))
+        .collect()
+}
+
+fn usize_of(v: &Value) -> usize {
+    usize::try_from(v.as_u64().expect("an integer")).expect("fits")
+}
 
 /// Deterministic points near `x0`: each coordinate moved by up to 10% of
 /// itself (0.1 where it is 0), $x_j + 0.1 s_j \sin(7k + j + 1)$. Relative
@@ -236,6 +259,77 @@ fn the_paper_lists_f_star_where_it_should() {
     assert_eq!(penalty.optimal_value(), None);
     let penalty4 = MghProblem::with_n(MghFunction::PenaltyI, 4).expect("n = 4");
     assert_eq!(penalty4.optimal_value(), Some(2.24997e-5));
+}
+
+#[test]
+fn residuals_match_the_independent_numpy_implementation() {
+    let g = golden();
+    let problems = g["problems"].as_array().expect("problems");
+    assert_eq!(problems.len(), 35);
+    // relative 1e-12, with an absolute floor of 1e-15 for residuals that
+    // are rounding noise in both (Chebyquad's odd residuals vanish by
+    // symmetry at x0, and each side sums its terms in its own order)
+    let close = |a: f64, b: f64| (a - b).abs() <= 1e-12 * b.abs() + 1e-15;
+    for entry in problems {
+        let id = usize_of(&entry["id"]);
+        let p = mgh::by_id(id).expect("1..=35");
+        assert_eq!(entry["key"].as_str(), Some(p.function().key()));
+        assert_eq!(
+            (p.n(), p.m()),
+            (usize_of(&entry["n"]), usize_of(&entry["m"])),
+            "{}",
+            p.name()
+        );
+        let x0 = floats(&entry["x0"]);
+        for (a, b) in p.start(1.0).iter().zip(&x0) {
+            assert!((a - b).abs() <= 1e-15 * b.abs(), "{}: x0 {a} vs {b}", p.name());
+        }
+        let f0 = entry["f0"].as_f64().expect("f0");
+        let cost = p.cost(&x0).expect("sizes match");
+        assert!(
+            (cost - f0).abs() <= 1e-12 * f0,
+            "{}: f(x0) = {cost:e}, numpy {f0:e}",
+            p.name()
+        );
+        for (x_key, r_key) in [("x0", "r0"), ("x1", "r1")] {
+            let x = floats(&entry[x_key]);
+            let expected = floats(&entry[r_key]);
+            let r = p.residuals(&x).expect("sizes match");
+            for (i, (&a, &b)) in r.iter().zip(&expected).enumerate() {
+                assert!(close(a, b), "{} at {x_key}: f_{} = {a:e}, numpy {b:e}", p.name(), i + 1);
+            }
+        }
+        // MINPACK's result from x0: a sanity check only (it may stop at
+        // another minimum)
+        let lm = &entry["minpack_lm"];
+        let f_lm = lm["f"].as_f64().expect("f");
+        assert!(f_lm.is_finite() && f_lm <= f0, "{}", p.name());
+        assert!(p.cost(&floats(&lm["x"])).expect("sizes match") <= f0);
+    }
+}
+
+#[test]
+fn starting_values_match_minpack1_published_results() {
+    // ||f(scale x0)|| as printed (8 significant digits) in MINPACK-1's test
+    // results; the golden script checks its own functions against them too
+    let g = golden();
+    let entries = g["minpack1_initial_norms"].as_array().expect("norms");
+    assert!(entries.len() > 80);
+    for e in entries {
+        let id = usize_of(&e["id"]);
+        let f = MghFunction::from_id(id).expect("1..=35");
+        let p = MghProblem::with_size(f, usize_of(&e["n"]), usize_of(&e["m"])).expect("a size the paper allows");
+        let norm = e["norm"].as_f64().expect("norm");
+        let scale = e["scale"].as_f64().expect("scale");
+        let got = p.cost(&p.start(scale)).expect("sizes match").sqrt();
+        assert!(
+            (got - norm).abs() <= 5.1e-8 * norm,
+            "{} (n={}, m={}) at {scale} x0: ||f|| = {got:.8e}, MINPACK-1 printed {norm:.7e}",
+            p.name(),
+            p.n(),
+            p.m()
+        );
+    }
 }
 
 #[test]

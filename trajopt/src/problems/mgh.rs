@@ -119,8 +119,14 @@
 //! # Checks
 //!
 //! `tests/mgh.rs` checks every Jacobian against central differences at
-//! $x_0$, $10 x_0$, $100 x_0$ and perturbed points, and $f(x^*) = f^*$ and
-//! $\nabla f(x^*) = 0$ where the minimiser is known.
+//! $x_0$, $10 x_0$, $100 x_0$ and perturbed points; $f(x^*) = f^*$ and
+//! $\nabla f(x^*) = 0$ where the minimiser is known; every residual at
+//! $x_0$ and at a second point against an independent NumPy implementation
+//! (`scripts/golden/mgh_golden.py` → `tests/data/mgh_golden.json`, which
+//! also records what MINPACK's `lmdif` reaches from $x_0$ through scipy);
+//! and the norms $\lVert f(s\, x_0) \rVert$, $s = 1, 10, 100$, printed in
+//! MINPACK-1's test results (Moré, Garbow, Hillstrom, ANL-80-74, 1980) for
+//! 24 of the problems at one or more sizes.
 //!
 //! [`MghProblem`]: crate::problems::mgh::MghProblem
 //! [`MghProblem::new`]: crate::problems::mgh::MghProblem::new
