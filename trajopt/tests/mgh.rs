@@ -3,13 +3,14 @@
 //! minimisers against its optimal values, every residual against an
 //! independent NumPy implementation (`tests/data/mgh_golden.json`, from
 //! `scripts/golden/mgh_golden.py`), the starting values against those
-//! published with MINPACK-1's test results.
+//! published with MINPACK-1's test results, and what Gauss-Newton reaches
+//! from the standard starts.
 
 use std::path::Path;
 
 use argmin::core::{CostFunction, Gradient};
 use serde_json::Value;
-use trajopt::problems::mgh::{self, MghFunction, MghProblem};
+use trajopt::problems::mgh::{self, KnownMinimum, MghFunction, MghProblem};
 use trajopt::{GaussNewton, GaussNewtonSettings, LeastSquaresProblem, TrajoptError, check_jacobian};
 
 fn golden() -> Value {
@@ -360,6 +361,81 @@ fn starting_values_worked_by_hand() {
         assert!((got - expected).abs() <= 1e-13 * expected, "{id}: {got} vs {expected}");
     }
 }
+
+/// How Gauss-Newton's result from x0 relates to the paper's minima.
+#[derive(Debug, PartialEq)]
+enum Reached {
+    /// $f^*$ (relative 1e-6, or absolute 1e-10 for $f^* = 0$, or within the
+    /// printed precision).
+    Optimal,
+    /// Another minimum the paper lists.
+    OtherListed,
+    /// None of them.
+    Elsewhere,
+}
+
+fn classify(f: f64, minima: &[KnownMinimum]) -> Reached {
+    let hit = |k: &KnownMinimum| k.matches(f, if k.value == 0.0 { 1e-10 } else { 1e-6 });
+    if minima.first().is_some_and(hit) {
+        Reached::Optimal
+    } else if minima.iter().skip(1).any(hit) {
+        Reached::OtherListed
+    } else {
+        Reached::Elsewhere
+    }
+}
+
+#[test]
+fn gauss_newton_from_x0_reaches_the_published_minima() {
+    let settings = GaussNewtonSettings {
+        // Brown and Dennis needs several thousand: Gauss-Newton converges
+        // only linearly on a problem whose residuals stay large
+        max_iterations: 10_000,
+        ..GaussNewtonSettings::default()
+    };
+    let gn = GaussNewton::new(settings).expect("valid settings");
+    let g = golden();
+    println!("| # | problem | n | m | f reached | f* | iterations | status | MINPACK lm f |");
+    println!("|---|---|---|---|---|---|---|---|---|");
+    let mut outcomes = Vec::new();
+    for (p, entry) in mgh::all().iter().zip(g["problems"].as_array().expect("problems")) {
+        let r = gn.solve(p, &p.start(1.0)).expect("solves");
+        let minima = p.known_minima();
+        let reached = classify(r.cost, &minima);
+        println!(
+            "| {} | {} | {} | {} | {:.6e} | {} | {} | {:?} {:?} | {:.6e} |",
+            p.id(),
+            p.name(),
+            p.n(),
+            p.m(),
+            r.cost,
+            p.optimal_value().map_or("-".into(), |v| format!("{v:e}")),
+            r.iterations,
+            r.status,
+            reached,
+            entry["minpack_lm"]["f"].as_f64().unwrap_or(f64::NAN),
+        );
+        assert!(r.cost <= r.initial_cost && r.cost.is_finite(), "{}", p.name());
+        outcomes.push((p.id(), reached));
+    }
+    // Gauss-Newton from x0 reaches f* except on Freudenstein and Roth,
+    // where it stops at the paper's other, local minimum 48.9842 (as MINPACK
+    // does), and on the problems of GN_NOT_ASSERTED
+    for (id, reached) in outcomes {
+        match id {
+            2 => assert_eq!(reached, Reached::OtherListed, "problem {id}"),
+            _ if GN_NOT_ASSERTED.contains(&id) => {}
+            _ => assert_eq!(reached, Reached::Optimal, "problem {id}"),
+        }
+    }
+}
+
+/// Problems whose Gauss-Newton result is reported, not asserted:
+/// - 24, Penalty II: still far from f* after 10000 iterations (the steps
+///   crawl; MINPACK's lmdif reaches f* in about 100 evaluations);
+/// - 26, Trigonometric ($n = 10$): stops at the local minimum 2.79506e-5,
+///   which the paper does not list, as MINPACK does.
+const GN_NOT_ASSERTED: [usize; 2] = [24, 26];
 
 #[test]
 fn the_trait_views_agree() {
