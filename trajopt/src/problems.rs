@@ -13,6 +13,9 @@
 //! weight. `scripts/compare_trajopt.py` rebuilds exactly this problem in
 //! Python.
 
+/// The Moré-Garbow-Hillstrom test set (1981): 35 least-squares problems with Jacobians, starts and minima.
+pub mod mgh;
+
 use faer::Mat;
 use splines::BSplineBasis;
 
