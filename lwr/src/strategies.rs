@@ -218,11 +218,11 @@ pub fn irrelevant_input_data(
 pub struct JacobianCheck {
     /// Largest $|J^{num}_{oj} - J_{oj}| / (1 + |J_{oj}|)$ over the checked
     /// entries (0 if none was checked).
-    pub worst_error: f64,
-    /// Output $o$ of the worst entry.
-    pub output: usize,
-    /// Input $j$ of the worst entry.
-    pub input: usize,
+    pub max_rel_error: f64,
+    /// Output $o$ (row) of the worst entry.
+    pub row: usize,
+    /// Input $j$ (column) of the worst entry.
+    pub col: usize,
     /// The analytic derivative there.
     pub analytic: f64,
     /// The central-difference derivative there.
@@ -252,17 +252,17 @@ pub struct JacobianCheck {
 /// let q = [0.3f64, -0.5];
 /// let jac = Mat::from_fn(2, 2, |o, j| [[q[1], q[0]], [q[0].cos(), 1.0]][o][j]);
 /// let check = check_jacobian(f, &q, &jac, 1e-3);
-/// assert_eq!((check.output, check.input), (1, 1));
-/// assert!((check.worst_error - 0.5).abs() < 1e-9);
+/// assert_eq!((check.row, check.col), (1, 1));
+/// assert!((check.max_rel_error - 0.5).abs() < 1e-9);
 /// ```
 pub fn check_jacobian<F, E>(f: F, q: &[f64], jacobian: &Mat<f64>, step: f64) -> JacobianCheck
 where
     F: Fn(&[f64]) -> std::result::Result<Vec<f64>, E>,
 {
     let mut check = JacobianCheck {
-        worst_error: 0.0,
-        output: 0,
-        input: 0,
+        max_rel_error: 0.0,
+        row: 0,
+        col: 0,
         analytic: f64::NAN,
         numeric: f64::NAN,
         n_skipped: 0,
@@ -283,11 +283,11 @@ where
             let analytic = jacobian[(o, j)];
             let error = (numeric - analytic).abs() / (1.0 + analytic.abs());
             // a NaN derivative is the worst of all
-            if !check.worst_error.is_nan() && (error.is_nan() || error > check.worst_error) {
+            if !check.max_rel_error.is_nan() && (error.is_nan() || error > check.max_rel_error) {
                 check = JacobianCheck {
-                    worst_error: error,
-                    output: o,
-                    input: j,
+                    max_rel_error: error,
+                    row: o,
+                    col: j,
                     analytic,
                     numeric,
                     ..check

@@ -1,4 +1,4 @@
-//! Checking an analytic Jacobian against central differences.
+//! Checking analytic Jacobians against central differences.
 //!
 //! [`check_jacobian`] compares every entry of $J(\theta)$ that a
 //! [`LeastSquaresProblem`] returns with the central difference
@@ -8,29 +8,40 @@
 //! $|J_{ij} - D_{ij}| / \max(1, |J_{ij}|, |D_{ij}|)$ and where it occurred.
 //! Entries outside the Jacobian's pattern count as analytic zeros, so a
 //! pattern that misses a dependence shows up too.
+//! [`check_model_jacobians`] and [`check_stage_cost_jacobians`] do the same
+//! for the two halves of Eq. 3, a [`Model`] and a [`StageCost`], over
+//! $z = (x, u)$ (columns: the state, then the control), with their declared
+//! Jacobian structures as the pattern. The field names are those of the
+//! other crates' checks (`ddp::strategies::check_jacobian`,
+//! `lwr::strategies::check_jacobian`).
 //!
 //! ```
-//! use trajopt::check::check_jacobian;
-//! use trajopt::problems::pendulum_swingup;
+//! use trajopt::check::{check_jacobian, check_model_jacobians};
+//! use trajopt::problems::{Pendulum, pendulum_swingup};
 //!
 //! let (problem, theta) = pendulum_swingup(20, 1e2)?;
 //! let worst = check_jacobian(&problem, &theta)?;
-//! assert!(worst.error < 1e-6, "{worst:?}");
+//! assert!(worst.max_rel_error < 1e-6, "{worst:?}");
+//! let worst = check_model_jacobians(&Pendulum::default(), &[2.0, -1.0, 0.3, 0.1], &[4.0])?;
+//! assert!(worst.expect("analytic").max_rel_error < 1e-6);
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
+use crate::eq3::{Model, StageCost};
 use crate::error::{Result, check_point};
 use crate::least_squares::{LeastSquaresProblem, check_jacobian_pattern};
 
-/// The worst disagreement found by [`check_jacobian`].
+/// The worst disagreement found by [`check_jacobian`],
+/// [`check_model_jacobians`] or [`check_stage_cost_jacobians`].
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub struct JacobianCheck {
     /// The largest relative error
-    /// $|J_{ij} - D_{ij}| / \max(1, |J_{ij}|, |D_{ij}|)$.
-    pub error: f64,
-    /// The residual (row) where it occurred.
+    /// $|J_{ij} - D_{ij}| / \max(1, |J_{ij}|, |D_{ij}|)$ (NaN if an entry
+    /// was NaN).
+    pub max_rel_error: f64,
+    /// The output (residual, or next-state component) where it occurred.
     pub row: usize,
-    /// The parameter (column) where it occurred.
+    /// The input (parameter, or entry of $z = (x, u)$) where it occurred.
     pub col: usize,
     /// The analytic entry $J_{ij}$ there (0 outside the pattern).
     pub analytic: f64,
@@ -51,38 +62,125 @@ pub fn check_jacobian<P: LeastSquaresProblem + ?Sized>(problem: &P, theta: &[f64
     check_jacobian_pattern(&pattern, n_r, n_p)?;
     let mut values = vec![0.0; pattern.col_idx().len()];
     problem.jacobian_values(theta, &mut values)?;
-    // the analytic Jacobian dense, column-major
+    // the analytic Jacobian dense, row-major
     let mut analytic = vec![0.0; n_r * n_p];
     for i in 0..n_r {
         let (start, end) = (pattern.row_ptr()[i], pattern.row_ptr()[i + 1]);
         for (&j, &v) in pattern.col_idx()[start..end].iter().zip(&values[start..end]) {
-            analytic[j * n_r + i] += v;
+            analytic[i * n_p + j] += v;
         }
     }
+    worst_difference(theta, n_r, &analytic, |t, r| problem.residuals(t, r))
+}
+
+/// Compares a [`Model`]'s analytic $\partial f / \partial x$ and
+/// $\partial f / \partial u$ at $(x, u)$ with central differences of
+/// [`Model::step`], columns $0..n$ the state and $n..n+m$ the control.
+/// Entries outside [`Model::jacobian_structure`] count as analytic zeros.
+/// Returns `None` when the model has no analytic Jacobians
+/// ([`Model::jacobians`] returns `false`): the solvers then difference it
+/// themselves and there is nothing to check.
+///
+/// # Errors
+/// Wrong-sized or non-finite `x` or `u`, or an error from the model.
+pub fn check_model_jacobians<M: Model + ?Sized>(model: &M, x: &[f64], u: &[f64]) -> Result<Option<JacobianCheck>> {
+    let (n, m) = (model.state_dim(), model.control_dim());
+    check_point("state", n, x)?;
+    check_point("control", m, u)?;
+    let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
+    if !model.jacobians(x, u, &mut fx, &mut fu)? {
+        return Ok(None);
+    }
+    let (mut sx, mut su) = (vec![true; n * n], vec![true; n * m]);
+    model.jacobian_structure(&mut sx, &mut su);
+    let analytic = join_columns(n, (&fx, &sx, n), (&fu, &su, m));
+    let z: Vec<f64> = x.iter().chain(u).copied().collect();
+    worst_difference(&z, n, &analytic, |z, next| model.step(&z[..n], &z[n..], next)).map(Some)
+}
+
+/// Compares a [`StageCost`]'s analytic residual Jacobians at stage `k` with
+/// central differences of [`StageCost::residuals`], over $z = (x, u)$, or
+/// over $x$ alone at the terminal stage (`terminal`, where the cost sees no
+/// control and `u` only gives the control dimension $m$). Entries outside
+/// [`StageCost::jacobian_structure`] count as analytic zeros.
+///
+/// # Errors
+/// A non-finite `x` or `u`, or an error from the cost.
+pub fn check_stage_cost_jacobians<C: StageCost + ?Sized>(
+    cost: &C,
+    k: usize,
+    x: &[f64],
+    u: &[f64],
+    terminal: bool,
+) -> Result<JacobianCheck> {
+    let (n, m, q) = (x.len(), u.len(), cost.n_residuals());
+    check_point("state", n, x)?;
+    check_point("control", m, u)?;
+    let control = (!terminal).then_some(u);
+    let (mut jx, mut ju) = (vec![0.0; q * n], vec![0.0; q * m]);
+    cost.jacobians(k, x, control, &mut jx, &mut ju)?;
+    let (mut sx, mut su) = (vec![true; q * n], vec![true; q * m]);
+    cost.jacobian_structure(&mut sx, &mut su);
+    if terminal {
+        let analytic = join_columns(q, (&jx, &sx, n), (&[], &[], 0));
+        return worst_difference(x, q, &analytic, |x, r| cost.residuals(k, x, None, r));
+    }
+    let analytic = join_columns(q, (&jx, &sx, n), (&ju, &su, m));
+    let z: Vec<f64> = x.iter().chain(u).copied().collect();
+    worst_difference(&z, q, &analytic, |z, r| cost.residuals(k, &z[..n], Some(&z[n..]), r))
+}
+
+/// The row-major $q \times (n + m)$ matrix $[J_x \; J_u]$ from two
+/// row-major blocks, each given with its structure (entries outside it
+/// read as 0) and its number of columns.
+fn join_columns(q: usize, left: (&[f64], &[bool], usize), right: (&[f64], &[bool], usize)) -> Vec<f64> {
+    let width = left.2 + right.2;
+    let mut joined = vec![0.0; q * width];
+    for i in 0..q {
+        for (offset, (values, keep, cols)) in [(0, left), (left.2, right)] {
+            for j in 0..cols {
+                if keep[i * cols + j] {
+                    joined[i * width + offset + j] = values[i * cols + j];
+                }
+            }
+        }
+    }
+    joined
+}
+
+/// The worst entry of the row-major `analytic` ($q \times$ `z.len()`)
+/// against central differences of `f` at `z`.
+fn worst_difference(
+    z: &[f64],
+    q: usize,
+    analytic: &[f64],
+    mut f: impl FnMut(&[f64], &mut [f64]) -> Result<()>,
+) -> Result<JacobianCheck> {
+    let p = z.len();
     let mut worst = JacobianCheck {
-        error: 0.0,
+        max_rel_error: 0.0,
         row: 0,
         col: 0,
         analytic: 0.0,
         numeric: 0.0,
     };
-    let (mut plus, mut minus) = (vec![0.0; n_r], vec![0.0; n_r]);
-    let mut probe = theta.to_vec();
-    for j in 0..n_p {
-        let h = f64::EPSILON.cbrt() * theta[j].abs().max(1.0);
-        probe[j] = theta[j] + h;
-        problem.residuals(&probe, &mut plus)?;
-        probe[j] = theta[j] - h;
-        problem.residuals(&probe, &mut minus)?;
-        probe[j] = theta[j];
-        for i in 0..n_r {
+    let (mut plus, mut minus) = (vec![0.0; q], vec![0.0; q]);
+    let mut probe = z.to_vec();
+    for j in 0..p {
+        let h = f64::EPSILON.cbrt() * z[j].abs().max(1.0);
+        probe[j] = z[j] + h;
+        f(&probe, &mut plus)?;
+        probe[j] = z[j] - h;
+        f(&probe, &mut minus)?;
+        probe[j] = z[j];
+        for i in 0..q {
             let numeric = (plus[i] - minus[i]) / (2.0 * h);
-            let a = analytic[j * n_r + i];
+            let a = analytic[i * p + j];
             let error = (a - numeric).abs() / 1f64.max(a.abs()).max(numeric.abs());
             // a NaN counts as the worst error
-            if error > worst.error || (error.is_nan() && !worst.error.is_nan()) {
+            if error > worst.max_rel_error || (error.is_nan() && !worst.max_rel_error.is_nan()) {
                 worst = JacobianCheck {
-                    error,
+                    max_rel_error: error,
                     row: i,
                     col: j,
                     analytic: a,
@@ -148,7 +246,7 @@ mod tests {
             &theta,
         )
         .expect("check");
-        assert!(right.error < 1e-9, "{right:?}");
+        assert!(right.max_rel_error < 1e-9, "{right:?}");
         let wrong = check_jacobian(
             &Small {
                 wrong: true,
@@ -159,7 +257,7 @@ mod tests {
         .expect("check");
         assert_eq!((wrong.row, wrong.col), (0, 0));
         assert!((wrong.analytic - 4.5).abs() < 1e-12 && (wrong.numeric - 3.0).abs() < 1e-6);
-        assert!((wrong.error - 1.5 / 4.5).abs() < 1e-6);
+        assert!((wrong.max_rel_error - 1.5 / 4.5).abs() < 1e-6);
         // a dependence missing from the pattern: d r_1 / d theta_0 = theta_1
         let dropped = check_jacobian(
             &Small {
@@ -181,5 +279,78 @@ mod tests {
         };
         assert!(check_jacobian(&p, &[1.0]).is_err());
         assert!(check_jacobian(&p, &[1.0, f64::NAN]).is_err());
+    }
+    /// $f(x, u) = (x_0 + x_1 u, \sin x_1)$, its Jacobians right, with a
+    /// wrong entry, with a structure that leaves out a nonzero, or absent.
+    struct Toy {
+        wrong: bool,
+        hide: bool,
+        analytic: bool,
+    }
+
+    impl Model for Toy {
+        fn state_dim(&self) -> usize {
+            2
+        }
+        fn control_dim(&self) -> usize {
+            1
+        }
+        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+            next[0] = x[0] + x[1] * u[0];
+            next[1] = x[1].sin();
+            Ok(())
+        }
+        fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+            let d11 = if self.wrong { x[1].sin() } else { x[1].cos() };
+            fx.copy_from_slice(&[1.0, u[0], 0.0, d11]);
+            fu.copy_from_slice(&[x[1], 0.0]);
+            Ok(self.analytic)
+        }
+        fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
+            fx.copy_from_slice(&[true, true, false, true]);
+            // hiding d next_0 / d u, which is x_1
+            fu.copy_from_slice(&[!self.hide, false]);
+        }
+    }
+
+    #[test]
+    fn model_jacobians_are_checked_over_state_then_control() {
+        let toy = |wrong, hide, analytic| Toy { wrong, hide, analytic };
+        let (x, u) = ([0.5, 1.2], [-0.7]);
+        let right = check_model_jacobians(&toy(false, false, true), &x, &u)
+            .expect("check")
+            .expect("analytic");
+        assert!(right.max_rel_error < 1e-9, "{right:?}");
+        let wrong = check_model_jacobians(&toy(true, false, true), &x, &u)
+            .expect("check")
+            .expect("analytic");
+        assert_eq!((wrong.row, wrong.col), (1, 1));
+        assert!((wrong.numeric - 1.2f64.cos()).abs() < 1e-8);
+        // the structure hides column 2 (the control) of row 0
+        let hidden = check_model_jacobians(&toy(false, true, true), &x, &u)
+            .expect("check")
+            .expect("analytic");
+        assert_eq!((hidden.row, hidden.col, hidden.analytic), (0, 2, 0.0));
+        assert!((hidden.numeric - 1.2).abs() < 1e-8);
+        assert_eq!(
+            check_model_jacobians(&toy(false, false, false), &x, &u).expect("check"),
+            None
+        );
+        assert!(check_model_jacobians(&toy(false, false, true), &x, &[]).is_err());
+        assert!(check_model_jacobians(&toy(false, false, true), &[f64::NAN, 0.0], &u).is_err());
+    }
+
+    #[test]
+    fn stage_cost_jacobians_running_and_terminal() {
+        use crate::TrackingCost;
+        use faer::Mat;
+        let xr = Mat::from_fn(3, 2, |k, i| 0.1 * (k + i) as f64);
+        let ur = Mat::from_fn(2, 1, |k, _| k as f64);
+        let cost = TrackingCost::new(xr, ur, &[2.0, 0.5], &[0.3], &[10.0, 1.0]).expect("cost");
+        let running = check_stage_cost_jacobians(&cost, 1, &[0.4, -0.2], &[1.5], false).expect("check");
+        assert!(running.max_rel_error < 1e-9, "{running:?}");
+        let terminal = check_stage_cost_jacobians(&cost, 2, &[0.4, -0.2], &[1.5], true).expect("check");
+        assert!(terminal.max_rel_error < 1e-9, "{terminal:?}");
+        assert!(check_stage_cost_jacobians(&cost, 1, &[0.4, f64::INFINITY], &[1.5], false).is_err());
     }
 }

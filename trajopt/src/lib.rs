@@ -21,7 +21,7 @@ pub mod strategies;
 /// sparse matrices), re-exported so callers need no matching dependency.
 pub use faer;
 
-pub use check::{JacobianCheck, check_jacobian};
+pub use check::{JacobianCheck, check_jacobian, check_model_jacobians, check_stage_cost_jacobians};
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{

@@ -205,22 +205,10 @@ mod tests {
 
     #[test]
     fn pendulum_jacobians_match_central_differences() {
-        let p = Pendulum::default();
-        let (x, u) = ([0.7, -1.3, 0.2, 0.4], [2.5]);
-        let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
-        assert!(p.jacobians(&x, &u, &mut fx, &mut fu).expect("ok"));
-        let h = 1e-6;
-        let (mut a, mut b) = ([0.0; 4], [0.0; 4]);
-        for c in 0..5 {
-            let ((xp, up), (xm, um)) = (shifted(x, u, c, h), shifted(x, u, c, -h));
-            p.step(&xp, &up, &mut a).expect("ok");
-            p.step(&xm, &um, &mut b).expect("ok");
-            for i in 0..4 {
-                let fd = (a[i] - b[i]) / (2.0 * h);
-                let an = if c < 4 { fx[i * 4 + c] } else { fu[i] };
-                assert!((fd - an).abs() < 1e-7, "d f{i} / d z{c}: {an} vs {fd}");
-            }
-        }
+        let worst = crate::check_model_jacobians(&Pendulum::default(), &[0.7, -1.3, 0.2, 0.4], &[2.5])
+            .expect("check")
+            .expect("analytic");
+        assert!(worst.max_rel_error < 1e-7, "{worst:?}");
     }
 
     #[test]

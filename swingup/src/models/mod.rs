@@ -179,40 +179,6 @@ impl<G: PendulumRegression> ddp::Dynamics for KnownHand<G> {
     }
 }
 
-/// For tests: each entry of $f_x$, $f_u$ of `model` at $(x, u)$ with its
-/// central difference (step $10^{-6}$), as (row, input, analytic, difference),
-/// inputs $0..4$ the state and 4 the control.
-#[cfg(test)]
-pub(crate) fn jacobian_against_differences(
-    model: &impl trajopt::Model,
-    x: [f64; 4],
-    u: [f64; 1],
-) -> Vec<(usize, usize, f64, f64)> {
-    let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
-    assert!(model.jacobians(&x, &u, &mut fx, &mut fu).expect("ok"));
-    let h = 1e-6;
-    let (mut a, mut b) = (vec![0.0; 4], vec![0.0; 4]);
-    let mut out = Vec::with_capacity(20);
-    for c in 0..5 {
-        let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
-        if c < 4 {
-            xp[c] += h;
-            xm[c] -= h;
-        } else {
-            up[0] += h;
-            um[0] -= h;
-        }
-        model.step(&xp, &up, &mut a).expect("ok");
-        model.step(&xm, &um, &mut b).expect("ok");
-        for i in 0..4 {
-            let fd = (a[i] - b[i]) / (2.0 * h);
-            let an = if c < 4 { fx[i * 4 + c] } else { fu[i] };
-            out.push((i, c, an, fd));
-        }
-    }
-    out
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -220,12 +186,10 @@ mod tests {
     use trajopt::Model;
 
     fn check_against_differences(model: &impl Model, x: [f64; 4], u: [f64; 1], tol: f64) {
-        for (i, c, an, fd) in jacobian_against_differences(model, x, u) {
-            assert!(
-                (fd - an).abs() < tol * an.abs().max(1.0),
-                "at {x:?}: d next[{i}] / d z[{c}]: {an} vs {fd}"
-            );
-        }
+        let worst = trajopt::check_model_jacobians(model, &x, &u)
+            .expect("check")
+            .expect("analytic");
+        assert!(worst.max_rel_error < tol, "at {x:?}: {worst:?}");
     }
 
     fn model_of(n: usize, spread: f64, kernel: Kernel) -> LearnedModel {

@@ -474,21 +474,10 @@ mod tests {
         let mut j = [0.0; 5];
         let g = m.delta_omega(&z, Some(&mut j));
         prop_assert_eq!(g, m.delta_omega(&z, None));
-        for c in 0..5 {
-            let h = 1e-6 * z[c].abs().max(1.0);
-            let (mut zp, mut zm) = (z, z);
-            zp[c] += h;
-            zm[c] -= h;
-            let fd = (m.delta_omega(&zp, None) - m.delta_omega(&zm, None)) / (2.0 * h);
-            prop_assert!(
-                (fd - j[c]).abs() < 1e-7 * j[c].abs().max(1.0),
-                "d g / d z[{}] at {:?}: {} vs {}",
-                c,
-                z,
-                j[c],
-                fd
-            );
-        }
+        let worst =
+            ddp::strategies::check_jacobian(|z| vec![m.delta_omega(&z.try_into().expect("5 inputs"), None)], &z, &j)
+                .expect("check");
+        prop_assert!(worst.max_rel_error < 1e-7, "at {:?}: {:?}", z, worst);
         Ok(())
     }
 
@@ -591,8 +580,9 @@ mod tests {
         model.step(&[0.0; 4], &[0.0], &mut next).expect("step");
         assert_eq!(next, vec![0.0; 4]);
         let (x, u) = ([2.0, -3.0, 0.2, 0.5], [4.0]);
-        for (i, c, an, fd) in crate::models::jacobian_against_differences(&model, x, u) {
-            assert!((fd - an).abs() < 1e-7, "d next[{i}] / d z[{c}]: {an} vs {fd}");
-        }
+        let worst = trajopt::check_model_jacobians(&model, &x, &u)
+            .expect("check")
+            .expect("analytic");
+        assert!(worst.max_rel_error < 1e-7, "{worst:?}");
     }
 }

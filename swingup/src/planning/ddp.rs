@@ -460,20 +460,11 @@ mod tests {
         let (x, u) = ([0.4, -1.2, 0.8, 0.3], [13.0]);
         let mut d = CostDerivatives::zeros(4, 1);
         cost.running_derivatives(5, &x, &u, &mut d);
-        let h = 1e-6;
-        for c in 0..5 {
-            let (mut xp, mut xm, mut up, mut um) = (x, x, u, u);
-            if c < 4 {
-                xp[c] += h;
-                xm[c] -= h;
-            } else {
-                up[0] += h;
-                um[0] -= h;
-            }
-            let fd = (cost.running(5, &xp, &up) - cost.running(5, &xm, &um)) / (2.0 * h);
-            let an = if c < 4 { d.lx[c] } else { d.lu[0] };
-            assert!((fd - an).abs() < 1e-5 * an.abs().max(1.0), "{c}: {an} vs {fd}");
-        }
+        let z: Vec<f64> = x.iter().chain(&u).copied().collect();
+        let analytic: Vec<f64> = d.lx.iter().chain(&d.lu).copied().collect();
+        let worst =
+            ddp::strategies::check_jacobian(|z| vec![cost.running(5, &z[..4], &z[4..])], &z, &analytic).expect("check");
+        assert!(worst.max_rel_error < 1e-5, "{worst:?}");
         // diagonal weights: 2 q_i on the diagonal, plus 2 w_b for the active hand bound
         let p = &cfg.planner;
         assert!((d.lxx[0] - 2.0 * p.state_weights[0]).abs() < 1e-12);

@@ -195,18 +195,10 @@ mod tests {
             let mut g = [0.0; 5];
             let r = sup.residual(&q, Some(&mut g));
             assert!(r > 0.0 && r <= 10.0 + 1e-12);
-            for j in 0..5 {
-                let h = 1e-6 * (1.0 + q[j].abs());
-                let (mut a, mut b) = (q, q);
-                a[j] += h;
-                b[j] -= h;
-                let fd = (sup.residual(&a, None) - sup.residual(&b, None)) / (2.0 * h);
-                assert!(
-                    (fd - g[j]).abs() < 1e-5 * (1.0 + g[j].abs()),
-                    "d/dz{j} at {q:?}: {} vs {fd}",
-                    g[j]
-                );
-            }
+            let worst =
+                ddp::strategies::check_jacobian(|z| vec![sup.residual(&z.try_into().expect("5 inputs"), None)], &q, &g)
+                    .expect("check");
+            assert!(worst.max_rel_error < 1e-5, "at {q:?}: {worst:?}");
         }
         // far from all data the penalty is its full weight; on the data, less
         let far = sup.residual(&[30.0, 30.0, 30.0, 30.0, 300.0], None);
