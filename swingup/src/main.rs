@@ -471,6 +471,18 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         },
     )?;
     bar.finish_and_clear();
+    let mut report = report;
+    // a report rewritten from saved runs keeps the grid's measured wall time
+    if let Some(previous) = std::fs::read_to_string(out.join("experiments.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<swingup::experiments::ExperimentsReport>(&text).ok())
+        && report.keep_wall_time_of(&previous)
+    {
+        println!(
+            "kept the wall time measured when these runs were made ({:.0} s)",
+            report.seconds
+        );
+    }
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
     write_atomic(

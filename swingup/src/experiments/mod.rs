@@ -208,9 +208,38 @@ pub struct ExperimentsReport {
     #[serde(default)]
     pub threads: usize,
     /// Runs that invocation made (the others were read back from the runs
-    /// file: `--resume`, `--report-only`).
+    /// file: `--resume`, `--report-only`); `None` in reports written
+    /// before this was recorded, whose wall time is that of the invocation
+    /// that wrote them, whatever part of the grid it ran.
     #[serde(default)]
-    pub ran: usize,
+    pub ran: Option<usize>,
+}
+
+impl ExperimentsReport {
+    /// Carries the measured wall time (and its thread count) of `previous`
+    /// over to this report when this one ran nothing itself (`--report-only`,
+    /// or `--resume` with the grid complete) and both cover exactly the same
+    /// runs: the same experiment, variant, seed and code version, each once.
+    /// Regenerating a report from saved runs then keeps the grid's measured
+    /// wall time instead of losing it. Returns whether it did.
+    pub fn keep_wall_time_of(&mut self, previous: &ExperimentsReport) -> bool {
+        let keys = |r: &ExperimentsReport| {
+            let mut k: Vec<(String, String, u64, String)> = r
+                .runs
+                .iter()
+                .map(|s| (s.experiment.clone(), s.variant.clone(), s.seed, s.code_version.clone()))
+                .collect();
+            k.sort();
+            k
+        };
+        let same = self.ran == Some(0) && previous.ran != Some(0) && keys(self) == keys(previous);
+        if same {
+            self.seconds = previous.seconds;
+            self.threads = previous.threads;
+            self.ran = previous.ran;
+        }
+        same
+    }
 }
 
 /// The learning-from-scratch variants of `beyond`: model and name.
@@ -467,7 +496,7 @@ pub fn run_experiments(
         claims,
         seconds: start.elapsed().as_secs_f64(),
         threads: rayon::current_num_threads(),
-        ran,
+        ran: Some(ran),
     })
 }
 

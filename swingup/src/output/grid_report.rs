@@ -35,12 +35,16 @@ pub fn provenance(report: &ExperimentsReport) -> String {
         ),
     };
     let wall = match report.ran {
-        0 => "written from saved runs (no wall time measured)".to_string(),
-        n if n == report.runs.len() => format!(
+        Some(0) => "written from saved runs (no wall time measured)".to_string(),
+        None => format!(
+            "{:.0} s of wall time on {} threads for the invocation that wrote the report (its share of the runs not recorded)",
+            report.seconds, report.threads
+        ),
+        Some(n) if n == report.runs.len() => format!(
             "all run by one invocation in {:.0} s of wall time on {} threads",
             report.seconds, report.threads
         ),
-        n => format!(
+        Some(n) => format!(
             "{n} of them run by the invocation that wrote this, in {:.0} s of wall time on {} threads",
             report.seconds, report.threads
         ),
@@ -156,7 +160,7 @@ mod tests {
             claims: vec![],
             seconds: 12.0,
             threads: 2,
-            ran: 2,
+            ran: Some(2),
         };
         let one = provenance(&report(runs.clone()));
         assert!(one.starts_with("2 runs, all made at commit test"), "{one}");
@@ -165,7 +169,7 @@ mod tests {
             "{one}"
         );
         let saved = ExperimentsReport {
-            ran: 0,
+            ran: Some(0),
             ..report(runs.clone())
         };
         assert!(
@@ -180,5 +184,49 @@ mod tests {
             mixed.contains("1 at commit test") && mixed.contains("1 at an unrecorded commit"),
             "{mixed}"
         );
+    }
+    /// A report rewritten from saved runs keeps the measured wall time of
+    /// the report it replaces when the runs are the same, and only then.
+    #[test]
+    fn a_rewritten_report_keeps_the_measured_wall_time() {
+        let runs = vec![
+            summary("lambda", "lambda=1e3", 1, Some(2), 1.0),
+            summary("lambda", "lambda=1e3", 2, None, 1.0),
+        ];
+        let report = |runs: Vec<RunSummary>, seconds, ran: usize| ExperimentsReport {
+            settings: ExperimentSettings::quick(),
+            experiments: vec![],
+            runs,
+            variants: vec![],
+            claims: vec![],
+            seconds,
+            threads: 2,
+            ran: Some(ran),
+        };
+        let measured = report(runs.clone(), 5576.0, 2);
+        // the same runs read back in the other order
+        let mut rewritten = report(runs.iter().rev().cloned().collect(), 0.1, 0);
+        assert!(rewritten.keep_wall_time_of(&measured));
+        assert!(provenance(&rewritten).contains("in 5576 s of wall time on 2 threads"));
+        // another run set, or a report that ran something itself, keeps its own
+        let mut fewer = report(runs[..1].to_vec(), 0.1, 0);
+        assert!(!fewer.keep_wall_time_of(&measured));
+        assert!(provenance(&fewer).contains("no wall time measured"));
+        let mut other_code = report(runs.clone(), 0.1, 0);
+        other_code.runs[0].code_version = "commit other".into();
+        assert!(!other_code.keep_wall_time_of(&measured));
+        // a report from before `ran` was recorded keeps its old meaning
+        let legacy: ExperimentsReport = serde_json::from_str(
+            &serde_json::to_string(&measured)
+                .expect("json")
+                .replace(",\"ran\":2", ""),
+        )
+        .expect("legacy report");
+        assert_eq!(legacy.ran, None);
+        let mut from_legacy = report(runs.clone(), 0.1, 0);
+        assert!(from_legacy.keep_wall_time_of(&legacy));
+        assert!(provenance(&from_legacy).contains("5576 s of wall time on 2 threads for the invocation"));
+        let mut ran = report(runs, 30.0, 1);
+        assert!(!ran.keep_wall_time_of(&measured) && ran.seconds == 30.0);
     }
 }

@@ -378,7 +378,7 @@ mod tests {
             claims: vec![],
             seconds: 0.0,
             threads: 1,
-            ran: 0,
+            ran: Some(0),
         }
     }
 
