@@ -5,6 +5,8 @@ pub mod basis;
 pub mod bspline;
 pub mod error;
 pub mod fit;
+#[cfg(feature = "nalgebra")]
+pub mod nalgebra_convert;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 pub mod wavelet;
