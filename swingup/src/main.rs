@@ -187,7 +187,7 @@ fn run_command() -> anyhow::Result<()> {
 
 fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     use swingup::experiments::sensitivity::{
-        code_version, default_perturbations, learned_model_error, markdown, open_loop_tolerance,
+        SensitivityReport, code_version, default_perturbations, learned_model_error, open_loop_tolerance,
     };
     let perturbations = default_perturbations();
     println!(
@@ -205,18 +205,26 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     );
     let model_error = learned_model_error(&cfg, args.model_seeds, args.model_trials)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
-    let md = markdown(&rows, Some(&model_error), &version);
-    let json = serde_json::json!({ "tolerance": rows, "learned_model_error": model_error });
+    let report = SensitivityReport {
+        version,
+        tolerance: rows,
+        learned_model_error: model_error,
+    };
+    let md = report.markdown();
     write_atomic(
         &args.out.join("sensitivity.json"),
-        &serde_json::to_string_pretty(&json)?,
+        &serde_json::to_string_pretty(&report)?,
     )?;
     write_atomic(&args.out.join("sensitivity.md"), &md)?;
     print!("{md}");
     println!("written: {}", args.out.join("sensitivity.md").display());
     if let Some(readme) = &args.update_readme {
-        let short = swingup::experiments::sensitivity::readme_summary(&rows, &model_error, &version);
-        run_report::update_between(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", &short)?;
+        run_report::update_between(
+            readme,
+            "<!-- sensitivity:start -->",
+            "<!-- sensitivity:end -->",
+            &report.readme_summary(),
+        )?;
         println!("updated the sensitivity summary in {}", readme.display());
     }
     Ok(())

@@ -185,6 +185,32 @@ pub struct ModelErrorReport {
     pub rows: Vec<ModelErrorRow>,
 }
 
+/// What `swingup sensitivity` saves (`sensitivity.json`): the tolerance
+/// rows, the learned model's error, and the code version that made them,
+/// from which [`SensitivityReport::readme_summary`] rewrites the README's
+/// block exactly.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SensitivityReport {
+    /// The code version, as [`code_version`] gives it (e.g. `commit f3b5b3e`).
+    pub version: String,
+    /// One row per perturbed planning model ([`open_loop_tolerance`]).
+    pub tolerance: Vec<SensitivityRow>,
+    /// The pure LWR's error along the exact plan ([`learned_model_error`]).
+    pub learned_model_error: ModelErrorReport,
+}
+
+impl SensitivityReport {
+    /// The full report ([`markdown`]).
+    pub fn markdown(&self) -> String {
+        markdown(&self.tolerance, Some(&self.learned_model_error), &self.version)
+    }
+
+    /// The README's block ([`readme_summary`]).
+    pub fn readme_summary(&self) -> String {
+        readme_summary(&self.tolerance, &self.learned_model_error, &self.version)
+    }
+}
+
 /// Runs learning with the pure LWR (`cfg` with `model.kind = lwr`) for
 /// seeds `1..=seeds` and up to `max_trials` trials, refits its model after
 /// each trial, and measures the model's error along the exact model's
@@ -406,7 +432,7 @@ pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, v
     }
     let _ = writeln!(
         md,
-        "\n(`swingup sensitivity --out results --update-readme README.md` at {version}.)"
+        "\n(`swingup sensitivity --out results --update-readme swingup/README.md` at {version}.)"
     );
     md
 }

@@ -1,0 +1,88 @@
+//! The READMEs' generated sections are what their generating commands would
+//! write from the saved results in `results/`: a table typed by hand, or
+//! results regenerated without rewriting the README (or the other way
+//! round), fails here.
+
+use std::path::{Path, PathBuf};
+
+use swingup::experiments::ExperimentsReport;
+use swingup::experiments::sensitivity::SensitivityReport;
+
+fn root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+fn read(relative: &str) -> String {
+    let path = root().join(relative);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()))
+}
+
+/// The text between `<!-- NAME:start -->\n` and `<!-- NAME:end -->`, as
+/// `swingup::output::run_report::update_between` writes it.
+fn section<'a>(text: &'a str, file: &str, name: &str) -> &'a str {
+    let start = format!("<!-- {name}:start -->\n");
+    let end = format!("<!-- {name}:end -->");
+    let a = text
+        .find(&start)
+        .unwrap_or_else(|| panic!("{file} has no {start:?} line"))
+        + start.len();
+    let b = text[a..]
+        .find(&end)
+        .unwrap_or_else(|| panic!("{file} has no {end:?} line after {start:?}"));
+    &text[a..a + b]
+}
+
+#[test]
+fn the_claims_table_is_the_one_results_gives() {
+    let report: ExperimentsReport =
+        serde_json::from_str(&read("results/experiments.json")).expect("results/experiments.json parses");
+    let expected = format!(
+        "{}\n\n{}",
+        swingup::output::grid_report::provenance(&report),
+        swingup::output::grid_report::claims_table(&report.claims)
+    );
+    let readme = read("README.md");
+    assert_eq!(
+        section(&readme, "README.md", "claims"),
+        expected,
+        "README.md's claims table is stale: run `cargo run --release -p swingup -- experiments --out results --resume --report-only --update-readme README.md`"
+    );
+    // the full report in results/ is the one the same saved runs give
+    assert_eq!(
+        read("results/experiments.md"),
+        swingup::output::grid_report::markdown(&report),
+        "results/experiments.md is stale against results/experiments.json"
+    );
+}
+
+#[test]
+fn the_sensitivity_summary_is_the_one_results_gives() {
+    let report: SensitivityReport =
+        serde_json::from_str(&read("results/sensitivity.json")).expect("results/sensitivity.json parses");
+    let readme = read("swingup/README.md");
+    assert_eq!(
+        section(&readme, "swingup/README.md", "sensitivity"),
+        report.readme_summary(),
+        "swingup/README.md's sensitivity summary is stale: run `cargo run --release -p swingup -- sensitivity --out results --update-readme swingup/README.md`"
+    );
+    assert_eq!(
+        read("results/sensitivity.md"),
+        report.markdown(),
+        "results/sensitivity.md is stale against results/sensitivity.json"
+    );
+}
+
+/// The section finder reads what `update_between` writes.
+#[test]
+fn sections_round_trip_through_update_between() {
+    let dir = std::env::temp_dir().join(format!("nprl-readme-test-{}", std::process::id()));
+    std::fs::create_dir_all(&dir).expect("temp dir");
+    let path = dir.join("README.md");
+    std::fs::write(&path, "intro\n<!-- t:start -->\nold\n<!-- t:end -->\noutro\n").expect("write");
+    swingup::output::run_report::update_between(&path, "<!-- t:start -->", "<!-- t:end -->", "new\nlines\n")
+        .expect("update");
+    let text = std::fs::read_to_string(&path).expect("read");
+    assert_eq!(section(&text, "README.md", "t"), "new\nlines\n");
+    assert!(text.starts_with("intro\n") && text.ends_with("<!-- t:end -->\noutro\n"));
+    std::fs::remove_dir_all(&dir).expect("cleanup");
+}
