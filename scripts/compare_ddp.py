@@ -16,7 +16,7 @@ semi-implicit IntegratedActionModelEuler, weighted-quadratic costs scaled by
 dt), the same discrete problems as ours (checked for the pendulum by
 scripts/golden/crocoddyl_golden.py); its weighted quadratic has a 1/2 that
 ddp's QuadraticCost does not, so the weights below are twice those of
-ddp::problems and of the unicycle in ddp's ddp_timing example. Our `ddp` runs with default settings
+ddp::problems and of the unicycle in the ddp_timing driver (scripts/drivers). Our `ddp` runs with default settings
 (iLQR: the `pendulum` and `cartpole` rows; `pendulum-ddp` uses the pendulum's
 second derivatives). Iteration counts: Crocoddyl counts the final iteration
 whose backward pass meets its stopping test (it still takes a step); ours
@@ -100,7 +100,7 @@ def croc_solve(make, horizon, repeats, maxiter=200):
 
 
 def ours(repeats):
-    cmd = ["cargo", "run", "--release", "-q", "-p", "nprl-ddp", "--example", "ddp_timing", "--", str(repeats)]
+    cmd = ["cargo", "run", "--release", "-q", "-p", "nprl-drivers", "--bin", "ddp_timing", "--", str(repeats)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     return {(r["system"], r["horizon"]): r for r in map(json.loads, out.strip().splitlines())}
 

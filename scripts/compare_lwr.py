@@ -12,7 +12,7 @@ first use. For each training size it generates seeded data
 
     inputs a, b, c ~ U(-1, 1),   y = sin(3 a) + 0.5 b + 0.1 N(0, 1)   (c irrelevant)
 
-writes it to a JSON file, runs `cargo run --release -p nprl-lwr --example compare_timing`
+writes it to a JSON file, runs `cargo run --release -p nprl-drivers --bin lwr_timing`
 on it (with all cores, and where KernelReg runs again with RAYON_NUM_THREADS=1),
 and times on the same data:
 
@@ -66,7 +66,7 @@ def run_rust(path, threads=None):
     env = dict(os.environ)
     if threads is not None:
         env["RAYON_NUM_THREADS"] = str(threads)
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-lwr", "--example", "compare_timing", "--", str(path)]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_timing", "--", str(path)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True, env=env).stdout
     return [json.loads(line) for line in out.splitlines() if line.startswith("{")][-1]
 
@@ -143,7 +143,7 @@ def main():
         else:
             sizes.append(int(a))
     sizes = sizes or [400, 10000]
-    subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "nprl-lwr", "--example", "compare_timing"], cwd=ROOT, check=True)
+    subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_timing"], cwd=ROOT, check=True)
 
     print(f"y = sin(3a) + 0.5b + {NOISE} N(0,1), c irrelevant; {n_test} test points; threads: {os.cpu_count()} cores")
     head = f"{'method':<14}{'n':>7}{'tune':>11}{'tune / lwr':>12}{'per query':>11}{'query / lwr':>13}{'CV nMSE':>9}{'test nMSE':>10}  notes"

@@ -5,7 +5,7 @@
     (default: rosenbrock powell_singular rosenbrock10 rosenbrock50 quadratic10 trivial)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
-on first use, runs `cargo run --release -p nprl-trajopt --example powell_timing`,
+on first use, runs `cargo run --release -p nprl-drivers --bin powell_timing`,
 runs scipy's Powell on the same problems from the same starts at its default
 settings (xtol = ftol = 1e-4, maxiter = maxfev = 1000 n) in the same run, and
 prints for each problem the median time per solve, the ratio scipy / rust,
@@ -71,7 +71,7 @@ def main():
 
     table = problems()
     wanted = sys.argv[1:] or list(table)
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-trajopt", "--example", "powell_timing", "--", *wanted]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "powell_timing", "--", *wanted]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     rust = {r["problem"]: r for r in (json.loads(line) for line in out.splitlines() if line.startswith("{"))}
     print(
@@ -95,7 +95,7 @@ def main():
                 f"rust {r['seconds'] / r['evals'] * 1e9:.1f} ns (objective included)"
             )
     # the solver's own time per evaluation (the objective's time subtracted)
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-trajopt", "--example", "powell_timing", "--", "--overhead"]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "powell_timing", "--", "--overhead"]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     rows = [json.loads(line) for line in out.splitlines() if line.startswith("{")]
     print(

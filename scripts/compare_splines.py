@@ -4,12 +4,12 @@
     python3 scripts/compare_splines.py [SIZES...]      (default 100 1000 10000 100000)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
-on first use, runs `cargo run --release -p nprl-splines --example timing`, times the
+on first use, runs `cargo run --release -p nprl-drivers --bin splines_timing`, times the
 Python libraries on the same inputs in the same run, and prints for each
 operation and size the median time per call, the ratio python / rust, and
 whether the results agree (a checksum of each result, recomputed here).
 
-Compared operations (same inputs on both sides, see splines/examples/timing.rs):
+Compared operations (same inputs on both sides, see scripts/drivers/src/bin/splines_timing.rs):
   bspline_design_matrix  scipy.interpolate.BSpline.design_matrix (CSR) vs design_matrix_rows (CSR)
   wavedec / waverec      pywt.wavedec / pywt.waverec, db4, symmetric mode, maximal level
                          vs splines::wavelet (allocating API, and the planned allocation-free one)
@@ -72,7 +72,7 @@ def python_results(n):
 def main():
     ensure_venv(__file__)
     sizes = [int(a) for a in sys.argv[1:]] or [100, 1000, 10000, 100000]
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-splines", "--example", "timing", "--", *map(str, sizes)]
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "splines_timing", "--", *map(str, sizes)]
     rust = [json.loads(line) for line in subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout.splitlines() if line.startswith("{")]
     print(f"{'operation':<34}{'n':>8}{'python':>12}{'rust':>12}{'ratio':>9}  agree")
     for n in sizes:

@@ -7,7 +7,7 @@ CasADi + IPOPT and Ceres on the same soft-dynamics pendulum swing-up (trajopt::p
                                          (defaults: lambda 1e2, trajopt's cap of 200 iterations; 150 1000)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
-on first use, runs `cargo run --release -p nprl-trajopt --example eq3_timing`, and
+on first use, runs `cargo run --release -p nprl-drivers --bin eq3_timing`, and
 solves the same problem (same bases, weights, lambda and starting point) with
   - scipy.optimize.least_squares, method 'trf', with the Jacobian's sparsity
     pattern (finite differences grouped by it) and tight inner tolerances
@@ -284,7 +284,7 @@ def main():
             max_iters = ["--max-iters", str(int(args[1]))]
         args = args[2:]
     horizons = [int(a) for a in args] or [150, 1000]
-    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-trajopt", "--example", "eq3_timing", "--", *max_iters, str(lam),
+    cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "eq3_timing", "--", *max_iters, str(lam),
            *map(str, horizons)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     ours = {(d["horizon"], d["mode"]): d for d in map(json.loads, (l for l in out.splitlines() if l.startswith("{")))}

@@ -2,7 +2,7 @@
 //! 100 to 5000 (best of several runs) and prints one JSON object per line:
 //! used by `scripts/compare_ddp.py`.
 //!
-//! `cargo run --release -p nprl-ddp --example ddp_timing [repeats]`
+//! `cargo run --release -p nprl-drivers --bin ddp_timing -- [repeats]`
 
 use std::time::Duration;
 

@@ -4,7 +4,7 @@
 //! Cholesky factorisation with its solve. Mean over repetitions, in
 //! microseconds; the machine may be shared, so read ratios within one run.
 //!
-//! `cargo run --release -p nprl-trajopt --example eq3_parts -- [HORIZON]` (default 1000)
+//! `cargo run --release -p nprl-drivers --bin eq3_parts -- [HORIZON]` (default 1000)
 
 use std::time::Instant;
 

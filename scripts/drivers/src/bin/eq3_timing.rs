@@ -5,7 +5,7 @@
 //! iterations, evaluations, factorisations, final cost and its parts.
 //! `scripts/compare_trajopt.py` runs it beside scipy on the same problem.
 //!
-//! `cargo run --release -p nprl-trajopt --example eq3_timing -- [--max-iters K] [LAMBDA] [HORIZONS...]`
+//! `cargo run --release -p nprl-drivers --bin eq3_timing -- [--max-iters K] [LAMBDA] [HORIZONS...]`
 //! (`--max-iters` replaces the solver's default iteration cap of 200: at
 //! lambda >= 1e3 the swing-up needs a few hundred iterations to converge).
 

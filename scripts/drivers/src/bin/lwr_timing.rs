@@ -2,7 +2,7 @@
 //! for the side-by-side comparison with statsmodels' `KernelReg` and
 //! scikit-learn's neighbour regressors.
 //!
-//! `cargo run --release -p nprl-lwr --example compare_timing -- DATA.json`
+//! `cargo run --release -p nprl-drivers --bin lwr_timing -- DATA.json`
 //!
 //! `DATA.json` holds `train_x` ($n \times d$), `train_y` ($n$), `test_x`,
 //! `test_y`. The model is local linear with the Gaussian kernel, starting

@@ -1,7 +1,7 @@
 //! Times `trajopt::powell` on the test problems, one JSON line per problem:
 //!
 //! ```text
-//! cargo run --release -p nprl-trajopt --example powell_timing [PROBLEM...]
+//! cargo run --release -p nprl-drivers --bin powell_timing -- [PROBLEM...]
 //! {"problem":"rosenbrock","n":2,"seconds":...,"evals":...,"iterations":...,"cost":...,"status":"ConvergedCost","x":[...]}
 //! ```
 //!

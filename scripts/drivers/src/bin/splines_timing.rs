@@ -8,7 +8,7 @@
 //! clamped cubic basis with $\max(n / 10, 4)$ coefficients on $[0, 1]$;
 //! the signal $x_k = \sin(0.37 k) + 0.1 \cos(1.7 k)$.
 //!
-//! `cargo run --release -p nprl-splines --example timing -- 100 1000 10000 100000`
+//! `cargo run --release -p nprl-drivers --bin splines_timing -- 100 1000 10000 100000`
 
 use std::hint::black_box;
 use std::time::Instant;
