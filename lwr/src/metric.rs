@@ -103,6 +103,11 @@ impl FullMetric {
         s * BOUND_SLACK
     }
 
+    /// The rows of $A$.
+    pub(crate) fn rows(&self) -> std::slice::ChunksExact<'_, f64> {
+        self.a.chunks_exact(self.d)
+    }
+
     /// $A x$.
     pub(crate) fn apply(&self, x: &[f64]) -> Vec<f64> {
         self.a
