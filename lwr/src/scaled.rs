@@ -279,7 +279,10 @@ mod tests {
                     db.within_sq(&q, metric, radius * radius, &mut want);
                     let (got, want) = (sorted(got), sorted(want));
                     let same = got.len() == want.len()
-                        && got.iter().zip(&want).all(|(a, b)| a.0 == b.0 && a.1.to_bits() == b.1.to_bits());
+                        && got
+                            .iter()
+                            .zip(&want)
+                            .all(|(a, b)| a.0 == b.0 && a.1.to_bits() == b.1.to_bits());
                     assert!(same, "{metric:?} r {radius}: {} vs {} points", got.len(), want.len());
                 }
             }
@@ -290,6 +293,9 @@ mod tests {
     /// $d^2 <$ (support radius)$^2$, by a linear scan, in index order.
     fn brute_force_fit(model: &LwrModel, q: &[f64], want: Want) -> crate::Result<LocalFit> {
         let db = model.database();
+        if db.is_empty() {
+            return Err(crate::LwrError::EmptyDatabase);
+        }
         let settings = model.settings();
         let metric = Metric::of_settings(settings, db.n_inputs());
         let radius = settings.support_radius();
