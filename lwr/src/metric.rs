@@ -108,22 +108,6 @@ impl FullMetric {
         self.a.chunks_exact(self.d)
     }
 
-    /// $A x$.
-    pub(crate) fn apply(&self, x: &[f64]) -> Vec<f64> {
-        self.a
-            .chunks_exact(self.d)
-            .map(|row| row.iter().zip(x).map(|(a, x)| a * x).sum())
-            .collect()
-    }
-
-    /// $\max_k \sum_j |a_{kj} x_j|$: the magnitude of the terms of $A x$.
-    pub(crate) fn abs_apply_max(&self, x: &[f64]) -> f64 {
-        self.a
-            .chunks_exact(self.d)
-            .map(|row| row.iter().zip(x).map(|(a, x)| (a * x).abs()).sum::<f64>())
-            .fold(0.0, f64::max)
-    }
-
     /// $(G v)_j$.
     #[inline]
     pub(crate) fn g_row_dot(&self, j: usize, v: &[f64]) -> f64 {
