@@ -6,6 +6,7 @@ use crate::database::Database;
 use crate::error::{LwrError, Result};
 use crate::factor::{Factor, factorise};
 use crate::metric::Metric;
+use crate::scaled::ScaledIndex;
 use crate::settings::{Degree, Kernel, LwrSettings};
 
 /// What to compute beyond the coefficients.
@@ -272,10 +273,13 @@ thread_local! {
 }
 
 /// Fits at `q` with this thread's scratch buffers: finds the neighbours
-/// with the tree, sorts them by index and calls [`fit_found`]. The caller
-/// has validated `settings`, `metric` (of the settings) and `q`.
+/// with `index` (the tree in the metric's scaled coordinates, which gives
+/// the same neighbours and distances as `db`'s own tree), sorts them by
+/// index and calls [`fit_found`]. The caller has validated `settings`,
+/// `metric` (of the settings, and `index`'s) and `q`.
 pub(crate) fn local_fit(
     db: &Database,
+    index: &ScaledIndex,
     settings: &LwrSettings,
     metric: &Metric,
     q: &[f64],
@@ -287,7 +291,7 @@ pub(crate) fn local_fit(
     let fit_in = |scratch: &mut Scratch| {
         let radius = settings.support_radius();
         scratch.found.clear();
-        db.within_sq(q, metric, radius * radius, &mut scratch.found);
+        index.within(db, metric, q, radius, &mut scratch.found);
         scratch.found.sort_unstable_by_key(|&(i, _)| i);
         fit_found(db, settings, metric, q, want, scratch)
     };

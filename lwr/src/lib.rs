@@ -13,6 +13,7 @@ mod metric;
 mod model;
 #[cfg(feature = "nalgebra")]
 mod nalgebra_interop;
+mod scaled;
 mod settings;
 #[cfg(feature = "proptest")]
 pub mod strategies;

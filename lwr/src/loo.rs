@@ -10,6 +10,7 @@ use crate::fit::{LocalFit, Scratch, Want, fit_found};
 use crate::kdtree::{KdTree, Leaf};
 use crate::metric::{FullMetric, Metric, diag_dist2};
 use crate::model::LwrModel;
+use crate::scaled::ScaledMap;
 use crate::settings::LwrSettings;
 
 /// Smallest $1 - L_{ii}$ for which a leave-one-out residual is computed.
@@ -89,11 +90,6 @@ fn scan_full(
 /// Largest number of points in a group of [`QueryGroups`].
 const GROUP: usize = 32;
 
-/// Relative inflation of the support radius for the candidate search in the
-/// scaled coordinates, against the rounding of $m_j x_j - m_j q_j$ (or
-/// $A x - A q$) compared with $m_j (x_j - q_j)$ (or $A (x - q)$).
-const CANDIDATE_SLACK: f64 = 1e-9;
-
 /// The database's points in the coordinates of the fit's metric, for
 /// batched leave-one-out: a k-d tree over $s_i = (m_j x_{ij})_j$, or
 /// $s_i = A x_i$ for a full metric, in which the distance is Euclidean.
@@ -119,6 +115,7 @@ struct QueryGroups {
     r2: f64,
     /// The Euclidean metric of the scaled coordinates.
     euclidean: Metric,
+    /// Number of coordinates of the tree's points.
     d: usize,
 }
 
@@ -126,30 +123,21 @@ impl QueryGroups {
     fn new(db: &Database, metric: &Metric, radius: f64) -> Self {
         let d = db.n_inputs();
         let inputs = db.inputs();
-        // scaled coordinates, and the largest magnitude of the terms summed
-        // in them (what the rounding of their differences scales with)
+        // scaled coordinates (without the rows the metric ignores), and the
+        // largest magnitude of the terms summed in them (what the rounding of
+        // their differences scales with)
+        let map = ScaledMap::new(metric, d);
+        let k = map.dim();
         let mut magnitude = 0.0f64;
-        let scaled: Vec<f64> = match metric {
-            Metric::Diagonal(scales) => inputs
-                .iter()
-                .enumerate()
-                .map(|(t, x)| {
-                    let v = x * scales[t % d];
-                    magnitude = magnitude.max(v.abs());
-                    v
-                })
-                .collect(),
-            Metric::Full(full) => inputs
-                .chunks_exact(d)
-                .flat_map(|x| {
-                    magnitude = magnitude.max(full.abs_apply_max(x));
-                    full.apply(x)
-                })
-                .collect(),
-        };
-        if !magnitude.is_finite() {
-            // scales so large that the scaled coordinates overflow: group the
-            // points in their own units and take every point as a candidate
+        let mut scaled = Vec::with_capacity(db.len() * k);
+        for x in inputs.chunks_exact(d) {
+            magnitude = magnitude.max(map.push(x, &mut scaled));
+        }
+        if k == 0 || !magnitude.is_finite() {
+            // a metric that ignores every input (all points are neighbours),
+            // or scales so large that the scaled coordinates overflow: group
+            // the points in their own units and take every point as a
+            // candidate
             return Self {
                 tree: KdTree::build(inputs, d),
                 r2: f64::INFINITY,
@@ -157,12 +145,11 @@ impl QueryGroups {
                 d,
             };
         }
-        let inflated = radius * (1.0 + CANDIDATE_SLACK) + CANDIDATE_SLACK * magnitude * d as f64;
         Self {
-            tree: KdTree::build(&scaled, d),
-            r2: inflated * inflated,
-            euclidean: Metric::Diagonal(vec![1.0; d]),
-            d,
+            tree: KdTree::build(&scaled, k),
+            r2: ScaledMap::inflated_r2(radius, magnitude, d),
+            euclidean: Metric::Diagonal(vec![1.0; k]),
+            d: k,
         }
     }
 

@@ -103,20 +103,9 @@ impl FullMetric {
         s * BOUND_SLACK
     }
 
-    /// $A x$.
-    pub(crate) fn apply(&self, x: &[f64]) -> Vec<f64> {
-        self.a
-            .chunks_exact(self.d)
-            .map(|row| row.iter().zip(x).map(|(a, x)| a * x).sum())
-            .collect()
-    }
-
-    /// $\max_k \sum_j |a_{kj} x_j|$: the magnitude of the terms of $A x$.
-    pub(crate) fn abs_apply_max(&self, x: &[f64]) -> f64 {
-        self.a
-            .chunks_exact(self.d)
-            .map(|row| row.iter().zip(x).map(|(a, x)| (a * x).abs()).sum::<f64>())
-            .fold(0.0, f64::max)
+    /// The rows of $A$.
+    pub(crate) fn rows(&self) -> std::slice::ChunksExact<'_, f64> {
+        self.a.chunks_exact(self.d)
     }
 
     /// $(G v)_j$.

@@ -9,6 +9,7 @@ use crate::database::{Database, DatabaseData};
 use crate::error::{LwrError, Result};
 use crate::fit::{LocalFit, Want, local_fit};
 use crate::metric::Metric;
+use crate::scaled::ScaledIndex;
 use crate::settings::LwrSettings;
 
 /// How much a [`Prediction`] can be trusted, from best to worst.
@@ -157,6 +158,9 @@ pub struct LwrModel {
     /// and $A^\top A$ of a full metric computed once.
     metric: Metric,
     db: Database,
+    /// The points in the metric's scaled coordinates, for the fits'
+    /// neighbour searches (see `scaled.rs`).
+    index: ScaledIndex,
 }
 
 #[derive(Serialize, Deserialize)]
@@ -192,7 +196,13 @@ impl LwrModel {
     pub fn from_database(db: Database, settings: LwrSettings) -> Result<Self> {
         settings.validate(db.n_inputs())?;
         let metric = Metric::of_settings(&settings, db.n_inputs());
-        Ok(Self { settings, metric, db })
+        let index = ScaledIndex::new(&db, &metric);
+        Ok(Self {
+            settings,
+            metric,
+            db,
+            index,
+        })
     }
 
     /// The settings.
@@ -204,6 +214,9 @@ impl LwrModel {
     pub fn set_settings(&mut self, settings: LwrSettings) -> Result<()> {
         settings.validate(self.db.n_inputs())?;
         self.metric = Metric::of_settings(&settings, self.db.n_inputs());
+        if !self.index.is_of(&self.metric, self.db.n_inputs()) {
+            self.index = ScaledIndex::new(&self.db, &self.metric);
+        }
         self.settings = settings;
         Ok(())
     }
@@ -225,17 +238,21 @@ impl LwrModel {
 
     /// Stores one point; see [`Database::insert`].
     pub fn insert(&mut self, x: &[f64], y: &[f64]) -> Result<usize> {
-        self.db.insert(x, y)
+        let i = self.db.insert(x, y)?;
+        self.index.extend(&self.db);
+        Ok(i)
     }
 
     /// Stores many points; see [`Database::insert_many`].
     pub fn insert_many<X: AsRef<[f64]>, Y: AsRef<[f64]>>(&mut self, xs: &[X], ys: &[Y]) -> Result<()> {
-        self.db.insert_many(xs, ys)
+        self.db.insert_many(xs, ys)?;
+        self.index.extend(&self.db);
+        Ok(())
     }
 
-    pub(crate) fn fit_with(&self, settings: &LwrSettings, metric: &Metric, q: &[f64], want: Want) -> Result<LocalFit> {
+    pub(crate) fn fit_with(&self, q: &[f64], want: Want) -> Result<LocalFit> {
         self.db.check_point_query(q)?;
-        local_fit(&self.db, settings, metric, q, want)
+        local_fit(&self.db, &self.index, &self.settings, &self.metric, q, want)
     }
 
     /// The mean $\hat y(q)$ only (no confidence sums: the cheapest query).
@@ -252,7 +269,7 @@ impl LwrModel {
     /// # Ok::<(), lwr::LwrError>(())
     /// ```
     pub fn predict_mean(&self, q: &[f64]) -> Result<Vec<f64>> {
-        let fit = self.fit_with(&self.settings, &self.metric, q, Want::default())?;
+        let fit = self.fit_with(q, Want::default())?;
         Ok(fit.beta[..self.db.n_outputs()].to_vec())
     }
 
@@ -281,7 +298,7 @@ impl LwrModel {
             confidence: true,
             jacobian: false,
         };
-        let fit = self.fit_with(&self.settings, &self.metric, q, want)?;
+        let fit = self.fit_with(q, want)?;
         Ok(self.prediction(&fit))
     }
 
@@ -326,7 +343,7 @@ impl LwrModel {
             confidence: true,
             jacobian: true,
         };
-        let fit = self.fit_with(&self.settings, &self.metric, q, want)?;
+        let fit = self.fit_with(q, want)?;
         let d = self.db.n_inputs();
         let jac = Mat::from_fn(self.db.n_outputs(), d, |o, j| fit.jacobian[o * d + j]);
         Ok((self.prediction(&fit), jac))
