@@ -170,7 +170,12 @@ impl System {
     /// The cost weights, target and start of the swing-up.
     pub fn weights(self) -> SwingUpWeights {
         let (state, control, terminal, target) = match self {
-            System::Pendulum => (vec![0.5 * DT, 0.05 * DT], vec![0.005 * DT], vec![50.0, 5.0], vec![PI, 0.0]),
+            System::Pendulum => (
+                vec![0.5 * DT, 0.05 * DT],
+                vec![0.005 * DT],
+                vec![50.0, 5.0],
+                vec![PI, 0.0],
+            ),
             System::CartPole | System::Acrobot => (
                 vec![0.5 * DT, 0.5 * DT, 0.05 * DT, 0.05 * DT],
                 vec![0.005 * DT],

@@ -85,7 +85,13 @@ impl Acrobot {
                 2.0 * a * s2 * (w1 + w2),
                 0.0,
             ],
-            [-g * m2 * l2 * c12, -g * m2 * l2 * c12 - a * c2 * w1 * w1, -2.0 * a * s2 * w1, 0.0, 1.0],
+            [
+                -g * m2 * l2 * c12,
+                -g * m2 * l2 * c12 - a * c2 * w1 * w1,
+                -2.0 * a * s2 * w1,
+                0.0,
+                1.0,
+            ],
         ];
         // d(M acc)/d theta2 = dM/d theta2 acc + M d acc/d theta2
         let dm = [-2.0 * a * s2, -a * s2, 0.0];
@@ -158,10 +164,15 @@ mod tests {
     fn cartesian_energy(p: &Acrobot, x: &[f64]) -> f64 {
         let (t1, t12) = (x[0], x[0] + x[1]);
         let (w1, w12) = (x[2], x[2] + x[3]);
-        let (y1, vx1, vy1) = (-p.length1 * t1.cos(), p.length1 * t1.cos() * w1, p.length1 * t1.sin() * w1);
+        let (y1, vx1, vy1) = (
+            -p.length1 * t1.cos(),
+            p.length1 * t1.cos() * w1,
+            p.length1 * t1.sin() * w1,
+        );
         let y2 = y1 - p.length2 * t12.cos();
         let (vx2, vy2) = (vx1 + p.length2 * t12.cos() * w12, vy1 + p.length2 * t12.sin() * w12);
-        0.5 * p.mass1 * (vx1 * vx1 + vy1 * vy1) + 0.5 * p.mass2 * (vx2 * vx2 + vy2 * vy2)
+        0.5 * p.mass1 * (vx1 * vx1 + vy1 * vy1)
+            + 0.5 * p.mass2 * (vx2 * vx2 + vy2 * vy2)
             + p.gravity * (p.mass1 * y1 + p.mass2 * y2)
     }
 
@@ -182,7 +193,10 @@ mod tests {
         // semi-implicit Euler: the energy error shrinks with the step
         let x0 = [2.0, -0.7, 0.5, 1.0];
         let drift = |dt: f64| {
-            let p = Acrobot { dt, ..Acrobot::default() };
+            let p = Acrobot {
+                dt,
+                ..Acrobot::default()
+            };
             let (mut x, mut next) = (x0.to_vec(), vec![0.0; 4]);
             let e0 = p.energy(&x);
             let mut worst: f64 = 0.0;
