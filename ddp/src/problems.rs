@@ -33,6 +33,29 @@
 //! $(100, 10)$. `trajopt`'s `TrackingCost` has no $\tfrac12$ either, so the
 //! same weights give the same task cost of a trajectory in both crates.
 //!
+//! # Physical parameters and their sources
+//!
+//! - Pendulum: a point mass of 1 kg on a massless 1 m rod, undamped,
+//!   $g = 9.81$ m/s², $\ddot\theta = u / (m l^2) - (g / l) \sin\theta$: the
+//!   pendulum of `ddp`'s cross-check against Crocoddyl
+//!   (`scripts/golden/crocoddyl_golden.py`: a Pinocchio revolute joint with
+//!   a 1 kg point mass 1 m below it).
+//! - Cart-pole: cart 1 kg, pole 0.1 kg, length 0.5 m, the numbers of Barto,
+//!   Sutton & Anderson, "Neuronlike adaptive elements that can solve
+//!   difficult learning control problems", IEEE Trans. SMC 13(5), 1983
+//!   (and of Gym's `CartPole`), but with the pole a point mass at the end of
+//!   a massless rod of length $l$ (their pole is a uniform rod of
+//!   half-length 0.5 m), no friction; the equations of motion are those of
+//!   Tedrake, *Underactuated Robotics*, ch. 3 (with $\theta = 0$ hanging
+//!   down), given at [`CartPole`].
+//! - Acrobot: two links of 1 m with 1 kg point masses at their ends,
+//!   driven at the elbow only (Spong, "The swing up control problem for the
+//!   acrobot", IEEE Control Systems 15(1), 1995; manipulator equation as in
+//!   Tedrake, ch. 3). Sutton & Barto's acrobot (*Reinforcement Learning*,
+//!   1998, §11.3) has the same masses and lengths but links with centres of
+//!   mass at 0.5 m and moments of inertia 1 kg m²; here all the mass is at
+//!   the link ends. Equations at [`Acrobot`].
+//!
 //! # Registry
 //!
 //! [`standard_instances`] lists each system at its standard horizons
@@ -45,7 +68,7 @@
 
 use std::f64::consts::PI;
 
-use crate::error::Result;
+use crate::error::{DdpError, Result};
 use crate::models::{Acrobot, CartPole, Pendulum, QuadraticCost};
 use crate::problem::{DdpProblem, Dynamics};
 
@@ -260,8 +283,18 @@ pub fn standard_instances() -> Vec<Instance> {
 }
 
 /// The standard instance named `name` (see [`Instance::name`]).
-pub fn by_name(name: &str) -> Option<Instance> {
-    standard_instances().into_iter().find(|i| i.name() == name)
+///
+/// # Errors
+/// [`DdpError::InvalidParameter`] naming `name` when no standard instance
+/// has it.
+pub fn by_name(name: &str) -> Result<Instance> {
+    standard_instances()
+        .into_iter()
+        .find(|i| i.name() == name)
+        .ok_or_else(|| DdpError::InvalidParameter {
+            name: "instance name",
+            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h100\")"),
+        })
 }
 
 /// One of the three models, so that every instance has the same type.
@@ -321,13 +354,19 @@ mod tests {
         let all = standard_instances();
         assert_eq!(all.len(), 8);
         for i in &all {
-            assert_eq!(by_name(&i.name()), Some(*i));
+            assert_eq!(by_name(&i.name()).ok(), Some(*i));
             let p = i.problem().expect("problem");
             assert_eq!(p.horizon(), i.horizon);
             assert_eq!(p.initial_state(), i.system.weights().initial_state.as_slice());
         }
-        assert_eq!(by_name("acrobot-h200").map(|i| i.horizon), Some(200));
-        assert_eq!(by_name("acrobot-h201"), None);
+        assert_eq!(by_name("acrobot-h200").map(|i| i.horizon).ok(), Some(200));
+        assert!(matches!(
+            by_name("acrobot-h201"),
+            Err(DdpError::InvalidParameter {
+                name: "instance name",
+                ..
+            })
+        ));
     }
 
     #[test]

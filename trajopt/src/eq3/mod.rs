@@ -297,6 +297,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         &self.model
     }
 
+    /// The stage cost $c_k$ (e.g. to evaluate one stage of a trajectory).
+    pub fn stage_cost(&self) -> &C {
+        &self.cost
+    }
+
     /// The parameter vector $\theta$ of coefficient matrices $C_x$
     /// (`n_state_coeffs` $\times n$) and $C_u$ (`n_control_coeffs` $\times m$).
     pub fn pack(&self, cx: &Mat<f64>, cu: &Mat<f64>) -> Result<Vec<f64>> {

@@ -50,6 +50,29 @@
 //! start: zero controls, and the states of their rollout (at rest hanging
 //! down), where $C$ equals DDP's initial cost.
 //!
+//! # Physical parameters and their sources
+//!
+//! - Pendulum: a point mass of 1 kg on a massless 1 m rod, undamped,
+//!   $g = 9.81$ m/s², $\ddot\theta = u / (m l^2) - (g / l) \sin\theta$: the
+//!   pendulum of `ddp`'s cross-check against Crocoddyl
+//!   (`scripts/golden/crocoddyl_golden.py`: a Pinocchio revolute joint with
+//!   a 1 kg point mass 1 m below it).
+//! - Cart-pole: cart 1 kg, pole 0.1 kg, length 0.5 m, the numbers of Barto,
+//!   Sutton & Anderson, "Neuronlike adaptive elements that can solve
+//!   difficult learning control problems", IEEE Trans. SMC 13(5), 1983
+//!   (and of Gym's `CartPole`), but with the pole a point mass at the end of
+//!   a massless rod of length $l$ (their pole is a uniform rod of
+//!   half-length 0.5 m), no friction; the equations of motion are those of
+//!   Tedrake, *Underactuated Robotics*, ch. 3 (with $\theta = 0$ hanging
+//!   down), given at [`CartPole`].
+//! - Acrobot: two links of 1 m with 1 kg point masses at their ends,
+//!   driven at the elbow only (Spong, "The swing up control problem for the
+//!   acrobot", IEEE Control Systems 15(1), 1995; manipulator equation as in
+//!   Tedrake, ch. 3). Sutton & Barto's acrobot (*Reinforcement Learning*,
+//!   1998, §11.3) has the same masses and lengths but links with centres of
+//!   mass at 0.5 m and moments of inertia 1 kg m²; here all the mass is at
+//!   the link ends. Equations at [`Acrobot`].
+//!
 //! # Registry
 //!
 //! [`standard_instances`] lists each system at each of its standard
@@ -306,8 +329,18 @@ pub fn standard_instances() -> Vec<Instance> {
 }
 
 /// The standard instance named `name` (see [`Instance::name`]).
-pub fn by_name(name: &str) -> Option<Instance> {
-    standard_instances().into_iter().find(|i| i.name() == name)
+///
+/// # Errors
+/// [`TrajoptError::InvalidParameter`] naming `name` when no standard
+/// instance has it.
+pub fn by_name(name: &str) -> Result<Instance> {
+    standard_instances()
+        .into_iter()
+        .find(|i| i.name() == name)
+        .ok_or_else(|| TrajoptError::InvalidParameter {
+            name: "instance name",
+            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h50-lambda1e2\")"),
+        })
 }
 
 #[cfg(test)]

@@ -184,18 +184,24 @@ fn registry_names_are_unique_and_found() {
     let all = standard_instances();
     assert_eq!(all.len(), 8 * STANDARD_LAMBDAS.len());
     for i in &all {
-        assert_eq!(by_name(&i.name()), Some(*i));
+        assert_eq!(by_name(&i.name()).ok(), Some(*i));
         assert!(i.name().starts_with(&format!("{}-lambda", i.ddp_name())));
     }
     assert_eq!(
-        by_name("pendulum-h50-lambda1e2"),
+        by_name("pendulum-h50-lambda1e2").ok(),
         Some(Instance {
             system: System::Pendulum,
             horizon: 50,
             lambda: 100.0
         })
     );
-    assert_eq!(by_name("pendulum-h50"), None);
+    assert!(matches!(
+        by_name("pendulum-h50"),
+        Err(TrajoptError::InvalidParameter {
+            name: "instance name",
+            ..
+        })
+    ));
 }
 
 /// Each system's shortest standard instance, at the larger lambda, is
