@@ -36,15 +36,15 @@ fn euler_jacobians(sys: &impl Mechanics, x: &[f64], u: &[f64], fx: &mut [f64], f
     let (nq, dt) = (sys.n_q(), sys.dt());
     let (n, m) = (2 * nq, u.len());
     let (_, da) = sys.accelerations(x, u);
-    for i in 0..nq {
+    for (i, da_i) in da.iter().enumerate().take(nq) {
         let (rv, rq) = (nq + i, i);
         for j in 0..n {
-            let v = dt * da[i][j] + if j == rv { 1.0 } else { 0.0 };
+            let v = dt * da_i[j] + if j == rv { 1.0 } else { 0.0 };
             fx[rv * n + j] = v;
             fx[rq * n + j] = dt * v + if j == rq { 1.0 } else { 0.0 };
         }
         for j in 0..m {
-            fu[rv * m + j] = dt * da[i][n + j];
+            fu[rv * m + j] = dt * da_i[n + j];
             fu[rq * m + j] = dt * fu[rv * m + j];
         }
     }
