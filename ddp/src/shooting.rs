@@ -51,7 +51,9 @@ impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
     }
 
     /// The gradient $\nabla_U J$ of [`shooting_cost`](Self::shooting_cost)
-    /// by the adjoint recursion of the [module docs](self), with the
+    /// by the adjoint recursion $p_N = \nabla \ell_f(x_N)$,
+    /// $\nabla_{u_k} J = \ell_u + f_u^\top p_{k+1}$,
+    /// $p_k = \ell_x + f_x^\top p_{k+1}$, with the
     /// dynamics' Jacobians from [`Dynamics::derivatives`].
     ///
     /// # Errors
@@ -90,7 +92,7 @@ impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
 }
 
 /// The single-shooting cost $J(U)$ for argmin's solvers (parameters: the
-/// stacked controls; see the [module docs](self)).
+/// stacked controls; see [`DdpProblem::shooting_cost`]).
 impl<D: Dynamics, C: Cost> argmin::core::CostFunction for DdpProblem<D, C> {
     type Param = Vec<f64>;
     type Output = f64;

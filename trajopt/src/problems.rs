@@ -19,7 +19,6 @@
 /// The Moré-Garbow-Hillstrom test set (1981): 35 least-squares problems with Jacobians, starts and minima.
 pub mod mgh;
 
-/// Pendulum, cart-pole and acrobot swing-ups in Eq. 3 form, the problems of `ddp::problems`.
 pub mod trajectory;
 
 use faer::Mat;
