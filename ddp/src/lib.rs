@@ -9,6 +9,7 @@ pub mod models;
 pub mod nalgebra_convert;
 pub mod problem;
 pub mod problems;
+mod shooting;
 pub mod solver;
 #[cfg(feature = "proptest")]
 pub mod strategies;
@@ -18,6 +19,6 @@ pub mod strategies;
 pub use faer;
 
 pub use error::{DdpError, Result};
-pub use models::{CartPole, LinearDynamics, Pendulum, QuadraticCost};
+pub use models::{Acrobot, CartPole, LinearDynamics, Pendulum, QuadraticCost};
 pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
 pub use solver::{Ddp, DdpMethod, DdpResult, DdpSettings, DdpStatus, Regularization};

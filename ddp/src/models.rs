@@ -1,7 +1,11 @@
 //! Built-in dynamics and costs: [`LinearDynamics`], [`QuadraticCost`], and
-//! two benchmark systems, [`Pendulum`] and [`CartPole`], discretised by
-//! semi-implicit Euler (the discretisation of Crocoddyl's
+//! three benchmark systems, [`Pendulum`], [`CartPole`] and [`Acrobot`],
+//! discretised by semi-implicit Euler (the discretisation of Crocoddyl's
 //! `IntegratedActionModelEuler`).
+
+mod acrobot;
+
+pub use acrobot::Acrobot;
 
 use faer::Mat;
 

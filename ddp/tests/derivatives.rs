@@ -3,7 +3,7 @@
 //! finite-difference derivatives of [`Dynamics`] equal the analytic ones.
 
 use ddp::strategies::{JacobianCheck, check_dynamics, check_jacobian};
-use ddp::{CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result};
+use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result};
 use faer::Mat;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -99,6 +99,22 @@ proptest! {
     #[test]
     fn cartpole_derivatives(x in vec(-3.0..3.0f64, 4), u in vec(-10.0..10.0f64, 1)) {
         check_model(&CartPole { dt: 0.05, ..CartPole::default() }, &x, &u, &[0.0; 4])?;
+    }
+
+    #[test]
+    fn acrobot_derivatives(x in vec(-4.0..4.0f64, 4), u in vec(-10.0..10.0f64, 1),
+                           mass1 in 0.5..2.0f64, length2 in 0.5..1.5f64) {
+        let a = Acrobot { mass1, length2, dt: 0.05, ..Acrobot::default() };
+        check_model(&a, &x, &u, &[0.0; 4])?;
+    }
+
+    #[test]
+    fn swingup_models_derivatives(x in vec(-3.0..3.0f64, 4), u in vec(-10.0..10.0f64, 1)) {
+        for system in ddp::problems::System::ALL {
+            let model = system.model();
+            let n = model.state_dim();
+            check_model(&model, &x[..n], &u, &x[..n])?;
+        }
     }
 
     /// The default `derivatives` (central differences of `step`) equal the

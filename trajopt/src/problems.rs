@@ -1,6 +1,9 @@
 //! A shared benchmark problem set, so that users compare solvers on the same
 //! work: the soft-dynamics pendulum swing-up with the true model at any
-//! horizon, and the classic test functions for derivative-free solvers.
+//! horizon, and the classic test functions for derivative-free solvers;
+//! [`mgh`], the Moré-Garbow-Hillstrom test set; [`trajectory`], the
+//! torque-driven pendulum, cart-pole and acrobot swing-ups that
+//! `ddp::problems` defines for DDP, here in Eq. 3 form.
 //!
 //! The pendulum hangs from a hand that moves horizontally; state
 //! $(\theta, \dot\theta, x, \dot x)$ with $\theta = 0$ hanging down, control
@@ -15,6 +18,8 @@
 
 /// The Moré-Garbow-Hillstrom test set (1981): 35 least-squares problems with Jacobians, starts and minima.
 pub mod mgh;
+
+pub mod trajectory;
 
 use faer::Mat;
 use splines::BSplineBasis;

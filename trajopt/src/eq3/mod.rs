@@ -297,6 +297,11 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         &self.model
     }
 
+    /// The stage cost $c_k$ (e.g. to evaluate one stage of a trajectory).
+    pub fn stage_cost(&self) -> &C {
+        &self.cost
+    }
+
     /// The parameter vector $\theta$ of coefficient matrices $C_x$
     /// (`n_state_coeffs` $\times n$) and $C_u$ (`n_control_coeffs` $\times m$).
     pub fn pack(&self, cx: &Mat<f64>, cu: &Mat<f64>) -> Result<Vec<f64>> {
@@ -471,6 +476,23 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         Ok(self.cost_breakdown(theta)?.total)
     }
 
+    /// The gradient $\nabla C(\theta) = 2 J^\top r$ of the criterion, from
+    /// the residuals and the Jacobian that [`GaussNewton`](crate::GaussNewton) uses.
+    pub fn gradient(&self, theta: &[f64]) -> Result<Vec<f64>> {
+        let mut r = vec![0.0; self.n_residuals()];
+        self.residuals(theta, &mut r)?;
+        let mut values = vec![0.0; self.pattern.col_idx().len()];
+        self.jacobian_values(theta, &mut values)?;
+        let mut g = vec![0.0; self.n_params()];
+        let row_ptr = self.pattern.row_ptr();
+        for (i, ri) in r.iter().enumerate() {
+            for idx in row_ptr[i]..row_ptr[i + 1] {
+                g[self.pattern.col_idx()[idx]] += 2.0 * values[idx] * ri;
+            }
+        }
+        Ok(g)
+    }
+
     fn rows_per_step(&self) -> usize {
         self.cost.n_residuals() + self.n
     }
@@ -548,5 +570,15 @@ impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
 
     fn cost(&self, theta: &Self::Param) -> std::result::Result<f64, argmin::core::Error> {
         Eq3Problem::cost(self, theta).map_err(argmin::core::Error::new)
+    }
+}
+
+/// The gradient $2 J^\top r$ for argmin's solvers ([`Eq3Problem::gradient`]).
+impl<M: Model, C: StageCost> argmin::core::Gradient for Eq3Problem<M, C> {
+    type Param = Vec<f64>;
+    type Gradient = Vec<f64>;
+
+    fn gradient(&self, theta: &Self::Param) -> std::result::Result<Vec<f64>, argmin::core::Error> {
+        Eq3Problem::gradient(self, theta).map_err(argmin::core::Error::new)
     }
 }
