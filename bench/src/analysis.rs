@@ -178,6 +178,9 @@ mod tests {
         let (time, evals) = an.performance(1e-3, &[0, 1]);
         assert_eq!((time[0].values.clone(), time[1].values.clone()), (vec![1.0], vec![]));
         assert_eq!(evals[0].problems, 1);
-        assert_eq!(an.data(1e-3, &[0]).first().map(|p| p.values.clone()), Some(vec![20.0 / 3.0, 10.0]));
+        assert_eq!(
+            an.data(1e-3, &[0]).first().map(|p| p.values.clone()),
+            Some(vec![20.0 / 3.0, 10.0])
+        );
     }
 }

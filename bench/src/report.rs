@@ -37,6 +37,8 @@ pub struct Stamp {
     pub budget_time_s: f64,
     /// The sources of the records merged (ours and the outside scripts').
     pub sources: Vec<String>,
+    /// Wall time of the runner's own runs (0 when reused), seconds.
+    pub elapsed_s: f64,
 }
 
 impl Stamp {
@@ -62,8 +64,16 @@ impl Stamp {
                 .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
         };
         let commit = out(&["git", "rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-        let dirty = out(&["git", "status", "--porcelain", "--untracked-files=no", "--", ".", ":!results"])
-            .is_none_or(|s| !s.is_empty());
+        let dirty = out(&[
+            "git",
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":!results",
+        ])
+        .is_none_or(|s| !s.is_empty());
         let date = out(&["date", "-u", "+%Y-%m-%dT%H:%M:%SZ"]).unwrap_or_else(|| "unknown".into());
         (commit, dirty, date)
     }
@@ -109,7 +119,11 @@ fn median(mut v: Vec<f64>) -> Option<f64> {
     }
     v.sort_by(f64::total_cmp);
     let k = v.len();
-    Some(if k % 2 == 1 { v[k / 2] } else { 0.5 * (v[k / 2 - 1] + v[k / 2]) })
+    Some(if k % 2 == 1 {
+        v[k / 2]
+    } else {
+        0.5 * (v[k / 2 - 1] + v[k / 2])
+    })
 }
 
 /// Instances solved at `tau` by `ours` and by `reference`, on the
@@ -277,8 +291,25 @@ pub fn runs_csv(a: &Analysis) -> Result<String> {
         source: std::io::Error::other(e),
     };
     w.write_record([
-        "set", "problem", "scale", "n", "solver", "status", "converged", "f0", "f", "f_low", "f_star", "f_evals",
-        "jac_evals", "evals", "time_s", "solved_1e-3", "evals_to_1e-3", "solved_1e-7", "evals_to_1e-7",
+        "set",
+        "problem",
+        "scale",
+        "n",
+        "solver",
+        "status",
+        "converged",
+        "f0",
+        "f",
+        "f_low",
+        "f_star",
+        "f_evals",
+        "jac_evals",
+        "evals",
+        "time_s",
+        "solved_1e-3",
+        "evals_to_1e-3",
+        "solved_1e-7",
+        "evals_to_1e-7",
     ])
     .map_err(csv_err)?;
     for (p, key) in a.instances.iter().enumerate() {
@@ -403,7 +434,10 @@ mod tests {
     fn comparisons_and_goals_by_hand() {
         let a = analysis();
         let solved = solved_counts(&a, "gauss-newton", "scipy-lm", GOAL_TAU);
-        assert_eq!((solved.ours_value, solved.reference_value, solved.runs), (Some(1.0), Some(2.0), 4));
+        assert_eq!(
+            (solved.ours_value, solved.reference_value, solved.runs),
+            (Some(1.0), Some(2.0), 4)
+        );
         assert_eq!(solved.ratio, Some(0.5));
         let time = median_costs(&a, "gauss-newton", "scipy-lm", GOAL_TAU, true);
         assert_eq!((time.ratio, time.runs), (Some(0.5), 2));
@@ -413,20 +447,27 @@ mod tests {
         assert_eq!(g[0].verdict, "not measured");
         assert_eq!(g[1].verdict, "not met");
         assert_eq!(summary(&a).len(), 5);
-        let md = summary_markdown(&summary(&a), &Stamp {
-            commit: "0123456789abcdef".into(),
-            dirty: false,
-            cores: 2,
-            load_before: Some(0.5),
-            load_after: None,
-            date: "today".into(),
-            runs: 4,
-            repeats: 1,
-            budget_simplex_gradients: 1,
-            budget_time_s: 1.0,
-            sources: vec![],
-        });
-        assert!(md.contains("| 0.500 | 4 |") && md.contains("0123456789ab on 2 cores"), "{md}");
+        let md = summary_markdown(
+            &summary(&a),
+            &Stamp {
+                commit: "0123456789abcdef".into(),
+                dirty: false,
+                cores: 2,
+                load_before: Some(0.5),
+                load_after: None,
+                date: "today".into(),
+                runs: 4,
+                repeats: 1,
+                budget_simplex_gradients: 1,
+                budget_time_s: 1.0,
+                sources: vec![],
+                elapsed_s: 0.0,
+            },
+        );
+        assert!(
+            md.contains("| 0.500 | 4 |") && md.contains("0123456789ab on 2 cores"),
+            "{md}"
+        );
         let csv = runs_csv(&a).expect("csv");
         assert_eq!(csv.lines().count(), 5);
         assert!(problems_markdown(&a).contains("**0.0000e0** (6)"));
