@@ -159,6 +159,7 @@ def main():
         "nlopt-newuoa": ("nlopt", lambda c, x0: run_nlopt(nlopt.LN_NEWUOA, c, x0, args.time_limit)),
     }
     files = {"scipy": [], "nlopt": []}
+    started = time.perf_counter()
     for pid, key, fun, n, m, x0 in mgh_golden.problems():
         name = f"{pid:02d}_{key}"
         if args.filter and args.filter not in name:
@@ -190,9 +191,10 @@ def main():
                       f"{times[len(times) // 2]:.2e} s {status}", flush=True)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
+    elapsed = f"{time.perf_counter() - started:.1f} s for the runs of both files"
     sources = {
-        "scipy": f"scipy {scipy.__version__} least_squares (numpy {np.__version__}), scripts/bench/outside_mgh.py",
-        "nlopt": f"nlopt {nlopt.__version__} (PRAXIS, NEWUOA), scripts/bench/outside_mgh.py",
+        "scipy": f"scipy {scipy.__version__} least_squares (numpy {np.__version__}), scripts/bench/outside_mgh.py, {elapsed}",
+        "nlopt": f"nlopt {nlopt.__version__} (PRAXIS, NEWUOA), scripts/bench/outside_mgh.py, {elapsed}",
     }
     for group, runs in files.items():
         path = out / f"{group}.json"

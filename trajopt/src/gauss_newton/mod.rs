@@ -2,11 +2,15 @@
 //!
 //! Minimises $F(\theta) = \lVert r(\theta) \rVert^2$. Each iteration solves
 //! the damped normal equations
-//! $$(J^\top J + \mu D)\,\delta = -J^\top r, \qquad D = \operatorname{diag}(\max(J^\top J, d_{\min})),$$
+//! $$(J^\top J + \mu D)\,\delta = -J^\top r, \qquad D_{jj} = \max\big(d_{\min}, \max_{k \le \text{now}} (J_k^\top J_k)_{jj}\big),$$
 //! by a sparse Cholesky factorisation $LL^\top$ (faer) whose symbolic part
 //! (fill-reducing ordering, elimination tree) is computed once and reused;
 //! $J^\top J$ is formed by a sparse product whose pattern is also computed
-//! once. The step is accepted when the gain ratio
+//! once. $D$ is the running maximum over the iterations of the diagonal
+//! of $J^\top J$, as MINPACK's `lmder` keeps the running maximum of the
+//! column norms: a parameter whose column of $J$ vanishes at the current
+//! point keeps the damping its earlier columns gave it. The step is
+//! accepted when the gain ratio
 //! $\rho = (F(\theta) - F(\theta + \delta)) / (L(0) - L(\delta))$ is positive
 //! ($L$ the local linear model), and $\mu$ follows Nielsen's rule:
 //! $\mu \leftarrow \mu \max(1/3, 1 - (2\rho - 1)^3)$ on success,
@@ -300,6 +304,8 @@ impl GaussNewton {
 
         let mut grad = vec![0.0; n_p];
         let mut scale = vec![0.0; n_p];
+        // the largest diag(J^T J) seen so far, per parameter
+        let mut scale_max = vec![0.0; n_p];
         let mut step = vec![0.0; n_p];
         let mut h_step = vec![0.0; n_p];
         let mut trial = vec![0.0; n_p];
@@ -341,11 +347,9 @@ impl GaussNewton {
                 break;
             };
             s_seen |= newton;
-            // the damping scale comes from J^T J alone (positive)
+            // the damping scale: the running maximum of diag(J^T J) (positive)
             system.jtj_diagonal(&mut scale);
-            for d in &mut scale {
-                *d = d.max(1e-12);
-            }
+            damping::running_max_scale(&mut scale, &mut scale_max);
             let g_inf = grad.iter().fold(0.0f64, |a, g| a.max(g.abs()));
             if g_inf <= s.tol_grad * cost.max(1.0) {
                 status = GaussNewtonStatus::ConvergedGradient;
