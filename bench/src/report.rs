@@ -240,7 +240,8 @@ pub fn summary(a: &Analysis) -> Vec<Comparison> {
     ]
 }
 
-fn num(v: Option<f64>, unit: &str) -> String {
+/// A value in its unit for the tables (`-` when missing).
+pub(crate) fn num(v: Option<f64>, unit: &str) -> String {
     match v {
         None => "-".into(),
         Some(x) if unit == "instances" => format!("{x:.0}"),
@@ -261,7 +262,7 @@ pub fn summary_markdown(rows: &[Comparison], stamp: &Stamp) -> String {
             num(c.ours_value, &c.unit),
             c.reference,
             num(c.reference_value, &c.unit),
-            c.ratio.map_or("-".into(), |r| format!("{r:.3}")),
+            ratio_text(c.ratio),
             c.runs
         );
     }
@@ -276,6 +277,15 @@ pub fn summary_markdown(rows: &[Comparison], stamp: &Stamp) -> String {
         stamp.date
     );
     s
+}
+
+/// A ratio with three significant digits (`-` when missing).
+pub(crate) fn ratio_text(r: Option<f64>) -> String {
+    match r {
+        None => "-".into(),
+        Some(r) if r != 0.0 && r.abs() < 0.01 => format!("{r:.2e}"),
+        Some(r) => format!("{r:.3}"),
+    }
 }
 
 fn short(commit: &str) -> &str {
@@ -479,5 +489,15 @@ mod tests {
         assert_eq!(median(vec![]), None);
         assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
         assert_eq!(median(vec![4.0, 1.0, 2.0, 3.0]), Some(2.5));
+    }
+
+    #[test]
+    fn values_and_ratios_as_text() {
+        assert_eq!(num(Some(79.0), "instances"), "79");
+        assert_eq!(num(Some(2.5e-5), "s"), "0.025 ms");
+        assert_eq!(num(None, "s"), "-");
+        assert_eq!(ratio_text(Some(0.81922)), "0.819");
+        assert_eq!(ratio_text(Some(0.0029346)), "2.93e-3");
+        assert_eq!(ratio_text(None), "-");
     }
 }

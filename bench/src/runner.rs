@@ -295,8 +295,14 @@ fn markdown(
         s.push_str(&format!("- **{}**: {}\n", g.verdict, g.goal));
         for c in &g.evidence {
             s.push_str(&format!(
-                "  - {}: {} {:?}, {} {:?}, ratio {:?} ({} runs)\n",
-                c.task, c.ours, c.ours_value, c.reference, c.reference_value, c.ratio, c.runs
+                "  - {}: {} {}, {} {}, ratio {} ({} runs)\n",
+                c.task,
+                c.ours,
+                report::num(c.ours_value, &c.unit),
+                c.reference,
+                report::num(c.reference_value, &c.unit),
+                report::ratio_text(c.ratio),
+                c.runs
             ));
         }
     }

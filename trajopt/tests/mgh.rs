@@ -448,7 +448,12 @@ fn gauss_newton_solves_penalty_ii_with_default_settings() {
         let r = gn.solve(&p, &p.start(scale)).expect("solves");
         let f_star = p.known_minima()[0].clone();
         assert!(r.status.is_converged(), "x{scale}: {:?}", r.status);
-        assert!(f_star.matches(r.cost, 1e-6), "x{scale}: f = {} after {}", r.cost, r.iterations);
+        assert!(
+            f_star.matches(r.cost, 1e-6),
+            "x{scale}: f = {} after {}",
+            r.cost,
+            r.iterations
+        );
     }
 }
 
