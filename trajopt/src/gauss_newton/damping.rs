@@ -42,7 +42,7 @@ pub(super) const SHIFT_MAX: f64 = 1e-3;
 /// and theory", 1978), and so does this.
 pub(super) fn running_max_scale(diag: &mut [f64], seen: &mut [f64]) {
     for (d, s) in diag.iter_mut().zip(seen.iter_mut()) {
-        *s = *d;
+        *s = s.max(*d);
         *d = s.max(1e-12);
     }
 }
