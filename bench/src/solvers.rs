@@ -21,7 +21,7 @@ use argmin::core::{CostFunction, Executor, Gradient};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
-use trajopt::{GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
+use trajopt::{DampingScale, GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
 
 use crate::error::{BenchError, Result};
 use crate::problems::{Budget, Counted, Instance};
@@ -186,6 +186,8 @@ impl Solver {
                 let solver = GaussNewton::new(GaussNewtonSettings {
                     max_iterations: usize::MAX,
                     step_model,
+                    // MINPACK's scaling (the default stalls on Penalty II)
+                    damping_scale: DampingScale::RunningMax,
                     ..GaussNewtonSettings::default()
                 })
                 .map_err(|e| refused(e.to_string()))?;

@@ -2,14 +2,13 @@
 //!
 //! Minimises $F(\theta) = \lVert r(\theta) \rVert^2$. Each iteration solves
 //! the damped normal equations
-//! $$(J^\top J + \mu D)\,\delta = -J^\top r, \qquad D_{jj} = \max\big(d_{\min}, \max_{k \le \text{now}} (J_k^\top J_k)_{jj}\big),$$
+//! $$(J^\top J + \mu D)\,\delta = -J^\top r, \qquad D = \operatorname{diag}(\max(J^\top J, d_{\min})),$$
 //! by a sparse Cholesky factorisation $LL^\top$ (faer) whose symbolic part
 //! (fill-reducing ordering, elimination tree) is computed once and reused;
 //! $J^\top J$ is formed by a sparse product whose pattern is also computed
-//! once. $D$ is the running maximum over the iterations of the diagonal
-//! of $J^\top J$, as MINPACK's `lmder` keeps the running maximum of the
-//! column norms: a parameter whose column of $J$ vanishes at the current
-//! point keeps the damping its earlier columns gave it. The step is
+//! once. With [`DampingScale::RunningMax`], $D$ is instead the running
+//! maximum over the iterations of that diagonal, as MINPACK's `lmder`
+//! keeps the running maximum of the column norms. The step is
 //! accepted when the gain ratio
 //! $\rho = (F(\theta) - F(\theta + \delta)) / (L(0) - L(\delta))$ is positive
 //! ($L$ the local linear model), and $\mu$ follows Nielsen's rule:
@@ -115,7 +114,7 @@ use damping::{
 use normal_equations::{BandSystem, Damping, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
 pub use result::{GaussNewtonResult, GaussNewtonStatus};
-pub use settings::{GaussNewtonSettings, LinearSolver, StepModel};
+pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepModel};
 
 /// Below this many parameters [`GaussNewton::solve_parallel`] runs on one
 /// thread: the hand-overs cost more than the parts save (the benchmark
@@ -347,9 +346,16 @@ impl GaussNewton {
                 break;
             };
             s_seen |= newton;
-            // the damping scale: the running maximum of diag(J^T J) (positive)
+            // the damping scale: diag(J^T J) now, or its running maximum (positive)
             system.jtj_diagonal(&mut scale);
-            damping::running_max_scale(&mut scale, &mut scale_max);
+            match s.damping_scale {
+                DampingScale::RunningMax => damping::running_max_scale(&mut scale, &mut scale_max),
+                _ => {
+                    for d in &mut scale {
+                        *d = d.max(1e-12);
+                    }
+                }
+            }
             let g_inf = grad.iter().fold(0.0f64, |a, g| a.max(g.abs()));
             if g_inf <= s.tol_grad * cost.max(1.0) {
                 status = GaussNewtonStatus::ConvergedGradient;
