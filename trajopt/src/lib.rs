@@ -25,8 +25,8 @@ pub use check::{JacobianCheck, check_jacobian, check_model_jacobians, check_stag
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{
-    GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, LinearSolver, MIN_PARALLEL_PARAMS,
-    StepModel,
+    DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
+    MIN_PARALLEL_PARAMS, StepModel,
 };
 pub use least_squares::{
     BandForm, BandNormalEquations, LeastSquaresProblem, LinearBounds, LinearLeastSquares, Part, Point, SecondOrder,

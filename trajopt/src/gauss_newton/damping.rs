@@ -27,6 +27,26 @@ pub(super) const SHIFT_DECREASE_ACCURATE: f64 = 1.0 / 100.0;
 pub(super) const ACCURATE: f64 = 0.25;
 pub(super) const SHIFT_MAX: f64 = 1e-3;
 
+/// The damping scale $D$: each parameter's largest $(J^\top J)_{jj}$ so
+/// far (`seen`, updated), at least $10^{-12}$, written over the current
+/// diagonal `diag`.
+///
+/// With the current diagonal alone, a parameter whose column of $J$
+/// vanishes near the current point (as on Penalty II, where the dominant
+/// residual's column is $2 (n - j + 1) x_j$ and some $x_j$ pass through 0)
+/// gets almost no damping: its steps are limited only by raising $\mu$
+/// for every parameter, until the others barely move (measured there: $\mu$
+/// near $10^6$, $F$ crawling from 6.06 to 5.6 in 3500 iterations).
+/// MINPACK's `lmder` keeps the running maximum of the column norms for
+/// that reason (Moré, "The Levenberg-Marquardt algorithm: implementation
+/// and theory", 1978), and so does this.
+pub(super) fn running_max_scale(diag: &mut [f64], seen: &mut [f64]) {
+    for (d, s) in diag.iter_mut().zip(seen.iter_mut()) {
+        *s = s.max(*d);
+        *d = s.max(1e-12);
+    }
+}
+
 /// $\mu \leftarrow \max(\mu \nu, 10^{-12})$, $\nu \leftarrow 2\nu$; false once
 /// the damping is hopelessly large.
 pub(super) fn raise_damping(mu: &mut f64, nu: &mut f64) -> bool {
@@ -66,6 +86,17 @@ pub(super) fn prefer_newton(newton: bool, predicted: f64, s_form: f64, actual: f
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn the_scale_is_the_running_maximum_of_the_diagonal() {
+        let mut seen = vec![0.0; 3];
+        let mut diag = vec![4.0, 0.0, 1.0];
+        running_max_scale(&mut diag, &mut seen);
+        assert_eq!(diag, vec![4.0, 1e-12, 1.0]);
+        let mut diag = vec![1.0, 2.0, 1e-9];
+        running_max_scale(&mut diag, &mut seen);
+        assert_eq!((diag, seen), (vec![4.0, 2.0, 1.0], vec![4.0, 2.0, 1.0]));
+    }
 
     #[test]
     fn damping_grows_geometrically_and_gives_up_when_hopeless() {

@@ -6,7 +6,10 @@
 //! by a sparse Cholesky factorisation $LL^\top$ (faer) whose symbolic part
 //! (fill-reducing ordering, elimination tree) is computed once and reused;
 //! $J^\top J$ is formed by a sparse product whose pattern is also computed
-//! once. The step is accepted when the gain ratio
+//! once. With [`DampingScale::RunningMax`], $D$ is instead the running
+//! maximum over the iterations of that diagonal, as MINPACK's `lmder`
+//! keeps the running maximum of the column norms. The step is
+//! accepted when the gain ratio
 //! $\rho = (F(\theta) - F(\theta + \delta)) / (L(0) - L(\delta))$ is positive
 //! ($L$ the local linear model), and $\mu$ follows Nielsen's rule:
 //! $\mu \leftarrow \mu \max(1/3, 1 - (2\rho - 1)^3)$ on success,
@@ -111,7 +114,7 @@ use damping::{
 use normal_equations::{BandSystem, Damping, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
 pub use result::{GaussNewtonResult, GaussNewtonStatus};
-pub use settings::{GaussNewtonSettings, LinearSolver, StepModel};
+pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepModel};
 
 /// Below this many parameters [`GaussNewton::solve_parallel`] runs on one
 /// thread: the hand-overs cost more than the parts save (the benchmark
@@ -300,6 +303,8 @@ impl GaussNewton {
 
         let mut grad = vec![0.0; n_p];
         let mut scale = vec![0.0; n_p];
+        // the largest diag(J^T J) seen so far, per parameter
+        let mut scale_max = vec![0.0; n_p];
         let mut step = vec![0.0; n_p];
         let mut h_step = vec![0.0; n_p];
         let mut trial = vec![0.0; n_p];
@@ -341,10 +346,15 @@ impl GaussNewton {
                 break;
             };
             s_seen |= newton;
-            // the damping scale comes from J^T J alone (positive)
+            // the damping scale: diag(J^T J) now, or its running maximum (positive)
             system.jtj_diagonal(&mut scale);
-            for d in &mut scale {
-                *d = d.max(1e-12);
+            match s.damping_scale {
+                DampingScale::RunningMax => damping::running_max_scale(&mut scale, &mut scale_max),
+                _ => {
+                    for d in &mut scale {
+                        *d = d.max(1e-12);
+                    }
+                }
             }
             let g_inf = grad.iter().fold(0.0f64, |a, g| a.max(g.abs()));
             if g_inf <= s.tol_grad * cost.max(1.0) {

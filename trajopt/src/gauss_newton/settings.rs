@@ -10,6 +10,7 @@
 //! | `initial_damping` | 1e-6 | finite, $\ge 0$ | $\mu_0$ (relative to $D$) |
 //! | `step_model` | [`StepModel::GaussNewton`] | | which quadratic model each step minimises |
 //! | `linear_solver` | [`LinearSolver::Auto`] | | the band form of the normal equations when the problem has one |
+//! | `damping_scale` | [`DampingScale::Current`] | | the diagonal $D$ the damping $\mu D$ is scaled by |
 //! | `one_thread_fallback` | true | | [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel) goes on alone when its helpers answer late |
 
 use crate::error::{Result, check_nonnegative};
@@ -66,6 +67,26 @@ impl StepModel {
     }
 }
 
+/// The diagonal $D$ of the damping term $\mu D$ of
+/// [`GaussNewton`](crate::GaussNewton).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
+pub enum DampingScale {
+    /// $D = \operatorname{diag}(J^\top J)$ at the current point (at least
+    /// $10^{-12}$). The default: the swing-up plans were measured with it
+    /// (with [`RunningMax`](Self::RunningMax), fewer pure-LWR learning
+    /// runs succeeded within 8 trials; see the project's issue 21 report).
+    #[default]
+    Current,
+    /// $D_{jj}$ = the largest $(J^\top J)_{jj}$ met so far in the solve,
+    /// as MINPACK's `lmder` keeps the running maximum of the column norms
+    /// (Moré 1978): a parameter whose column of $J$ vanishes at the current
+    /// point keeps the damping its earlier columns gave it. Needed on
+    /// Penalty II (MGH 24), where the current diagonal let $\mu$ grow until
+    /// the steps crawled.
+    RunningMax,
+}
+
 /// How [`GaussNewton`](crate::GaussNewton) solves its linear systems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
 #[non_exhaustive]
@@ -102,6 +123,8 @@ pub struct GaussNewtonSettings {
     pub step_model: StepModel,
     /// How the linear systems are solved ([`LinearSolver`]).
     pub linear_solver: LinearSolver,
+    /// The diagonal the damping is scaled by ([`DampingScale`]).
+    pub damping_scale: DampingScale,
     /// Let [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)
     /// go on with one thread when its helpers do not start or answer in
     /// time (a busy machine), instead of waiting for them at every
@@ -121,6 +144,7 @@ impl Default for GaussNewtonSettings {
             initial_damping: 1e-6,
             step_model: StepModel::GaussNewton,
             linear_solver: LinearSolver::Auto,
+            damping_scale: DampingScale::Current,
             one_thread_fallback: true,
         }
     }

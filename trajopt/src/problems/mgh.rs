@@ -132,15 +132,17 @@
 //!
 //! # Gauss-Newton from $x_0$
 //!
-//! With its default settings but more iterations, Gauss-Newton reaches $f^*$
-//! from the standard start on 32 of the 35 problems (Brown and Dennis only
+//! With `damping_scale: DampingScale::RunningMax` and more iterations, Gauss-Newton reaches $f^*$
+//! from the standard start on 33 of the 35 problems (Brown and Dennis only
 //! after thousands of iterations: its residuals stay large, so the
 //! convergence is linear). The exceptions: Freudenstein and Roth stops at
-//! the paper's other, local minimum 48.9842, as MINPACK does;
+//! the paper's other, local minimum 48.9842, as MINPACK does; and
 //! Trigonometric ($n = 10$) at the local minimum $2.79506 \cdot 10^{-5}$,
-//! which the paper does not list, as MINPACK does; and on Penalty II the
-//! steps crawl and stay far from $f^*$ (where MINPACK needs about a hundred
-//! evaluations).
+//! which the paper does not list, as MINPACK does. (Penalty II needs
+//! `damping_scale: DampingScale::RunningMax`, the running maximum of
+//! $\operatorname{diag}(J^\top J)$ as in MINPACK: with the default, the
+//! current diagonal, the steps crawl and stay far from $f^*$.) The runner in `bench/` compares every solver on
+//! all three starts.
 //!
 //! [`MghProblem`]: crate::problems::mgh::MghProblem
 //! [`MghProblem::new`]: crate::problems::mgh::MghProblem::new

@@ -1,0 +1,91 @@
+//! [`BenchError`], the one error type of the crate.
+
+use std::path::PathBuf;
+
+/// What can go wrong in a benchmark run or while reading its inputs.
+#[derive(Debug, thiserror::Error)]
+#[non_exhaustive]
+pub enum BenchError {
+    /// A solver name that is not one of [`crate::solvers::Solver::ALL`]'s.
+    #[error("unknown solver `{name}` (known: {known})")]
+    UnknownSolver {
+        /// The name given.
+        name: String,
+        /// The names accepted, comma-separated.
+        known: String,
+    },
+    /// A problem set name that is not one of [`crate::problems::ProblemSet`]'s.
+    #[error("unknown problem set `{name}` (known: {known})")]
+    UnknownSet {
+        /// The name given.
+        name: String,
+        /// The names accepted, comma-separated.
+        known: String,
+    },
+    /// A setting out of range.
+    #[error("invalid {name}: {reason}")]
+    InvalidSetting {
+        /// The setting's name.
+        name: &'static str,
+        /// Why it is refused.
+        reason: String,
+    },
+    /// A records file that is not valid JSON of the expected shape.
+    #[error("{path}: malformed records file: {source}")]
+    Malformed {
+        /// The file.
+        path: PathBuf,
+        /// serde_json's message (with line and column).
+        source: serde_json::Error,
+    },
+    /// A records file whose content is valid JSON but wrong: a field
+    /// out of range.
+    #[error("{path}: run {index}: field `{field}`: {reason}")]
+    BadField {
+        /// The file.
+        path: PathBuf,
+        /// Which run (0-based) in the file's `runs`.
+        index: usize,
+        /// The field's name.
+        field: &'static str,
+        /// What is wrong with it.
+        reason: String,
+    },
+    /// A file or directory that could not be read or written.
+    #[error("{path}: {source}")]
+    Io {
+        /// The file or directory.
+        path: PathBuf,
+        /// The system's error.
+        source: std::io::Error,
+    },
+    /// A solver refused its input (settings or starting point).
+    #[error("solver {solver} on {problem}: {reason}")]
+    Solver {
+        /// The solver's name.
+        solver: String,
+        /// The problem's name.
+        problem: String,
+        /// The solver's message.
+        reason: String,
+    },
+    /// Drawing a figure failed.
+    #[error("figure {figure}: {reason}")]
+    Plot {
+        /// The figure's file stem.
+        figure: String,
+        /// What failed.
+        reason: String,
+    },
+}
+
+/// `Result` with [`BenchError`].
+pub type Result<T, E = BenchError> = std::result::Result<T, E>;
+
+impl BenchError {
+    /// An [`BenchError::Io`] for `path`.
+    pub(crate) fn io(path: impl Into<PathBuf>) -> impl FnOnce(std::io::Error) -> Self {
+        let path = path.into();
+        move |source| Self::Io { path, source }
+    }
+}

@@ -1,0 +1,98 @@
+//! `nprl-bench`: runs solvers on a problem set and writes tables, profiles
+//! and figures (see `bench/README.md`).
+
+use std::path::PathBuf;
+use std::process::ExitCode;
+use std::time::Duration;
+
+use bench::problems::{Budget, ProblemSet};
+use bench::runner::{RunnerSettings, execute};
+use bench::solvers::Solver;
+use clap::Parser;
+
+/// Runs solvers on a problem set; writes per-problem tables, performance
+/// and data profiles (JSON, CSV, SVG, PNG), the goals and the summary.
+#[derive(Debug, Parser)]
+#[command(name = "nprl-bench", version)]
+struct Cli {
+    /// Problem set: mgh.
+    #[arg(long, default_value = "mgh")]
+    set: String,
+    /// Solvers: `all` or a comma-separated list of gauss-newton, newton,
+    /// adaptive, powell, argmin-nelder-mead, argmin-lbfgs.
+    #[arg(long, default_value = "all")]
+    solvers: String,
+    /// Only problems whose name contains this (e.g. `penalty2`).
+    #[arg(long)]
+    filter: Option<String>,
+    /// Evaluation budget per run, in simplex gradients (n + 1 evaluation
+    /// equivalents each).
+    #[arg(long, default_value_t = 2000)]
+    budget: u64,
+    /// Time budget per run, seconds.
+    #[arg(long, default_value_t = 10.0)]
+    time_limit: f64,
+    /// Times each solve is timed (the median is reported).
+    #[arg(long, default_value_t = 3)]
+    repeats: u32,
+    /// Directory of runs, table, profiles and figures (outside records are
+    /// read from OUT/outside/*.json).
+    #[arg(long, default_value = "results/benchmarks")]
+    out: PathBuf,
+    /// Directory of benchmarks.md, benchmarks.json, benchmarks_summary.md.
+    #[arg(long, default_value = "results")]
+    report_dir: PathBuf,
+    /// More outside record files to merge.
+    #[arg(long)]
+    outside: Vec<PathBuf>,
+    /// Do not run: reuse OUT/runs.json (to merge new outside records).
+    #[arg(long)]
+    reuse: bool,
+}
+
+fn main() -> ExitCode {
+    let cli = Cli::parse();
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("nprl-bench: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+fn run(cli: Cli) -> bench::Result<()> {
+    if !(cli.time_limit.is_finite() && cli.time_limit > 0.0) {
+        return Err(bench::BenchError::InvalidSetting {
+            name: "time_limit",
+            reason: format!("must be finite and > 0, got {}", cli.time_limit),
+        });
+    }
+    let settings = RunnerSettings {
+        set: ProblemSet::parse(&cli.set)?,
+        solvers: Solver::parse_list(&cli.solvers)?,
+        filter: cli.filter,
+        budget: Budget {
+            simplex_gradients: cli.budget,
+            time: Duration::from_secs_f64(cli.time_limit),
+        },
+        repeats: cli.repeats,
+        out: cli.out,
+        report_dir: cli.report_dir,
+        outside: cli.outside,
+        reuse: cli.reuse,
+    };
+    let (analysis, stamp) = execute(&settings)?;
+    for goal in bench::report::goals(&analysis) {
+        println!("{}: {}", goal.verdict, goal.goal);
+    }
+    println!(
+        "{} runs on {} instances at {}; wrote {} and {}",
+        stamp.runs,
+        analysis.instances.len(),
+        stamp.commit,
+        settings.out.display(),
+        settings.report_dir.display()
+    );
+    Ok(())
+}

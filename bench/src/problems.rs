@@ -1,0 +1,386 @@
+//! Problem sets ([`ProblemSet`]), their instances ([`Instance`]: a problem
+//! and a starting point), and the counting view every solver sees
+//! ([`Counted`]).
+//!
+//! Every instance is a [`LeastSquaresProblem`]: Gauss-Newton uses it as
+//! it is, the derivative-free solvers see only $f = \lVert r \rVert^2$, and
+//! argmin's gradient solvers $\nabla f = 2 J^\top r$. **Adding a set** (the
+//! trajectory problems of `trajopt::problems`, whose `Eq3Problem` is a
+//! `LeastSquaresProblem`): a variant of [`ProblemSet`], its name in
+//! [`ProblemSet::name`] and [`ProblemSet::ALL`], and its instances in
+//! [`ProblemSet::instances`]; solvers that need another form of the same
+//! problem (DDP) get it through a field of [`Instance`] and say in
+//! [`Solver::applies_to`](crate::solvers::Solver::applies_to) where they run.
+
+use std::cell::{Cell, RefCell};
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
+use trajopt::problems::mgh;
+use trajopt::{LeastSquaresProblem, SecondOrder, TrajoptError};
+
+use crate::error::{BenchError, Result};
+
+/// A problem for the runner: a least-squares problem any solver here can use.
+pub type SharedProblem = Arc<dyn LeastSquaresProblem + Send + Sync>;
+
+/// A named set of benchmark problems.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum ProblemSet {
+    /// The 35 Moré-Garbow-Hillstrom problems at their standard sizes
+    /// ([`trajopt::problems::mgh`]), each from $x_0$, $10 x_0$ and $100 x_0$.
+    Mgh,
+}
+
+impl ProblemSet {
+    /// Every set.
+    pub const ALL: [Self; 1] = [Self::Mgh];
+
+    /// The set's name on the command line and in the records.
+    pub fn name(self) -> &'static str {
+        match self {
+            Self::Mgh => "mgh",
+        }
+    }
+
+    /// The set named `name`.
+    ///
+    /// # Errors
+    /// [`BenchError::UnknownSet`] listing the names known.
+    pub fn parse(name: &str) -> Result<Self> {
+        Self::ALL
+            .into_iter()
+            .find(|s| s.name() == name.trim())
+            .ok_or_else(|| BenchError::UnknownSet {
+                name: name.into(),
+                known: Self::ALL.map(Self::name).join(", "),
+            })
+    }
+
+    /// The set's instances, in a fixed order.
+    pub fn instances(self) -> Vec<Instance> {
+        match self {
+            Self::Mgh => mgh::all()
+                .into_iter()
+                .flat_map(|p| {
+                    [1.0, 10.0, 100.0].map(|scale| Instance {
+                        set: self.name(),
+                        problem: format!("{:02}_{}", p.id(), p.function().key()),
+                        scale,
+                        start: p.start(scale),
+                        f_star: p.optimal_value(),
+                        residuals: p.m(),
+                        least_squares: Arc::new(p),
+                    })
+                })
+                .collect(),
+        }
+    }
+}
+
+/// One problem from one starting point.
+#[derive(Clone)]
+pub struct Instance {
+    /// The set's name.
+    pub set: &'static str,
+    /// The problem's name within the set (`24_penalty2`).
+    pub problem: String,
+    /// The start's scale.
+    pub scale: f64,
+    /// The starting point.
+    pub start: Vec<f64>,
+    /// The published optimal value, if any.
+    pub f_star: Option<f64>,
+    /// Number of residuals.
+    pub residuals: usize,
+    /// The problem.
+    pub least_squares: SharedProblem,
+}
+
+impl std::fmt::Debug for Instance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        write!(f, "{}/{} x{}", self.set, self.problem, self.scale)
+    }
+}
+
+impl Instance {
+    /// Number of parameters.
+    pub fn n(&self) -> usize {
+        self.start.len()
+    }
+}
+
+/// What one run may spend: evaluation equivalents (in units of $n + 1$,
+/// Moré and Wild's simplex gradients) and wall time.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct Budget {
+    /// Evaluation equivalents per run, in units of $n + 1$.
+    pub simplex_gradients: u64,
+    /// Wall time per run.
+    pub time: Duration,
+}
+
+impl Budget {
+    /// The evaluation equivalents allowed on a problem with `n` parameters.
+    pub fn evals(&self, n: usize) -> u64 {
+        self.simplex_gradients * (n as u64 + 1)
+    }
+}
+
+/// The message of the error a [`Counted`] problem returns once its budget
+/// is spent (the solver stops; the runner reports the best point found).
+pub const BUDGET_SPENT: &str = "benchmark budget spent";
+
+/// A problem seen through counters: residual and Jacobian evaluations, the
+/// trace of the best $f$ so far, and the budget, which makes every
+/// evaluation past it an error. Its [`SecondOrder`] is
+/// $S = \sum_i r_i \nabla^2 r_i$ from central differences of the analytic
+/// Jacobian ($2n$ Jacobians, counted), for the Newton modes.
+pub struct Counted<'a> {
+    inner: &'a (dyn LeastSquaresProblem + Send + Sync),
+    n: usize,
+    max_evals: u64,
+    deadline: Instant,
+    f_evals: Cell<u64>,
+    jac_evals: Cell<u64>,
+    spent: Cell<bool>,
+    best: Cell<f64>,
+    trace: RefCell<Vec<(u64, f64)>>,
+}
+
+impl<'a> Counted<'a> {
+    /// `instance`'s problem under `budget`, counting from now.
+    pub fn new(instance: &'a Instance, budget: &Budget) -> Self {
+        let n = instance.n();
+        Self {
+            inner: instance.least_squares.as_ref(),
+            n,
+            max_evals: budget.evals(n),
+            deadline: Instant::now() + budget.time,
+            f_evals: Cell::new(0),
+            jac_evals: Cell::new(0),
+            spent: Cell::new(false),
+            best: Cell::new(f64::INFINITY),
+            trace: RefCell::new(Vec::new()),
+        }
+    }
+
+    /// Evaluation equivalents so far: residual evaluations plus $n$ per
+    /// Jacobian.
+    pub fn evals(&self) -> u64 {
+        self.f_evals.get() + self.n as u64 * self.jac_evals.get()
+    }
+
+    /// Residual (cost) evaluations so far.
+    pub fn f_evals(&self) -> u64 {
+        self.f_evals.get()
+    }
+
+    /// Jacobian (gradient) evaluations so far.
+    pub fn jac_evals(&self) -> u64 {
+        self.jac_evals.get()
+    }
+
+    /// Whether an evaluation was refused for the budget.
+    pub fn spent(&self) -> bool {
+        self.spent.get()
+    }
+
+    /// The best $f$ evaluated.
+    pub fn best(&self) -> f64 {
+        self.best.get()
+    }
+
+    /// The improvement trace `[evals, f]`, unthinned.
+    pub fn trace(&self) -> Vec<(u64, f64)> {
+        self.trace.borrow().clone()
+    }
+
+    /// An error once the next evaluation (`cost` equivalents) would pass
+    /// the budget.
+    fn charge(&self, cost: u64) -> trajopt::Result<()> {
+        if self.evals() + cost > self.max_evals || Instant::now() > self.deadline {
+            self.spent.set(true);
+            return Err(TrajoptError::Model(BUDGET_SPENT.into()));
+        }
+        Ok(())
+    }
+
+    /// $f(x) = \lVert r(x) \rVert^2$, counted and traced.
+    pub fn cost(&self, x: &[f64]) -> trajopt::Result<f64> {
+        let mut r = vec![0.0; self.inner.n_residuals()];
+        self.residuals(x, &mut r)?;
+        Ok(r.iter().map(|v| v * v).sum())
+    }
+
+    /// $\nabla f = 2 J^\top r$, counted as one Jacobian evaluation (the
+    /// residuals at `x` come with it, uncounted: a solver asks for the
+    /// gradient where it has the cost).
+    pub fn gradient(&self, x: &[f64]) -> trajopt::Result<Vec<f64>> {
+        let (r, jac) = self.residuals_and_jacobian(x)?;
+        let mut g = vec![0.0; self.n];
+        for (row, ri) in jac.chunks_exact(self.n).zip(&r) {
+            for (gj, jij) in g.iter_mut().zip(row) {
+                *gj += 2.0 * jij * ri;
+            }
+        }
+        Ok(g)
+    }
+
+    /// The residuals (uncounted) and the dense row-major Jacobian (counted).
+    fn residuals_and_jacobian(&self, x: &[f64]) -> trajopt::Result<(Vec<f64>, Vec<f64>)> {
+        let mut r = vec![0.0; self.inner.n_residuals()];
+        self.inner.residuals(x, &mut r)?;
+        Ok((r, self.dense_jacobian(x)?))
+    }
+
+    /// The dense row-major Jacobian, counted.
+    fn dense_jacobian(&self, x: &[f64]) -> trajopt::Result<Vec<f64>> {
+        let pattern = self.inner.jacobian_pattern();
+        let mut values = vec![0.0; pattern.compute_nnz()];
+        self.jacobian_values(x, &mut values)?;
+        let mut dense = vec![0.0; self.inner.n_residuals() * self.n];
+        for i in 0..pattern.nrows() {
+            let range = pattern.row_range(i);
+            for (&j, v) in pattern.col_idx()[range.clone()].iter().zip(&values[range]) {
+                dense[i * self.n + j] = *v;
+            }
+        }
+        Ok(dense)
+    }
+}
+
+impl LeastSquaresProblem for Counted<'_> {
+    fn n_params(&self) -> usize {
+        self.n
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.inner.n_residuals()
+    }
+
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> trajopt::Result<()> {
+        self.charge(1)?;
+        self.inner.residuals(theta, r)?;
+        self.f_evals.set(self.f_evals.get() + 1);
+        let f: f64 = r.iter().map(|v| v * v).sum();
+        if f < self.best.get() {
+            self.best.set(f);
+            self.trace.borrow_mut().push((self.evals(), f));
+        }
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        self.inner.jacobian_pattern()
+    }
+
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> trajopt::Result<()> {
+        self.charge(self.n as u64)?;
+        self.jac_evals.set(self.jac_evals.get() + 1);
+        self.inner.jacobian_values(theta, values)
+    }
+
+    fn second_order(&self) -> Option<&dyn SecondOrder> {
+        Some(self)
+    }
+}
+
+/// $S = \sum_i r_i \nabla^2 r_i$ by central differences of the Jacobian,
+/// symmetrised, dense.
+impl SecondOrder for Counted<'_> {
+    fn pattern(&self) -> SymbolicSparseColMat<usize> {
+        let n = self.n;
+        let col_ptr = (0..=n).map(|j| j * n).collect();
+        let row_idx = (0..n).flat_map(|_| 0..n).collect();
+        SymbolicSparseColMat::new_checked(n, n, col_ptr, None, row_idx)
+    }
+
+    fn values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> trajopt::Result<bool> {
+        let n = self.n;
+        let mut s = vec![0.0; n * n];
+        let mut x = theta.to_vec();
+        for j in 0..n {
+            // h ~ eps^(1/3): truncation O(h^2) against rounding O(eps / h)
+            let h = 6e-6 * theta[j].abs().max(1.0);
+            x[j] = theta[j] + h;
+            let plus = self.dense_jacobian(&x)?;
+            x[j] = theta[j] - h;
+            let minus = self.dense_jacobian(&x)?;
+            x[j] = theta[j];
+            // column j of S: sum_i r_i d(grad r_i)/dx_j
+            for (i, ri) in r.iter().enumerate() {
+                for k in 0..n {
+                    s[k * n + j] += ri * (plus[i * n + k] - minus[i * n + k]) / (2.0 * h);
+                }
+            }
+        }
+        for j in 0..n {
+            for k in 0..n {
+                values[j * n + k] = 0.5 * (s[k * n + j] + s[j * n + k]);
+            }
+        }
+        Ok(true)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_mgh_set_has_105_instances_with_unique_names() {
+        let all = ProblemSet::Mgh.instances();
+        assert_eq!(all.len(), 105);
+        let mut keys: Vec<_> = all.iter().map(|i| (i.problem.clone(), i.scale.to_bits())).collect();
+        keys.sort();
+        keys.dedup();
+        assert_eq!(keys.len(), 105);
+        assert_eq!(all[69].problem, "24_penalty2");
+        assert!(matches!(ProblemSet::parse("cute"), Err(BenchError::UnknownSet { .. })));
+        assert_eq!(ProblemSet::parse("mgh").expect("known"), ProblemSet::Mgh);
+    }
+
+    #[test]
+    fn counting_and_budget() {
+        let inst = &ProblemSet::Mgh.instances()[0]; // Rosenbrock, n = 2
+        let budget = Budget {
+            simplex_gradients: 2,
+            time: Duration::from_secs(60),
+        };
+        let c = Counted::new(inst, &budget);
+        let f0 = c.cost(&inst.start).expect("cost");
+        assert!((f0 - 24.2).abs() < 1e-12);
+        let g = c.gradient(&[1.0, 1.0]).expect("gradient");
+        assert_eq!(g, vec![0.0, 0.0]);
+        assert_eq!((c.f_evals(), c.jac_evals(), c.evals()), (1, 1, 3));
+        assert_eq!(c.cost(&[1.0, 1.0]).expect("cost"), 0.0);
+        assert_eq!(c.trace(), vec![(1, f0), (4, 0.0)]);
+        // 6 = 2 (n + 1) allowed: two more residuals, then an error
+        c.cost(&[1.0, 1.0]).expect("5");
+        c.cost(&[1.0, 1.0]).expect("6");
+        assert!(c.cost(&[1.0, 1.0]).is_err() && c.spent());
+    }
+
+    #[test]
+    fn second_order_matches_rosenbrock_by_hand() {
+        // r = (10 (x2 - x1^2), 1 - x1): S = r1 * [[-20, 0], [0, 0]]
+        let inst = &ProblemSet::Mgh.instances()[0];
+        let budget = Budget {
+            simplex_gradients: 100,
+            time: Duration::from_secs(60),
+        };
+        let c = Counted::new(inst, &budget);
+        let x = [0.5, 2.0];
+        let r = [10.0 * (2.0 - 0.25), 0.5];
+        let mut s = vec![0.0; 4];
+        assert!(c.values(&x, &r, &mut s).expect("S"));
+        let want = [-20.0 * r[0], 0.0, 0.0, 0.0];
+        for (a, b) in s.iter().zip(want) {
+            assert!((a - b).abs() < 1e-6, "{s:?}");
+        }
+        assert_eq!(c.jac_evals(), 4);
+    }
+}

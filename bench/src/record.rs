@@ -1,0 +1,294 @@
+//! The record of one run ([`RunRecord`]) and the file that holds a set of
+//! them ([`RecordFile`]): the one format the runner writes and the outside
+//! scripts (`scripts/bench/`) write too.
+//!
+//! ```json
+//! {"format": "nprl-bench/1", "source": "scipy", "runs": [
+//!   {"solver": "scipy-lm", "set": "mgh", "problem": "01_rosenbrock", "n": 2, "m": 2,
+//!    "scale": 1.0, "status": "converged", "converged": true, "f0": 24.2, "f": 0.0,
+//!    "f_star": 0.0, "f_evals": 40, "jac_evals": 0, "evals": 40, "time_s": 0.0012,
+//!    "repeats": 3, "trace": [[1, 24.2], [4, 4.73], [40, 0.0]]}]}
+//! ```
+//!
+//! `evals` counts evaluation equivalents: residual (or cost) evaluations
+//! plus $n$ per Jacobian (or gradient) evaluation, what a forward-difference
+//! Jacobian costs, so that solvers with and without derivatives compare on
+//! one scale. `trace` lists `[evals, f]` where the best $f$ so far fell,
+//! thinned by [`thin_trace`].
+
+use std::path::Path;
+
+use serde::{Deserialize, Serialize};
+
+use crate::error::{BenchError, Result};
+
+/// The `format` tag of a [`RecordFile`].
+pub const FORMAT: &str = "nprl-bench/1";
+
+/// One solver run from one starting point of one problem.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RunRecord {
+    /// The solver's name (`gauss-newton`, `scipy-lm`, ...).
+    pub solver: String,
+    /// The problem set (`mgh`).
+    pub set: String,
+    /// The problem's name within the set (`24_penalty2`).
+    pub problem: String,
+    /// Number of parameters.
+    pub n: usize,
+    /// Number of residuals (0 for a problem given by its cost alone).
+    pub m: usize,
+    /// The start's scale (the MGH set starts at 1, 10 and 100 $x_0$).
+    pub scale: f64,
+    /// Why the solver stopped, in its own words (`converged`,
+    /// `max-iterations`, `budget`, `error: ...`).
+    pub status: String,
+    /// Whether the solver claims convergence.
+    pub converged: bool,
+    /// $f$ at the start.
+    pub f0: f64,
+    /// The best $f$ found.
+    pub f: f64,
+    /// The problem's published optimal value, if known.
+    pub f_star: Option<f64>,
+    /// Residual (or cost) evaluations.
+    pub f_evals: u64,
+    /// Jacobian (or gradient) evaluations.
+    pub jac_evals: u64,
+    /// Evaluation equivalents: `f_evals + n * jac_evals`.
+    pub evals: u64,
+    /// Wall time of the solve in seconds (the median over `repeats`).
+    pub time_s: f64,
+    /// How many times the solve was timed.
+    pub repeats: u32,
+    /// `[evals, f]` where the best $f$ so far fell (see [`thin_trace`]).
+    pub trace: Vec<(u64, f64)>,
+}
+
+impl RunRecord {
+    /// The key that pairs runs of different solvers: set, problem, scale.
+    pub fn instance(&self) -> (String, String, String) {
+        (self.set.clone(), self.problem.clone(), format!("{}", self.scale))
+    }
+
+    /// The first evaluation count at which the best $f$ was at most
+    /// `threshold`, if it ever was.
+    pub fn evals_to(&self, threshold: f64) -> Option<u64> {
+        self.trace.iter().find(|(_, f)| *f <= threshold).map(|(e, _)| *e)
+    }
+
+    /// Checks every field a file can get wrong; the error names it.
+    fn validate(&self, path: &Path, index: usize) -> Result<()> {
+        let bad = |field: &'static str, reason: String| BenchError::BadField {
+            path: path.to_path_buf(),
+            index,
+            field,
+            reason,
+        };
+        for (field, v) in [("solver", &self.solver), ("set", &self.set), ("problem", &self.problem)] {
+            if v.trim().is_empty() {
+                return Err(bad(field, "must not be empty".into()));
+            }
+        }
+        if self.n == 0 {
+            return Err(bad("n", "must be at least 1".into()));
+        }
+        for (field, v) in [("scale", self.scale), ("f0", self.f0), ("f", self.f)] {
+            if !v.is_finite() {
+                return Err(bad(field, format!("must be finite, got {v}")));
+            }
+        }
+        if self.f_star.is_some_and(|v| !v.is_finite()) {
+            return Err(bad("f_star", "must be finite or null".into()));
+        }
+        if !(self.time_s.is_finite() && self.time_s >= 0.0) {
+            return Err(bad("time_s", format!("must be finite and >= 0, got {}", self.time_s)));
+        }
+        if self.trace.is_empty() {
+            return Err(bad("trace", "must hold at least the start".into()));
+        }
+        if self.trace.windows(2).any(|w| w[1].0 < w[0].0 || w[1].1 > w[0].1) {
+            return Err(bad("trace", "evals must not decrease nor f increase".into()));
+        }
+        if self.trace.iter().any(|(_, f)| !f.is_finite()) {
+            return Err(bad("trace", "values must be finite".into()));
+        }
+        Ok(())
+    }
+}
+
+/// A file of runs: what `nprl-bench` writes as `runs.json` and the outside
+/// scripts write as `*.json` for it to merge.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct RecordFile {
+    /// Always [`FORMAT`].
+    pub format: String,
+    /// Who wrote it (`nprl-bench`, `scipy`, `nlopt`), with versions.
+    pub source: String,
+    /// The runs.
+    pub runs: Vec<RunRecord>,
+}
+
+impl RecordFile {
+    /// A file of `runs` from `source`.
+    pub fn new(source: impl Into<String>, runs: Vec<RunRecord>) -> Self {
+        Self {
+            format: FORMAT.into(),
+            source: source.into(),
+            runs,
+        }
+    }
+
+    /// Parses and checks `text`, read from `path` (for the errors).
+    ///
+    /// # Errors
+    /// [`BenchError::Malformed`] for JSON of the wrong shape (with line and
+    /// column), [`BenchError::BadField`] naming the run and field out of range.
+    pub fn parse(text: &str, path: &Path) -> Result<Self> {
+        let file: Self = serde_json::from_str(text).map_err(|source| BenchError::Malformed {
+            path: path.to_path_buf(),
+            source,
+        })?;
+        if file.format != FORMAT {
+            return Err(BenchError::BadField {
+                path: path.to_path_buf(),
+                index: 0,
+                field: "format",
+                reason: format!("expected `{FORMAT}`, got `{}`", file.format),
+            });
+        }
+        for (index, run) in file.runs.iter().enumerate() {
+            run.validate(path, index)?;
+        }
+        Ok(file)
+    }
+
+    /// Reads and checks the file at `path`.
+    ///
+    /// # Errors
+    /// [`BenchError::Io`] if it cannot be read; as [`parse`](Self::parse).
+    pub fn load(path: &Path) -> Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(BenchError::io(path))?;
+        Self::parse(&text, path)
+    }
+
+    /// Writes the file to `path` as pretty JSON.
+    ///
+    /// # Errors
+    /// [`BenchError::Io`] naming the file.
+    pub fn save(&self, path: &Path) -> Result<()> {
+        let text = serde_json::to_string(self).map_err(|e| BenchError::Io {
+            path: path.to_path_buf(),
+            source: std::io::Error::other(e),
+        })?;
+        std::fs::write(path, text + "\n").map_err(BenchError::io(path))
+    }
+}
+
+/// Keeps the points of an improvement trace `[evals, f]` (best $f$ so far,
+/// in order) at which $f - f_\text{end}$ fell to 90% or less of its value
+/// at the last point kept, plus the first and the last: at most a few
+/// hundred points however long the run, and the first evaluation count at
+/// which $f \le f_L + \tau (f_0 - f_L)$ read from the thinned trace is that
+/// of the full trace for a $\tau$ at most 10% larger. The outside scripts
+/// thin by the same rule.
+pub fn thin_trace(trace: &[(u64, f64)]) -> Vec<(u64, f64)> {
+    let Some(&(_, f_end)) = trace.last() else {
+        return Vec::new();
+    };
+    let mut kept: Vec<(u64, f64)> = Vec::new();
+    for (i, &(e, f)) in trace.iter().enumerate() {
+        let keep = match kept.last() {
+            None => true,
+            Some(&(_, f_kept)) => i + 1 == trace.len() || f - f_end <= 0.9 * (f_kept - f_end),
+        };
+        if keep {
+            kept.push((e, f));
+        }
+    }
+    kept
+}
+
+#[cfg(test)]
+pub(crate) mod tests {
+    use super::*;
+
+    pub(crate) fn run(solver: &str, problem: &str, f: f64, evals: u64) -> RunRecord {
+        RunRecord {
+            solver: solver.into(),
+            set: "mgh".into(),
+            problem: problem.into(),
+            n: 2,
+            m: 2,
+            scale: 1.0,
+            status: "converged".into(),
+            converged: true,
+            f0: 10.0,
+            f,
+            f_star: Some(0.0),
+            f_evals: evals,
+            jac_evals: 0,
+            evals,
+            time_s: 0.5,
+            repeats: 1,
+            trace: vec![(1, 10.0), (evals, f)],
+        }
+    }
+
+    #[test]
+    fn a_record_file_round_trips_through_json() {
+        let file = RecordFile::new("test", vec![run("a", "p", 1e-300, 7), run("b", "q", 0.1 + 0.2, 9)]);
+        let text = serde_json::to_string(&file).expect("serialises");
+        let back = RecordFile::parse(&text, Path::new("x.json")).expect("parses");
+        assert_eq!(back, file);
+    }
+
+    #[test]
+    fn malformed_files_name_the_file_and_the_field() {
+        let path = Path::new("outside/scipy.json");
+        match RecordFile::parse("{\"format\": \"nprl-bench/1\", \"runs\": []}", path) {
+            Err(e @ BenchError::Malformed { .. }) => {
+                let msg = e.to_string();
+                assert!(msg.contains("outside/scipy.json") && msg.contains("source"), "{msg}");
+            }
+            other => panic!("{other:?}"),
+        }
+        let mut bad = run("a", "p", 0.0, 3);
+        bad.time_s = -1.0;
+        let text = serde_json::to_string(&RecordFile::new("t", vec![run("a", "p", 0.0, 3), bad])).expect("json");
+        match RecordFile::parse(&text, path) {
+            Err(BenchError::BadField { index, field, .. }) => assert_eq!((index, field), (1, "time_s")),
+            other => panic!("{other:?}"),
+        }
+        let mut rising = run("a", "p", 0.0, 3);
+        rising.trace = vec![(1, 1.0), (2, 2.0)];
+        let text = serde_json::to_string(&RecordFile::new("t", vec![rising])).expect("json");
+        assert!(matches!(
+            RecordFile::parse(&text, path),
+            Err(BenchError::BadField { field: "trace", .. })
+        ));
+        let text = serde_json::to_string(&RecordFile {
+            format: "other/2".into(),
+            ..RecordFile::new("t", vec![])
+        })
+        .expect("json");
+        assert!(matches!(
+            RecordFile::parse(&text, path),
+            Err(BenchError::BadField { field: "format", .. })
+        ));
+    }
+
+    #[test]
+    fn thinning_keeps_ends_and_tenfold_drops() {
+        let trace: Vec<(u64, f64)> = (0..100).map(|i| (i + 1, 1.0 + 0.99f64.powi(i as i32))).collect();
+        let thin = thin_trace(&trace);
+        assert_eq!(thin.first(), trace.first());
+        assert_eq!(thin.last(), trace.last());
+        assert!(thin.len() < trace.len() / 2, "{}", thin.len());
+        let f_end = trace[99].1;
+        for w in thin.windows(2).take(thin.len() - 2) {
+            assert!(w[1].1 - f_end <= 0.9 * (w[0].1 - f_end));
+        }
+        assert!(thin_trace(&[]).is_empty());
+    }
+}

@@ -1,0 +1,503 @@
+//! What the runner writes: the per-run table (CSV and Markdown), the
+//! profiles (JSON), the two goals of the project's issue 21, the five-row
+//! summary, and the stamp (commit, machine, runs) on all of it.
+
+use std::fmt::Write as _;
+use std::path::Path;
+use std::process::Command;
+
+use serde::Serialize;
+
+use crate::analysis::{Analysis, TAUS};
+use crate::error::{BenchError, Result};
+use crate::profiles::Profile;
+
+/// Where and on what the numbers were measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Stamp {
+    /// `git rev-parse HEAD`, or `unknown`.
+    pub commit: String,
+    /// Whether tracked files outside `results/` differed from the commit.
+    pub dirty: bool,
+    /// Cores available to the process.
+    pub cores: usize,
+    /// `/proc/loadavg`'s 1-minute load before and after the run.
+    pub load_before: Option<f64>,
+    /// The same after.
+    pub load_after: Option<f64>,
+    /// UTC date and time of the report.
+    pub date: String,
+    /// Number of solver runs in the report (ours and outside).
+    pub runs: usize,
+    /// Times each of our solves was timed (the median is reported).
+    pub repeats: u32,
+    /// The evaluation budget per run, in simplex gradients ($n + 1$).
+    pub budget_simplex_gradients: u64,
+    /// The time budget per run, seconds.
+    pub budget_time_s: f64,
+    /// The sources of the records merged (ours and the outside scripts').
+    pub sources: Vec<String>,
+    /// Wall time of the runner's own runs (0 when reused), seconds.
+    pub elapsed_s: f64,
+}
+
+impl Stamp {
+    /// The 1-minute load average, where `/proc/loadavg` exists.
+    pub fn load() -> Option<f64> {
+        std::fs::read_to_string("/proc/loadavg")
+            .ok()?
+            .split_whitespace()
+            .next()?
+            .parse()
+            .ok()
+    }
+
+    /// The commit and dirty flag of the repository around the working
+    /// directory, and the date.
+    pub fn git() -> (String, bool, String) {
+        let out = |args: &[&str]| {
+            Command::new(args[0])
+                .args(&args[1..])
+                .output()
+                .ok()
+                .filter(|o| o.status.success())
+                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
+        };
+        let commit = out(&["git", "rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
+        let dirty = out(&[
+            "git",
+            "status",
+            "--porcelain",
+            "--untracked-files=no",
+            "--",
+            ".",
+            ":!results",
+        ])
+        .is_none_or(|s| !s.is_empty());
+        let date = out(&["date", "-u", "+%Y-%m-%dT%H:%M:%SZ"]).unwrap_or_else(|| "unknown".into());
+        (commit, dirty, date)
+    }
+}
+
+/// One measured comparison: ours against a reference on the instances
+/// both ran.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Comparison {
+    /// What is compared.
+    pub task: String,
+    /// Our solver.
+    pub ours: String,
+    /// The reference solver.
+    pub reference: String,
+    /// Our figure (a count, or a median).
+    pub ours_value: Option<f64>,
+    /// The reference's figure.
+    pub reference_value: Option<f64>,
+    /// The ratio ours / reference (for medians: the median of the
+    /// per-instance ratios).
+    pub ratio: Option<f64>,
+    /// Solver runs behind the figures.
+    pub runs: usize,
+    /// The unit of the values (`instances`, `s`, `evaluations`).
+    pub unit: String,
+}
+
+/// A goal of issue 21, measured.
+#[derive(Debug, Clone, PartialEq, Serialize)]
+pub struct Goal {
+    /// The goal as stated.
+    pub goal: String,
+    /// Met, not met, or not measured (a solver's records missing).
+    pub verdict: String,
+    /// The comparisons it rests on.
+    pub evidence: Vec<Comparison>,
+}
+
+fn median(mut v: Vec<f64>) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let k = v.len();
+    Some(if k % 2 == 1 {
+        v[k / 2]
+    } else {
+        0.5 * (v[k / 2 - 1] + v[k / 2])
+    })
+}
+
+/// Instances solved at `tau` by `ours` and by `reference`, on the
+/// instances both ran.
+pub fn solved_counts(a: &Analysis, ours: &str, reference: &str, tau: f64) -> Comparison {
+    let mut c = Comparison {
+        task: format!("MGH instances solved (tau = {tau:e})"),
+        ours: ours.into(),
+        reference: reference.into(),
+        ours_value: None,
+        reference_value: None,
+        ratio: None,
+        runs: 0,
+        unit: "instances".into(),
+    };
+    let (Some(s), Some(r)) = (a.column(ours), a.column(reference)) else {
+        return c;
+    };
+    let rows = a.common_rows(&[s, r]);
+    let count = |col: usize| {
+        rows.iter()
+            .filter(|&&p| a.outcome(p, col, tau).is_some_and(|o| o.solved))
+            .count() as f64
+    };
+    let (x, y) = (count(s), count(r));
+    c.ours_value = Some(x);
+    c.reference_value = Some(y);
+    c.ratio = (y > 0.0).then(|| x / y);
+    c.runs = 2 * rows.len();
+    c
+}
+
+/// Medians of time or evaluations to solve at `tau` over the instances
+/// both solved, and the median of the per-instance ratios.
+pub fn median_costs(a: &Analysis, ours: &str, reference: &str, tau: f64, by_time: bool) -> Comparison {
+    let mut c = Comparison {
+        task: format!(
+            "MGH {} to solve, median over instances both solve (tau = {tau:e})",
+            if by_time { "time" } else { "evaluations" }
+        ),
+        ours: ours.into(),
+        reference: reference.into(),
+        ours_value: None,
+        reference_value: None,
+        ratio: None,
+        runs: 0,
+        unit: if by_time { "s" } else { "evaluations" }.into(),
+    };
+    let (Some(s), Some(r)) = (a.column(ours), a.column(reference)) else {
+        return c;
+    };
+    let cost = |p: usize, col: usize| {
+        let o = a.outcome(p, col, tau)?;
+        if by_time { o.time_s } else { o.evals.map(|e| e as f64) }
+    };
+    let pairs: Vec<(f64, f64)> = a
+        .common_rows(&[s, r])
+        .into_iter()
+        .filter_map(|p| Some((cost(p, s)?, cost(p, r)?)))
+        .collect();
+    c.ours_value = median(pairs.iter().map(|p| p.0).collect());
+    c.reference_value = median(pairs.iter().map(|p| p.1).collect());
+    c.ratio = median(pairs.iter().map(|p| p.0 / p.1.max(f64::MIN_POSITIVE)).collect());
+    c.runs = 2 * pairs.len();
+    c
+}
+
+/// The tolerance the goals and the summary are judged at.
+pub const GOAL_TAU: f64 = 1e-7;
+
+/// The two goals of issue 21, at [`GOAL_TAU`]: Powell needs no more
+/// evaluations than PRAXIS (median ratio at most 1), and Gauss-Newton
+/// solves at least as many instances as MINPACK (`scipy-lm`) in less time
+/// (median time ratio below 1).
+pub fn goals(a: &Analysis) -> Vec<Goal> {
+    let verdict = |measured: bool, met: bool| {
+        match (measured, met) {
+            (false, _) => "not measured",
+            (true, true) => "met",
+            (true, false) => "not met",
+        }
+        .to_string()
+    };
+    let powell = median_costs(a, "powell", "nlopt-praxis", GOAL_TAU, false);
+    let powell_measured = powell.ratio.is_some();
+    let powell_met = powell.ratio.is_some_and(|r| r <= 1.0);
+    let solved = solved_counts(a, "gauss-newton", "scipy-lm", GOAL_TAU);
+    let time = median_costs(a, "gauss-newton", "scipy-lm", GOAL_TAU, true);
+    let gn_measured = solved.ours_value.is_some() && time.ratio.is_some();
+    let gn_met = solved.ours_value >= solved.reference_value && time.ratio.is_some_and(|r| r < 1.0);
+    vec![
+        Goal {
+            goal: "Powell needs no more function evaluations than NLopt's PRAXIS on the MGH set (median ratio over instances both solve <= 1)".into(),
+            verdict: verdict(powell_measured, powell_met),
+            evidence: vec![powell],
+        },
+        Goal {
+            goal: "Gauss-Newton/LM solves at least as many MGH instances as MINPACK (scipy lm) to the same tolerance, in less time (median time ratio < 1)".into(),
+            verdict: verdict(gn_measured, gn_met),
+            evidence: vec![solved, time],
+        },
+    ]
+}
+
+/// The five rows of the summary: both goals' comparisons, Gauss-Newton's
+/// evaluations against MINPACK's, and Powell's solved count against PRAXIS's.
+pub fn summary(a: &Analysis) -> Vec<Comparison> {
+    vec![
+        solved_counts(a, "gauss-newton", "scipy-lm", GOAL_TAU),
+        median_costs(a, "gauss-newton", "scipy-lm", GOAL_TAU, true),
+        median_costs(a, "gauss-newton", "scipy-lm", GOAL_TAU, false),
+        solved_counts(a, "powell", "nlopt-praxis", GOAL_TAU),
+        median_costs(a, "powell", "nlopt-praxis", GOAL_TAU, false),
+    ]
+}
+
+/// A value in its unit for the tables (`-` when missing).
+pub(crate) fn num(v: Option<f64>, unit: &str) -> String {
+    match v {
+        None => "-".into(),
+        Some(x) if unit == "instances" => format!("{x:.0}"),
+        Some(x) if unit == "s" => format!("{:.3} ms", x * 1e3),
+        Some(x) => format!("{x:.1}"),
+    }
+}
+
+/// The summary as a Markdown table (task, ours, reference, ratio, runs).
+pub fn summary_markdown(rows: &[Comparison], stamp: &Stamp) -> String {
+    let mut s = String::from("| task | ours | reference | ratio | runs |\n|---|---|---|---|---|\n");
+    for c in rows {
+        let _ = writeln!(
+            s,
+            "| {} | {}: {} | {}: {} | {} | {} |",
+            c.task,
+            c.ours,
+            num(c.ours_value, &c.unit),
+            c.reference,
+            num(c.reference_value, &c.unit),
+            ratio_text(c.ratio),
+            c.runs
+        );
+    }
+    let _ = writeln!(
+        s,
+        "\nGenerated by `nprl-bench` at commit {}{} on {} cores (load {}), {} runs, {}.",
+        short(&stamp.commit),
+        if stamp.dirty { " (dirty)" } else { "" },
+        stamp.cores,
+        stamp.load_before.map_or("?".into(), |l| format!("{l:.2}")),
+        stamp.runs,
+        stamp.date
+    );
+    s
+}
+
+/// A ratio with three significant digits (`-` when missing).
+pub(crate) fn ratio_text(r: Option<f64>) -> String {
+    match r {
+        None => "-".into(),
+        Some(r) if r != 0.0 && r.abs() < 0.01 => format!("{r:.2e}"),
+        Some(r) => format!("{r:.3}"),
+    }
+}
+
+fn short(commit: &str) -> &str {
+    commit.get(..12).unwrap_or(commit)
+}
+
+/// One row per run: instance, solver, status, values and outcomes at both
+/// taus.
+pub fn runs_csv(a: &Analysis) -> Result<String> {
+    let mut w = csv::Writer::from_writer(Vec::new());
+    let csv_err = |e: csv::Error| BenchError::Io {
+        path: "table.csv".into(),
+        source: std::io::Error::other(e),
+    };
+    w.write_record([
+        "set",
+        "problem",
+        "scale",
+        "n",
+        "solver",
+        "status",
+        "converged",
+        "f0",
+        "f",
+        "f_low",
+        "f_star",
+        "f_evals",
+        "jac_evals",
+        "evals",
+        "time_s",
+        "solved_1e-3",
+        "evals_to_1e-3",
+        "solved_1e-7",
+        "evals_to_1e-7",
+    ])
+    .map_err(csv_err)?;
+    for (p, key) in a.instances.iter().enumerate() {
+        for (s, run) in a.runs[p].iter().enumerate() {
+            let Some(r) = run else { continue };
+            let mut row = vec![
+                key.0.clone(),
+                key.1.clone(),
+                key.2.clone(),
+                r.n.to_string(),
+                r.solver.clone(),
+                r.status.clone(),
+                r.converged.to_string(),
+                format!("{:e}", r.f0),
+                format!("{:e}", r.f),
+                format!("{:e}", a.f_low[p]),
+                r.f_star.map_or(String::new(), |v| format!("{v:e}")),
+                r.f_evals.to_string(),
+                r.jac_evals.to_string(),
+                r.evals.to_string(),
+                format!("{:e}", r.time_s),
+            ];
+            for tau in TAUS {
+                let o = a.outcome(p, s, tau);
+                row.push(o.is_some_and(|o| o.solved).to_string());
+                row.push(o.and_then(|o| o.evals).map_or(String::new(), |e| e.to_string()));
+            }
+            w.write_record(&row).map_err(csv_err)?;
+        }
+    }
+    let bytes = w.into_inner().map_err(|e| BenchError::Io {
+        path: "table.csv".into(),
+        source: std::io::Error::other(e.to_string()),
+    })?;
+    Ok(String::from_utf8_lossy(&bytes).into_owned())
+}
+
+/// Per problem and start: each solver's final $f$ (bold where it solved at
+/// [`GOAL_TAU`]) and its evaluations to solve, as Markdown.
+pub fn problems_markdown(a: &Analysis) -> String {
+    let mut s = format!("| problem | scale | n | f_L | {} |\n", a.solvers.join(" | "));
+    let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(a.solvers.len()));
+    for (p, key) in a.instances.iter().enumerate() {
+        let _ = write!(s, "| {} | {} | {} | {:.6e} |", key.1, key.2, a.n[p], a.f_low[p]);
+        for (col, run) in a.runs[p].iter().enumerate() {
+            match (run, a.outcome(p, col, GOAL_TAU)) {
+                (Some(r), Some(o)) if o.solved => {
+                    let _ = write!(s, " **{:.4e}** ({}) |", r.f, o.evals.unwrap_or(r.evals));
+                }
+                (Some(r), _) => {
+                    let _ = write!(s, " {:.4e} [{}] |", r.f, status_word(&r.status));
+                }
+                (None, _) => s.push_str(" - |"),
+            }
+        }
+        s.push('\n');
+    }
+    s
+}
+
+/// A short form of a status for the tables.
+fn status_word(status: &str) -> String {
+    let word = status.split([':', ' ', '(']).next().unwrap_or(status);
+    word.chars().take(20).collect()
+}
+
+/// Each solver's count of instances solved at both taus, and the share of
+/// its profile at ratio 1 (best) by time and evaluations.
+pub fn solvers_markdown(a: &Analysis) -> String {
+    let all: Vec<usize> = (0..a.solvers.len()).collect();
+    let mut s = String::from(
+        "| solver | derivative-free | runs | solved (tau 1e-3) | solved (tau 1e-7) | fastest (tau 1e-7) | fewest evaluations (tau 1e-7) |\n|---|---|---|---|---|---|---|\n",
+    );
+    let (time, evals) = a.performance(GOAL_TAU, &all);
+    for (col, name) in a.solvers.iter().enumerate() {
+        let runs = a.runs.iter().filter(|r| r[col].is_some()).count();
+        let solved = |tau: f64| {
+            (0..a.instances.len())
+                .filter(|&p| a.outcome(p, col, tau).is_some_and(|o| o.solved))
+                .count()
+        };
+        let best = |profiles: &[Profile]| profiles.get(col).map_or(0.0, |p| p.at(1.0));
+        let _ = writeln!(
+            s,
+            "| {name} | {} | {runs} | {} | {} | {:.0}% | {:.0}% |",
+            if a.derivative_free[col] { "yes" } else { "no" },
+            solved(TAUS[0]),
+            solved(TAUS[1]),
+            100.0 * best(&time),
+            100.0 * best(&evals),
+        );
+    }
+    s
+}
+
+/// Writes `text` to `path`.
+pub fn write(path: &Path, text: &str) -> Result<()> {
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(BenchError::io(dir))?;
+    }
+    std::fs::write(path, text).map_err(BenchError::io(path))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::record::tests::run;
+
+    fn analysis() -> Analysis {
+        // instance p: gauss-newton solves in 0.5 s, 6 evals; lm in 1.0 s, 12
+        // instance q: gauss-newton fails, lm solves
+        let mut gp = run("gauss-newton", "p", 0.0, 6);
+        gp.time_s = 0.5;
+        let mut lp = run("scipy-lm", "p", 0.0, 12);
+        lp.time_s = 1.0;
+        let gq = run("gauss-newton", "q", 5.0, 6);
+        let lq = run("scipy-lm", "q", 0.0, 8);
+        Analysis::new(vec![gp, lp, gq, lq], &["gauss-newton".into()])
+    }
+
+    #[test]
+    fn comparisons_and_goals_by_hand() {
+        let a = analysis();
+        let solved = solved_counts(&a, "gauss-newton", "scipy-lm", GOAL_TAU);
+        assert_eq!(
+            (solved.ours_value, solved.reference_value, solved.runs),
+            (Some(1.0), Some(2.0), 4)
+        );
+        assert_eq!(solved.ratio, Some(0.5));
+        let time = median_costs(&a, "gauss-newton", "scipy-lm", GOAL_TAU, true);
+        assert_eq!((time.ratio, time.runs), (Some(0.5), 2));
+        let evals = median_costs(&a, "gauss-newton", "scipy-lm", GOAL_TAU, false);
+        assert_eq!((evals.ours_value, evals.reference_value), (Some(6.0), Some(12.0)));
+        let g = goals(&a);
+        assert_eq!(g[0].verdict, "not measured");
+        assert_eq!(g[1].verdict, "not met");
+        assert_eq!(summary(&a).len(), 5);
+        let md = summary_markdown(
+            &summary(&a),
+            &Stamp {
+                commit: "0123456789abcdef".into(),
+                dirty: false,
+                cores: 2,
+                load_before: Some(0.5),
+                load_after: None,
+                date: "today".into(),
+                runs: 4,
+                repeats: 1,
+                budget_simplex_gradients: 1,
+                budget_time_s: 1.0,
+                sources: vec![],
+                elapsed_s: 0.0,
+            },
+        );
+        assert!(
+            md.contains("| 0.500 | 4 |") && md.contains("0123456789ab on 2 cores"),
+            "{md}"
+        );
+        let csv = runs_csv(&a).expect("csv");
+        assert_eq!(csv.lines().count(), 5);
+        assert!(problems_markdown(&a).contains("**0.0000e0** (6)"));
+        assert!(solvers_markdown(&a).contains("| scipy-lm | yes | 2 | 2 | 2 |"));
+    }
+
+    #[test]
+    fn medians() {
+        assert_eq!(median(vec![]), None);
+        assert_eq!(median(vec![3.0, 1.0, 2.0]), Some(2.0));
+        assert_eq!(median(vec![4.0, 1.0, 2.0, 3.0]), Some(2.5));
+    }
+
+    #[test]
+    fn values_and_ratios_as_text() {
+        assert_eq!(num(Some(79.0), "instances"), "79");
+        assert_eq!(num(Some(2.5e-5), "s"), "0.025 ms");
+        assert_eq!(num(None, "s"), "-");
+        assert_eq!(ratio_text(Some(0.81922)), "0.819");
+        assert_eq!(ratio_text(Some(0.0029346)), "2.93e-3");
+        assert_eq!(ratio_text(None), "-");
+    }
+}
