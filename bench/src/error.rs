@@ -69,6 +69,14 @@ pub enum BenchError {
         /// The solver's message.
         reason: String,
     },
+    /// A README without the lines that delimit its generated benchmark
+    /// summary (`<!-- benchmarks:start -->` and `<!-- benchmarks:end -->`,
+    /// in that order).
+    #[error("{path}: no `<!-- benchmarks:start -->` line followed by a `<!-- benchmarks:end -->` line")]
+    NoReadmeSection {
+        /// The README.
+        path: PathBuf,
+    },
     /// Drawing a figure failed.
     #[error("figure {figure}: {reason}")]
     Plot {

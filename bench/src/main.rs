@@ -48,6 +48,10 @@ struct Cli {
     /// Do not run: reuse OUT/runs.json (to merge new outside records).
     #[arg(long)]
     reuse: bool,
+    /// Also write the summary into this README, between its
+    /// `<!-- benchmarks:start -->` and `<!-- benchmarks:end -->` lines.
+    #[arg(long)]
+    update_readme: Option<PathBuf>,
 }
 
 fn main() -> ExitCode {
@@ -82,7 +86,35 @@ fn run(cli: Cli) -> bench::Result<()> {
         outside: cli.outside,
         reuse: cli.reuse,
     };
+    // a README without its markers is refused before anything runs
+    let readme = match &cli.update_readme {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).map_err(|source| bench::BenchError::Io {
+                path: path.clone(),
+                source,
+            })?;
+            if bench::report::with_readme_summary(&text, "").is_none() {
+                return Err(bench::BenchError::NoReadmeSection { path: path.clone() });
+            }
+            Some((path.clone(), text))
+        }
+        None => None,
+    };
     let (analysis, stamp) = execute(&settings)?;
+    if let Some((path, text)) = readme {
+        let summary_path = settings.report_dir.join("benchmarks_summary.md");
+        let summary = std::fs::read_to_string(&summary_path).map_err(|source| bench::BenchError::Io {
+            path: summary_path,
+            source,
+        })?;
+        let updated = bench::report::with_readme_summary(&text, &summary)
+            .ok_or_else(|| bench::BenchError::NoReadmeSection { path: path.clone() })?;
+        std::fs::write(&path, updated).map_err(|source| bench::BenchError::Io {
+            path: path.clone(),
+            source,
+        })?;
+        println!("updated the benchmark summary in {}", path.display());
+    }
     for goal in bench::report::goals(&analysis) {
         println!("{}: {}", goal.verdict, goal.goal);
     }

@@ -250,6 +250,20 @@ pub(crate) fn num(v: Option<f64>, unit: &str) -> String {
     }
 }
 
+/// The first line of a README's generated benchmark summary.
+pub const README_START: &str = "<!-- benchmarks:start -->\n";
+/// The line after a README's generated benchmark summary.
+pub const README_END: &str = "<!-- benchmarks:end -->";
+
+/// `readme` with the text between [`README_START`] and [`README_END`]
+/// replaced by `summary`, or `None` when the two lines are not there in
+/// that order.
+pub fn with_readme_summary(readme: &str, summary: &str) -> Option<String> {
+    let body = readme.find(README_START)? + README_START.len();
+    let end = body + readme[body..].find(README_END)?;
+    Some([&readme[..body], summary, &readme[end..]].concat())
+}
+
 /// The summary as a Markdown table (task, ours, reference, ratio, runs).
 pub fn summary_markdown(rows: &[Comparison], stamp: &Stamp) -> String {
     let mut s = String::from("| task | ours | reference | ratio | runs |\n|---|---|---|---|---|\n");
@@ -457,6 +471,15 @@ mod tests {
         assert_eq!(g[0].verdict, "not measured");
         assert_eq!(g[1].verdict, "not met");
         assert_eq!(summary(&a).len(), 5);
+        let readme = format!("intro\n{README_START}old\n{README_END}\nrest\n");
+        assert_eq!(
+            with_readme_summary(&readme, "new\n").as_deref(),
+            Some(format!("intro\n{README_START}new\n{README_END}\nrest\n").as_str())
+        );
+        assert_eq!(
+            with_readme_summary(&format!("{README_END}\n{README_START}"), "new\n"),
+            None
+        );
         let md = summary_markdown(
             &summary(&a),
             &Stamp {

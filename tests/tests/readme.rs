@@ -72,6 +72,16 @@ fn the_sensitivity_summary_is_the_one_results_gives() {
     );
 }
 
+#[test]
+fn the_benchmark_summary_is_the_one_results_gives() {
+    let readme = read("README.md");
+    assert_eq!(
+        section(&readme, "README.md", "benchmarks"),
+        read("results/benchmarks_summary.md"),
+        "README.md's benchmark summary is stale: run `cargo run --release -p nprl-bench -- --update-readme README.md`"
+    );
+}
+
 /// The section finder reads what `update_between` writes.
 #[test]
 fn sections_round_trip_through_update_between() {
