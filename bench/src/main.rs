@@ -87,29 +87,19 @@ fn run(cli: Cli) -> bench::Result<()> {
         reuse: cli.reuse,
     };
     // a README without its markers is refused before anything runs
-    let readme = match &cli.update_readme {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).map_err(|source| bench::BenchError::Io {
-                path: path.clone(),
-                source,
-            })?;
-            if bench::report::with_readme_summary(&text, "").is_none() {
-                return Err(bench::BenchError::NoReadmeSection { path: path.clone() });
-            }
-            Some((path.clone(), text))
-        }
-        None => None,
-    };
+    if let Some(path) = &cli.update_readme {
+        readme_with_summary(path, "")?;
+    }
     let (analysis, stamp) = execute(&settings)?;
-    if let Some((path, text)) = readme {
+    if let Some(path) = &cli.update_readme {
         let summary_path = settings.report_dir.join("benchmarks_summary.md");
         let summary = std::fs::read_to_string(&summary_path).map_err(|source| bench::BenchError::Io {
             path: summary_path,
             source,
         })?;
-        let updated = bench::report::with_readme_summary(&text, &summary)
-            .ok_or_else(|| bench::BenchError::NoReadmeSection { path: path.clone() })?;
-        std::fs::write(&path, updated).map_err(|source| bench::BenchError::Io {
+        // read again: the README may have been edited during the runs
+        let updated = readme_with_summary(path, &summary)?;
+        std::fs::write(path, updated).map_err(|source| bench::BenchError::Io {
             path: path.clone(),
             source,
         })?;
@@ -127,4 +117,15 @@ fn run(cli: Cli) -> bench::Result<()> {
         settings.report_dir.display()
     );
     Ok(())
+}
+
+/// The README at `path` with `summary` between its benchmark markers.
+fn readme_with_summary(path: &std::path::Path, summary: &str) -> bench::Result<String> {
+    let text = std::fs::read_to_string(path).map_err(|source| bench::BenchError::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    bench::report::with_readme_summary(&text, summary).ok_or_else(|| bench::BenchError::NoReadmeSection {
+        path: path.to_path_buf(),
+    })
 }
