@@ -272,11 +272,10 @@ pub struct ModelConfig {
     /// Ridge on the local fits' slopes per bandwidth unit
     /// ([`lwr::LwrSettings::slope_ridge`]), in units of kernel weight (data
     /// points): scale-free, and inputs the tuned metric ignores leave the
-    /// local fits. Off by default: with the pure LWR over seeds 1-20
-    /// (`swingup learn --model lwr --max-trials 8`, commit 673903d) 0.1, 1
-    /// and 10 made tuning pick more local models and plans
-    /// 2-5 times faster (median 0.8, 0.34, 0.35 s against 1.8 s on one
-    /// thread), but learning succeeded in 6, 2 and 5 of 20 runs against 8.
+    /// local fits. Off by default: with the pure LWR it makes tuning pick
+    /// more local models and plans several times faster, but learning
+    /// succeeded in fewer runs over seeds 1-20 (`swingup learn --model lwr
+    /// --max-trials 8`; the counts are in the message of commit 673903d).
     pub slope_ridge: f64,
     /// Evaluations of the cross-validated metric tuning per trial (0: no tuning).
     pub tune_evals: usize,

@@ -2,10 +2,10 @@
 //! evaluate parts of the residuals, while the solver's own thread does the
 //! first part ([`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)).
 //!
-//! An iteration at 1000 time steps takes well under a millisecond, and
-//! waking a parked thread costs 25-90 us on a virtual machine (measured
-//! here for rayon and for `std::thread`), which ate most of the gain of
-//! the split. So the helpers live for the whole solve and, after each
+//! An iteration at 1000 time steps is short, and waking a parked thread
+//! (rayon's or `std::thread`'s) costs a sizeable part of it, more so on
+//! virtual machines: that ate most of the gain of the split (the
+//! measurements are in the message of commit 9361b09). So the helpers live for the whole solve and, after each
 //! part, spin for up to [`SPIN`] waiting for the next one before they
 //! park: between two assemblies the solver only factorises and evaluates
 //! residuals. The jobs own their buffers (copies of $\theta$ and $r$, the

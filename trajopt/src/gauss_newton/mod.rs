@@ -117,10 +117,11 @@ pub use result::{GaussNewtonResult, GaussNewtonStatus};
 pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepModel};
 
 /// Below this many parameters [`GaussNewton::solve_parallel`] runs on one
-/// thread: the hand-overs cost more than the parts save (the benchmark
-/// pendulum at 300 steps, 257 parameters, took 7.3 ms on two threads
-/// against 4.6 ms on one on an idle machine; at 1000 steps, 812
-/// parameters, 6.8 against 11.7 ms).
+/// thread: the hand-overs cost more than the parts save. The threshold
+/// lies between the benchmark pendulum at 300 steps (257 parameters,
+/// slower on two threads) and at 1000 steps (812 parameters, faster);
+/// `cargo bench -p nprl-trajopt --bench gauss_newton` measures both (the
+/// measurement behind the choice is in the message of commit 035022b).
 pub const MIN_PARALLEL_PARAMS: usize = 500;
 
 /// Sparse Gauss-Newton / Levenberg-Marquardt; see the [module docs](self).
