@@ -535,7 +535,7 @@ fn print_trial(t: &TrialRecord) {
         TrialKind::Exploration => "exploration".to_string(),
         TrialKind::Planned => match (&t.plan, &t.model) {
             (Some(p), Some(m)) => format!(
-                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}{}",
+                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}{}{}",
                 p.status,
                 p.iterations,
                 p.seconds,
@@ -548,6 +548,11 @@ fn print_trial(t: &TrialRecord) {
                     format!(", LWR/prior error {:.3}", m.lwr_vs_prior)
                 } else {
                     String::new()
+                },
+                if m.dropped.is_empty() {
+                    String::new()
+                } else {
+                    format!(", inputs left out: {}", m.dropped.join(", "))
                 }
             ),
             _ => "planned".to_string(),

@@ -104,6 +104,15 @@ pub struct ModelSummary {
     /// saved before it existed).
     #[serde(default = "nan", with = "nullable")]
     pub lwr_vs_prior: f64,
+    /// Inputs left out of the LWR by the grouped cross-validation
+    /// ([`crate::models::selection`]); empty when none was (or in records
+    /// saved before the selection existed).
+    #[serde(default)]
+    pub dropped: Vec<String>,
+    /// The grouped cross-validation error of each step of the input
+    /// selection, the chosen inputs' last (empty without a selection).
+    #[serde(default, with = "nullable")]
+    pub selection_cv: Vec<f64>,
 }
 
 fn nan() -> f64 {

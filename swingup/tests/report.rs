@@ -64,6 +64,8 @@ fn model(n_points: usize, loo_nmse: f64) -> ModelSummary {
         bandwidth: 0.3,
         loo_nmse,
         lwr_vs_prior: 0.25,
+        dropped: vec!["x".into()],
+        selection_cv: vec![0.5, 0.4],
     }
 }
 

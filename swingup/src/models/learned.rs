@@ -3,8 +3,10 @@
 
 use lwr::{LwrSettings, TuneSettings};
 
-use crate::config::{Config, ModelKind};
-use crate::models::{INPUTS, KnownHand, LearnedModel, LwrRegression};
+use crate::config::{Config, LwrPrior, ModelKind};
+use crate::models::nonparametric::ALL_INPUTS;
+use crate::models::selection;
+use crate::models::{INPUTS, KnownHand, LearnedModel, LinearRegression, LwrRegression, PendulumRegression};
 use crate::record::{ModelSummary, TrialRecord, training_data};
 
 /// Fits the LWR model to all trials so far and tunes its metric by
@@ -23,6 +25,7 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
     let base_scales: Vec<f64> = spread.iter().map(|s| 1.0 / s).collect();
     let settings = LwrSettings {
         kernel: cfg.model.kernel,
+        degree: cfg.model.degree,
         bandwidth: cfg.model.bandwidth,
         scales: base_scales
             .iter()
@@ -35,12 +38,37 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
         gaussian_cutoff: cfg.model.cutoff,
         ..LwrSettings::default()
     };
-    let mut model = if cfg.model.kind == ModelKind::LwrParametric {
-        let prior = crate::models::parametric::ParametricRegression::fit_midpoint(&xs, &ys, cfg.robot.dt)?;
-        LwrRegression::fit_with_prior(&xs, &ys, settings, Box::new(prior), "parametric")?
-    } else {
-        LwrRegression::fit(&xs, &ys, settings)?
+    let parametric = cfg.model.kind == ModelKind::LwrParametric;
+    let dt = cfg.robot.dt;
+    let prior_kind = cfg.model.prior;
+    let fit_prior = |xs: &[[f64; 5]],
+                     ys: &[[f64; 1]],
+                     inputs: &[usize]|
+     -> crate::Result<Box<dyn PendulumRegression + Send + Sync>> {
+        Ok(if parametric {
+            Box::new(crate::models::parametric::ParametricRegression::fit_midpoint(
+                xs, ys, dt,
+            )?)
+        } else {
+            let linear = match prior_kind {
+                LwrPrior::Linear => inputs,
+                LwrPrior::Constant => &[][..],
+            };
+            Box::new(LinearRegression::fit_inputs(xs, ys, linear)?)
+        })
     };
+    let selection = if cfg.model.select_inputs && cfg.model.cv_blocks >= 2 && xs.len() >= 2 {
+        let lengths: Vec<usize> = trials.iter().map(|t| t.commands.len()).collect();
+        let groups = selection::trial_groups(&lengths, cfg.model.cv_blocks);
+        selection::select_inputs(&xs, &ys, &groups, &settings, &fit_prior)?
+    } else {
+        Vec::new()
+    };
+    let inputs = selection.last().map_or(ALL_INPUTS.to_vec(), |s| s.inputs.clone());
+    let settings = selection::restrict(&settings, &inputs);
+    let prior = fit_prior(&xs, &ys, &inputs)?;
+    let name = if parametric { "parametric" } else { "linear" };
+    let mut model = LwrRegression::fit_on(&xs, &ys, &inputs, settings, prior, name)?;
     let lwr = model.lwr_mut();
     let (settings, loo_nmse) = if cfg.model.tune_evals > 0 {
         let tuned = lwr.tune(&TuneSettings {
@@ -77,10 +105,23 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
         .into(),
         n_points: xs.len(),
         inputs: INPUTS.iter().map(|s| s.to_string()).collect(),
-        scales: settings.scales.iter().zip(&base_scales).map(|(s, b)| s / b).collect(),
+        // relative to the initial normalisation; 0 for the inputs left out
+        scales: (0..5)
+            .map(|j| {
+                inputs
+                    .iter()
+                    .position(|&i| i == j)
+                    .map_or(0.0, |c| settings.scales[c] / base_scales[j])
+            })
+            .collect(),
         bandwidth: settings.bandwidth,
         loo_nmse,
         lwr_vs_prior,
+        dropped: (0..5)
+            .filter(|j| !inputs.contains(j))
+            .map(|j| INPUTS[j].to_string())
+            .collect(),
+        selection_cv: selection.iter().map(|s| s.cv_nmse).collect(),
     };
     Ok((KnownHand::new(model, cfg.robot.dt), summary))
 }
@@ -95,5 +136,7 @@ pub fn true_model_summary(trials: &[TrialRecord]) -> ModelSummary {
         bandwidth: f64::NAN,
         loo_nmse: 0.0,
         lwr_vs_prior: f64::NAN,
+        dropped: Vec::new(),
+        selection_cv: Vec::new(),
     }
 }

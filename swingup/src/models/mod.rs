@@ -21,6 +21,7 @@
 pub mod learned;
 pub mod nonparametric;
 pub mod parametric;
+pub mod selection;
 pub mod truth;
 
 pub use nonparametric::{LearnedModel, LinearRegression, LwrRegression};
@@ -224,6 +225,47 @@ mod tests {
         for kernel in [Kernel::Gaussian, Kernel::Tricube] {
             jacobians_match_for(kernel);
         }
+    }
+
+    /// An LWR on a subset of the inputs: its Jacobian matches central
+    /// differences, is exactly 0 along the inputs left out, and its
+    /// prediction does not move when they do.
+    #[test]
+    fn subset_model_ignores_the_inputs_left_out() {
+        let full = model_of(300, 1.0, Kernel::Tricube);
+        let settings = LwrSettings {
+            kernel: Kernel::Tricube,
+            bandwidth: 0.8,
+            scales: vec![1.0, 0.1],
+            ridge: 1e-3,
+            intercept_ridge: 1.0,
+            ..LwrSettings::default()
+        };
+        let (xs, ys): (Vec<[f64; 5]>, Vec<[f64; 1]>) = (0..full.regression.lwr().len())
+            .map(|i| {
+                let x = full.regression.lwr().database().input(i).expect("stored");
+                let z = [x[0], x[1], x[2], x[3], x[4]];
+                (z, [-0.3 * z[0].sin() - 0.01 * z[4] * z[0].cos()])
+            })
+            .unzip();
+        let sub = LwrRegression::fit_inputs(&xs, &ys, &[0, 4], settings).expect("fit");
+        assert_eq!(sub.inputs(), &[0, 4]);
+        let z = [0.4, -0.5, 0.1, 0.3, 2.0];
+        let mut j = [f64::NAN; 5];
+        let g = sub.delta_omega(&z, Some(&mut j));
+        assert_eq!([j[1], j[2], j[3]], [0.0; 3], "{j:?}");
+        let moved = sub.delta_omega(&[0.4, 3.0, -0.4, -2.0, 2.0], None);
+        assert_eq!(g, moved);
+        let model = KnownHand::new(sub, 1.0 / 60.0);
+        for i in 0..10 {
+            let x = [-0.6 + 0.12 * i as f64, 0.2, 0.1, -0.3];
+            check_against_differences(&model, x, [1.5 - 0.3 * i as f64], 1e-5);
+        }
+        // the inputs must be strictly increasing indices below 5
+        let settings = LwrSettings::default();
+        assert!(LwrRegression::fit_inputs(&xs, &ys, &[4, 0], settings.clone()).is_err());
+        assert!(LwrRegression::fit_inputs(&xs, &ys, &[5], settings.clone()).is_err());
+        assert!(LwrRegression::fit_inputs(&xs, &ys, &[], settings).is_err());
     }
 
     /// The parallel batches give exactly the point-by-point values, for a

@@ -30,6 +30,9 @@ use crate::models::{KnownHand, PendulumRegression};
 /// semiparametric correction of it).
 pub struct LwrRegression {
     lwr: LwrModel,
+    /// Which of the five inputs the LWR sees, in order (all five unless
+    /// [`select_inputs`] dropped some).
+    inputs: Vec<usize>,
     prior: Box<dyn PendulumRegression + Send + Sync>,
     prior_name: &'static str,
     fallbacks: AtomicUsize,
@@ -39,6 +42,7 @@ impl std::fmt::Debug for LwrRegression {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("LwrRegression")
             .field("points", &self.lwr.len())
+            .field("inputs", &self.inputs)
             .field("prior", &self.prior_name)
             .finish()
     }
@@ -56,11 +60,20 @@ impl LinearRegression {
     /// Least squares of the output on $[1, z]$ (a tiny ridge keeps it
     /// defined for degenerate data).
     pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<Self> {
+        Self::fit_inputs(xs, ys, &ALL_INPUTS)
+    }
+
+    /// [`fit`](Self::fit) on the inputs `inputs` alone (indices into the
+    /// five); the others get coefficient 0.
+    pub fn fit_inputs(xs: &[[f64; 5]], ys: &[[f64; 1]], inputs: &[usize]) -> crate::Result<Self> {
         Ok(Self {
-            coefficients: global_linear_fit(xs, ys)?,
+            coefficients: global_linear_fit(xs, ys, inputs)?,
         })
     }
 }
+
+/// The indices of all five inputs.
+pub const ALL_INPUTS: [usize; 5] = [0, 1, 2, 3, 4];
 
 impl PendulumRegression for LinearRegression {
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
@@ -79,8 +92,20 @@ impl LwrRegression {
     /// residuals into an LWR model with `settings` (not yet tuned; see
     /// [`lwr_mut`](Self::lwr_mut)).
     pub fn fit(xs: &[[f64; 5]], ys: &[[f64; 1]], settings: lwr::LwrSettings) -> crate::Result<Self> {
-        let linear = LinearRegression::fit(xs, ys)?;
-        Self::fit_with_prior(xs, ys, settings, Box::new(linear), "linear")
+        Self::fit_inputs(xs, ys, &ALL_INPUTS, settings)
+    }
+
+    /// [`fit`](Self::fit) on the inputs `inputs` alone (indices into the
+    /// five, e.g. from [`select_inputs`]), for the global linear fit and the
+    /// LWR both; `settings.scales` has one scale per entry of `inputs`.
+    pub fn fit_inputs(
+        xs: &[[f64; 5]],
+        ys: &[[f64; 1]],
+        inputs: &[usize],
+        settings: lwr::LwrSettings,
+    ) -> crate::Result<Self> {
+        let linear = LinearRegression::fit_inputs(xs, ys, inputs)?;
+        Self::fit_on(xs, ys, inputs, settings, Box::new(linear), "linear")
     }
 
     /// [`fit`](Self::fit) on the residuals of a given `prior` (already
@@ -92,6 +117,24 @@ impl LwrRegression {
         prior: Box<dyn PendulumRegression + Send + Sync>,
         name: &'static str,
     ) -> crate::Result<Self> {
+        Self::fit_on(xs, ys, &ALL_INPUTS, settings, prior, name)
+    }
+
+    /// [`fit_with_prior`](Self::fit_with_prior) with the LWR on the inputs
+    /// `inputs` alone (indices into the five, strictly increasing);
+    /// `settings.scales` has one scale per entry of `inputs`.
+    pub fn fit_on(
+        xs: &[[f64; 5]],
+        ys: &[[f64; 1]],
+        inputs: &[usize],
+        settings: lwr::LwrSettings,
+        prior: Box<dyn PendulumRegression + Send + Sync>,
+        name: &'static str,
+    ) -> crate::Result<Self> {
+        crate::error::ensure_data!(
+            !inputs.is_empty() && inputs.windows(2).all(|w| w[0] < w[1]) && inputs.iter().all(|&j| j < 5),
+            "the LWR's inputs must be strictly increasing indices below 5, got {inputs:?}"
+        );
         crate::error::ensure_data!(!xs.is_empty(), "the model has no data");
         crate::error::ensure_data!(xs.len() == ys.len(), "{} inputs but {} outputs", xs.len(), ys.len());
         let resid: Vec<[f64; 1]> = xs
@@ -99,10 +142,12 @@ impl LwrRegression {
             .zip(ys)
             .map(|(x, y)| [y[0] - prior.delta_omega(x, None)])
             .collect();
-        let mut lwr = LwrModel::new(5, 1, settings)?;
-        lwr.insert_many(xs, &resid)?;
+        let mut lwr = LwrModel::new(inputs.len(), 1, settings)?;
+        let projected: Vec<Vec<f64>> = xs.iter().map(|x| inputs.iter().map(|&j| x[j]).collect()).collect();
+        lwr.insert_many(&projected, &resid)?;
         Ok(Self {
             lwr,
+            inputs: inputs.to_vec(),
             prior,
             prior_name: name,
             fallbacks: AtomicUsize::new(0),
@@ -117,6 +162,20 @@ impl LwrRegression {
     /// The LWR model of the residuals, e.g. to tune its metric.
     pub fn lwr_mut(&mut self) -> &mut LwrModel {
         &mut self.lwr
+    }
+
+    /// The inputs the LWR sees (indices into the five).
+    pub fn inputs(&self) -> &[usize] {
+        &self.inputs
+    }
+
+    /// `z` restricted to the LWR's inputs.
+    fn project(&self, z: &[f64; 5]) -> ([f64; 5], usize) {
+        let mut q = [0.0; 5];
+        for (q, &j) in q.iter_mut().zip(&self.inputs) {
+            *q = z[j];
+        }
+        (q, self.inputs.len())
     }
 
     /// The prior the LWR corrects.
@@ -138,13 +197,21 @@ impl PendulumRegression for LwrRegression {
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
         let mut j_prior = [0.0; 5];
         let prior = self.prior.delta_omega(z, jacobian.is_some().then_some(&mut j_prior));
+        let (q, d) = self.project(z);
+        let q = &q[..d];
         let (resid, j_resid) = match jacobian.is_some() {
             // the Jacobian costs a second pass over the neighbours: only when asked
-            true => match self.lwr.predict_with_jacobian(z) {
-                Ok((p, j)) => (p.mean[0], std::array::from_fn(|c| j[(0, c)])),
+            true => match self.lwr.predict_with_jacobian(q) {
+                Ok((p, j)) => {
+                    let mut full = [0.0; 5];
+                    for (c, &jj) in self.inputs.iter().enumerate() {
+                        full[jj] = j[(0, c)];
+                    }
+                    (p.mean[0], full)
+                }
                 Err(_) => (f64::NAN, [0.0; 5]),
             },
-            false => (self.lwr.predict_mean(z).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
+            false => (self.lwr.predict_mean(q).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
         };
         let usable = resid.is_finite() && j_resid.iter().all(|v: &f64| v.is_finite());
         let (resid, j_resid) = if usable {
@@ -160,23 +227,25 @@ impl PendulumRegression for LwrRegression {
     }
 
     fn support(&self, z: &[f64; 5]) -> Option<f64> {
-        Some(self.lwr.predict(z).map_or(0.0, |p| p.n_lwr))
+        let (q, d) = self.project(z);
+        Some(self.lwr.predict(&q[..d]).map_or(0.0, |p| p.n_lwr))
     }
 
     /// The LWR's support and the standard error of its correction (the
     /// prior is taken as exact); no weighted data: support 0, error NaN.
     fn uncertainty(&self, z: &[f64; 5]) -> Option<(f64, f64)> {
+        let (q, d) = self.project(z);
         Some(
             self.lwr
-                .predict(z)
+                .predict(&q[..d])
                 .map_or((0.0, f64::NAN), |p| (p.n_lwr, p.std_error[0])),
         )
     }
 }
 
-/// Least squares of the output on $[1, z]$ (a tiny ridge keeps it defined
-/// for degenerate data).
-fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<[f64; 6]> {
+/// Least squares of the output on $[1, z_{inputs}]$, the other inputs with
+/// coefficient 0 (a tiny ridge keeps it defined for degenerate data).
+fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]], inputs: &[usize]) -> crate::Result<[f64; 6]> {
     let mut ata = Mat::<f64>::zeros(6, 6);
     let mut aty = Mat::<f64>::zeros(6, 1);
     for (x, y) in xs.iter().zip(ys) {
@@ -184,7 +253,11 @@ fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]]) -> crate::Result<[f64; 6]
             x.iter().chain(y).all(|v| v.is_finite()),
             "a training point is not finite: {x:?} -> {y:?}"
         );
-        let row: [f64; 6] = std::array::from_fn(|c| if c == 0 { 1.0 } else { x[c - 1] });
+        let row: [f64; 6] = std::array::from_fn(|c| match c {
+            0 => 1.0,
+            _ if inputs.contains(&(c - 1)) => x[c - 1],
+            _ => 0.0,
+        });
         for a in 0..6 {
             for b in 0..6 {
                 ata[(a, b)] += row[a] * row[b];

@@ -296,6 +296,8 @@ impl ParametricRegression {
             bandwidth: f64::NAN,
             loo_nmse: self.loo_nmse,
             lwr_vs_prior: f64::NAN,
+            dropped: Vec::new(),
+            selection_cv: Vec::new(),
         }
     }
 }
