@@ -31,7 +31,7 @@ use crate::models::{KnownHand, PendulumRegression};
 pub struct LwrRegression {
     lwr: LwrModel,
     /// Which of the five inputs the LWR sees, in order (all five unless
-    /// [`select_inputs`] dropped some).
+    /// [`select_inputs`](crate::models::selection::select_inputs) dropped some).
     inputs: Vec<usize>,
     prior: Box<dyn PendulumRegression + Send + Sync>,
     prior_name: &'static str,
@@ -96,7 +96,7 @@ impl LwrRegression {
     }
 
     /// [`fit`](Self::fit) on the inputs `inputs` alone (indices into the
-    /// five, e.g. from [`select_inputs`]), for the global linear fit and the
+    /// five, e.g. from [`select_inputs`](crate::models::selection::select_inputs)), for the global linear fit and the
     /// LWR both; `settings.scales` has one scale per entry of `inputs`.
     pub fn fit_inputs(
         xs: &[[f64; 5]],
