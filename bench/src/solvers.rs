@@ -9,6 +9,18 @@
 //! | `powell` | [`trajopt::Powell`] | $f$ |
 //! | `argmin-nelder-mead` | argmin's `NelderMead` (scipy's initial simplex: 5% of each coordinate, 0.00025 for a zero) | $f$ |
 //! | `argmin-lbfgs` | argmin's `LBFGS`, memory 7, Moré-Thuente line search | $f$, $\nabla f = 2 J^\top r$ |
+//! | `ddp-ilqr` | [`ddp::Ddp`], [`DdpMethod::Ilqr`], on the DDP form (trajectory set) | rollouts, linearisations |
+//! | `ddp-full` | the same, [`DdpMethod::Ddp`] (second derivatives of the dynamics) | rollouts, linearisations with second derivatives |
+//!
+//! On the trajectory set Nelder-Mead does not run (hundreds to thousands
+//! of parameters), the DDP solvers run only where the instance has a DDP
+//! form, and every run on an instance with one is scored by the rolled-out
+//! task cost of its final controls ([`crate::trajectory`]). A DDP rollout
+//! counts as one evaluation, a linearisation along the trajectory as $n$
+//! (the Eq. 3 form's parameter count: an Eq. 3 Jacobian holds the same
+//! dynamics derivatives at every knot), $2n$ with second derivatives
+//! (full DDP), as Newton's $J$ and $S$. DDP stops by its own tests or at
+//! 1000 iterations; it does not see the budget.
 //!
 //! Every solver runs with tight tolerances of its own and stops at the
 //! [`Budget`] at the latest; the profiles read when each run first met the
@@ -21,11 +33,13 @@ use argmin::core::{CostFunction, Executor, Gradient};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
+use ddp::{Ddp, DdpMethod, DdpSettings};
 use trajopt::{DampingScale, GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
 
 use crate::error::{BenchError, Result};
 use crate::problems::{Budget, Counted, Instance};
 use crate::record::{RunRecord, thin_trace};
+use crate::trajectory::{self, rollout_cost};
 
 /// A solver of the runner; see the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -43,17 +57,23 @@ pub enum Solver {
     NelderMead,
     /// argmin's L-BFGS.
     Lbfgs,
+    /// `ddp`'s iLQR on the DDP form.
+    Ilqr,
+    /// `ddp`'s full DDP on the DDP form.
+    FullDdp,
 }
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 6] = [
+    pub const ALL: [Self; 8] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
         Self::Powell,
         Self::NelderMead,
         Self::Lbfgs,
+        Self::Ilqr,
+        Self::FullDdp,
     ];
 
     /// The solver's name on the command line and in the records.
@@ -65,6 +85,8 @@ impl Solver {
             Self::Powell => "powell",
             Self::NelderMead => "argmin-nelder-mead",
             Self::Lbfgs => "argmin-lbfgs",
+            Self::Ilqr => "ddp-ilqr",
+            Self::FullDdp => "ddp-full",
         }
     }
 
@@ -73,10 +95,14 @@ impl Solver {
         matches!(self, Self::Powell | Self::NelderMead)
     }
 
-    /// Whether it runs on `instance` (every solver runs on every
-    /// least-squares instance; a set with other forms says so here).
+    /// Whether it runs on `instance`: the DDP solvers where it has a DDP
+    /// form, Nelder-Mead off the trajectory set, the others everywhere.
     pub fn applies_to(self, instance: &Instance) -> bool {
-        !instance.start.is_empty()
+        match self {
+            Self::Ilqr | Self::FullDdp => instance.rollout.is_some(),
+            Self::NelderMead => instance.set != trajectory::SET,
+            _ => !instance.start.is_empty(),
+        }
     }
 
     /// The solvers named in `list`: `all`, or names separated by commas.
@@ -116,6 +142,9 @@ impl Solver {
     /// [`BenchError::Solver`] if the solver refuses its settings; a run that
     /// fails or spends its budget is a record with that status.
     pub fn run(self, instance: &Instance, budget: &Budget, repeats: u32) -> Result<RunRecord> {
+        if matches!(self, Self::Ilqr | Self::FullDdp) {
+            return self.run_ddp(instance, repeats);
+        }
         let mut times = Vec::new();
         let mut first = None;
         for _ in 0..repeats.max(1) {
@@ -132,21 +161,28 @@ impl Solver {
                     counted.spent(),
                     counted.best(),
                     counted.trace(),
+                    counted.best_point(),
                 ));
             }
         }
-        let (outcome, f_evals, jac_evals, evals, spent, best, trace) =
+        let (outcome, f_evals, jac_evals, evals, spent, best, trace, best_point) =
             first.ok_or_else(|| BenchError::InvalidSetting {
                 name: "repeats",
                 reason: "no run".into(),
             })?;
-        times.sort_by(f64::total_cmp);
         let (status, converged) = match outcome {
             _ if spent => ("budget".to_string(), false),
             Outcome::Stopped { status, converged } => (status, converged),
             Outcome::Failed(e) => (format!("error: {e}"), false),
         };
-        let f0 = trace.first().map_or(f64::NAN, |p| p.1);
+        let (f0, f, objective, trace) = match &instance.rollout {
+            None => (trace.first().map_or(f64::NAN, |p| p.1), best, None, thin_trace(&trace)),
+            Some(forms) => {
+                let f0 = finite(rollout_cost(forms, &instance.start)?);
+                let f = finite(rollout_cost(forms, &best_point)?);
+                (f0, f, Some(best), end_trace(f0, f, evals))
+            }
+        };
         Ok(RunRecord {
             solver: self.name().into(),
             set: instance.set.into(),
@@ -157,14 +193,90 @@ impl Solver {
             status,
             converged,
             f0,
-            f: best,
+            f,
             f_star: instance.f_star,
+            objective,
             f_evals,
             jac_evals,
             evals,
-            time_s: times[times.len() / 2],
+            time_s: median_time(times),
             repeats: repeats.max(1),
-            trace: thin_trace(&trace),
+            trace,
+        })
+    }
+
+    /// A DDP solver on the instance's DDP form, `repeats` times.
+    fn run_ddp(self, instance: &Instance, repeats: u32) -> Result<RunRecord> {
+        let refused = |e: String| BenchError::Solver {
+            solver: self.name().into(),
+            problem: instance.problem.clone(),
+            reason: e,
+        };
+        let forms = instance
+            .rollout
+            .as_ref()
+            .ok_or_else(|| refused("the instance has no DDP form".into()))?;
+        let solver = Ddp::new(DdpSettings {
+            max_iterations: 1000,
+            method: if self == Self::FullDdp {
+                DdpMethod::Ddp
+            } else {
+                DdpMethod::Ilqr
+            },
+            ..DdpSettings::default()
+        })
+        .map_err(|e| refused(e.to_string()))?;
+        let mut times = Vec::new();
+        let mut first = None;
+        for _ in 0..repeats.max(1) {
+            let start = Instant::now();
+            let result = solver.solve(&forms.ddp);
+            times.push(start.elapsed().as_secs_f64());
+            first.get_or_insert(result);
+        }
+        let result = first.ok_or_else(|| refused("no run".into()))?;
+        let n = instance.n() as u64;
+        let f0 = finite(rollout_cost(forms, &instance.start)?);
+        let (status, converged, f, objective, f_evals, jac_evals) = match result {
+            Ok(r) => {
+                let f = finite(
+                    forms
+                        .ddp
+                        .rollout_cost(&r.controls)
+                        .map_err(|e| refused(e.to_string()))?,
+                );
+                let second = u64::from(r.method == DdpMethod::Ddp);
+                (
+                    format!("{:?}", r.status),
+                    r.status.is_converged(),
+                    f,
+                    Some(r.cost),
+                    r.cost_evals as u64,
+                    (1 + second) * r.jacobian_evals as u64,
+                )
+            }
+            Err(e) => (format!("error: {e}"), false, f0, None, 0, 0),
+        };
+        let evals = f_evals + n * jac_evals;
+        Ok(RunRecord {
+            solver: self.name().into(),
+            set: instance.set.into(),
+            problem: instance.problem.clone(),
+            n: instance.n(),
+            m: instance.residuals,
+            scale: instance.scale,
+            status,
+            converged,
+            f0,
+            f,
+            f_star: instance.f_star,
+            objective,
+            f_evals,
+            jac_evals,
+            evals,
+            time_s: median_time(times),
+            repeats: repeats.max(1),
+            trace: end_trace(f0, f, evals),
         })
     }
 
@@ -235,8 +347,33 @@ impl Solver {
                     .run();
                 Outcome::from_argmin(run.map(|r| r.state.termination_status.to_string()))
             }
+            Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
         })
     }
+}
+
+/// The median of the timings (0 when there are none).
+fn median_time(mut times: Vec<f64>) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times.get(times.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// A figure of merit for the records, which hold finite values: a
+/// rollout that blew up (infinite cost) is recorded as `f64::MAX`.
+fn finite(f: f64) -> f64 {
+    if f.is_finite() { f } else { f64::MAX }
+}
+
+/// The trace of a run whose figure of merit is known only at its end
+/// (the trajectory set): the start's value at the first evaluation and,
+/// when lower, the final value at the run's last evaluation, so that a
+/// solved run's evaluations to solve are all it spent.
+pub fn end_trace(f0: f64, f: f64, evals: u64) -> Vec<(u64, f64)> {
+    let mut trace = vec![(1, f0)];
+    if f < f0 {
+        trace.push((evals.max(1), f));
+    }
+    trace
 }
 
 /// How a solve ended.
@@ -314,12 +451,12 @@ mod tests {
 
     #[test]
     fn every_solver_solves_rosenbrock_and_records_its_run() {
-        let inst = &ProblemSet::Mgh.instances()[0];
+        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0];
         let budget = Budget {
             simplex_gradients: 5000,
             time: Duration::from_secs(30),
         };
-        for solver in Solver::ALL {
+        for solver in Solver::ALL.into_iter().filter(|s| s.applies_to(inst)) {
             let rec = solver.run(inst, &budget, 1).expect("runs");
             assert_eq!((rec.solver.as_str(), rec.n, rec.m), (solver.name(), 2, 2));
             assert!((rec.f0 - 24.2).abs() < 1e-12);
@@ -332,7 +469,7 @@ mod tests {
 
     #[test]
     fn a_spent_budget_is_a_status_with_the_best_point() {
-        let inst = &ProblemSet::Mgh.instances()[0];
+        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0];
         let budget = Budget {
             simplex_gradients: 10,
             time: Duration::from_secs(30),
