@@ -142,46 +142,41 @@ impl Solver {
     /// [`BenchError::Solver`] if the solver refuses its settings; a run that
     /// fails or spends its budget is a record with that status.
     pub fn run(self, instance: &Instance, budget: &Budget, repeats: u32) -> Result<RunRecord> {
-        if matches!(self, Self::Ilqr | Self::FullDdp) {
-            return self.run_ddp(instance, repeats);
-        }
         let mut times = Vec::new();
         let mut first = None;
         for _ in 0..repeats.max(1) {
-            let counted = Counted::new(instance, budget);
-            let start = Instant::now();
-            let outcome = self.solve(&counted, instance);
-            times.push(start.elapsed().as_secs_f64());
-            if first.is_none() {
-                first = Some((
-                    outcome?,
-                    counted.f_evals(),
-                    counted.jac_evals(),
-                    counted.evals(),
-                    counted.spent(),
-                    counted.best(),
-                    counted.trace(),
-                    counted.best_point(),
-                ));
-            }
+            let (time, measured) = match self {
+                Self::Ilqr | Self::FullDdp => self.ddp_once(instance)?,
+                _ => self.once(instance, budget)?,
+            };
+            times.push(time);
+            first.get_or_insert(measured);
         }
-        let (outcome, f_evals, jac_evals, evals, spent, best, trace, best_point) =
-            first.ok_or_else(|| BenchError::InvalidSetting {
-                name: "repeats",
-                reason: "no run".into(),
-            })?;
-        let (status, converged) = match outcome {
-            _ if spent => ("budget".to_string(), false),
-            Outcome::Stopped { status, converged } => (status, converged),
-            Outcome::Failed(e) => (format!("error: {e}"), false),
-        };
-        let (f0, f, objective, trace) = match &instance.rollout {
-            None => (trace.first().map_or(f64::NAN, |p| p.1), best, None, thin_trace(&trace)),
-            Some(forms) => {
+        let m = first.ok_or_else(|| BenchError::InvalidSetting {
+            name: "repeats",
+            reason: "no run".into(),
+        })?;
+        let [f_evals, jac_evals, evals] = m.counts;
+        let (f0, f, objective, trace) = match (&instance.rollout, m.end) {
+            (None, End::Trace(trace)) => (
+                trace.first().map_or(f64::NAN, |p| p.1),
+                m.objective,
+                None,
+                thin_trace(&trace),
+            ),
+            (Some(forms), end) => {
                 let f0 = finite(rollout_cost(forms, &instance.start)?);
-                let f = finite(rollout_cost(forms, &best_point)?);
-                (f0, f, Some(best), end_trace(f0, f, evals))
+                let f = finite(match end {
+                    End::Point(theta) => rollout_cost(forms, &theta)?,
+                    End::Controls(u) => forms
+                        .ddp
+                        .rollout_cost(&u)
+                        .map_err(|e| self.refused(instance, e.to_string()))?,
+                    End::Trace(_) => f0,
+                });
+                (f0, f, Some(m.objective), end_trace(f0, f, evals))
             }
+            (None, _) => return Err(self.refused(instance, "the instance has no DDP form".into())),
         };
         Ok(RunRecord {
             solver: self.name().into(),
@@ -190,8 +185,8 @@ impl Solver {
             n: instance.n(),
             m: instance.residuals,
             scale: instance.scale,
-            status,
-            converged,
+            status: m.status,
+            converged: m.converged,
             f0,
             f,
             f_star: instance.f_star,
@@ -205,88 +200,90 @@ impl Solver {
         })
     }
 
-    /// A DDP solver on the instance's DDP form, `repeats` times.
-    fn run_ddp(self, instance: &Instance, repeats: u32) -> Result<RunRecord> {
-        let refused = |e: String| BenchError::Solver {
+    /// The error of a solver refusing its input.
+    fn refused(self, instance: &Instance, reason: String) -> BenchError {
+        BenchError::Solver {
             solver: self.name().into(),
             problem: instance.problem.clone(),
-            reason: e,
+            reason,
+        }
+    }
+
+    /// One timed solve of the least-squares form under the budget.
+    fn once(self, instance: &Instance, budget: &Budget) -> Result<(f64, Measured)> {
+        let counted = Counted::new(instance, budget);
+        let start = Instant::now();
+        let outcome = self.solve(&counted, instance)?;
+        let time = start.elapsed().as_secs_f64();
+        let (status, converged) = match outcome {
+            _ if counted.spent() => ("budget".to_string(), false),
+            Outcome::Stopped { status, converged } => (status, converged),
+            Outcome::Failed(e) => (format!("error: {e}"), false),
         };
+        let end = match instance.rollout {
+            Some(_) => End::Point(counted.best_point()),
+            None => End::Trace(counted.trace()),
+        };
+        let counts = [counted.f_evals(), counted.jac_evals(), counted.evals()];
+        Ok((
+            time,
+            Measured {
+                status,
+                converged,
+                counts,
+                objective: counted.best(),
+                end,
+            },
+        ))
+    }
+
+    /// One timed DDP solve of the instance's DDP form.
+    fn ddp_once(self, instance: &Instance) -> Result<(f64, Measured)> {
         let forms = instance
             .rollout
             .as_ref()
-            .ok_or_else(|| refused("the instance has no DDP form".into()))?;
+            .ok_or_else(|| self.refused(instance, "the instance has no DDP form".into()))?;
+        let method = if self == Self::FullDdp {
+            DdpMethod::Ddp
+        } else {
+            DdpMethod::Ilqr
+        };
         let solver = Ddp::new(DdpSettings {
             max_iterations: 1000,
-            method: if self == Self::FullDdp {
-                DdpMethod::Ddp
-            } else {
-                DdpMethod::Ilqr
-            },
+            method,
             ..DdpSettings::default()
         })
-        .map_err(|e| refused(e.to_string()))?;
-        let mut times = Vec::new();
-        let mut first = None;
-        for _ in 0..repeats.max(1) {
-            let start = Instant::now();
-            let result = solver.solve(&forms.ddp);
-            times.push(start.elapsed().as_secs_f64());
-            first.get_or_insert(result);
-        }
-        let result = first.ok_or_else(|| refused("no run".into()))?;
+        .map_err(|e| self.refused(instance, e.to_string()))?;
+        let start = Instant::now();
+        let result = solver.solve(&forms.ddp);
+        let time = start.elapsed().as_secs_f64();
         let n = instance.n() as u64;
-        let f0 = finite(rollout_cost(forms, &instance.start)?);
-        let (status, converged, f, objective, f_evals, jac_evals) = match result {
+        let measured = match result {
             Ok(r) => {
-                let f = finite(
-                    forms
-                        .ddp
-                        .rollout_cost(&r.controls)
-                        .map_err(|e| refused(e.to_string()))?,
-                );
-                let second = u64::from(r.method == DdpMethod::Ddp);
-                (
-                    format!("{:?}", r.status),
-                    r.status.is_converged(),
-                    f,
-                    Some(r.cost),
-                    r.cost_evals as u64,
-                    (1 + second) * r.jacobian_evals as u64,
-                )
+                let jac_evals = (1 + u64::from(r.method == DdpMethod::Ddp)) * r.jacobian_evals as u64;
+                let f_evals = r.cost_evals as u64;
+                Measured {
+                    status: format!("{:?}", r.status),
+                    converged: r.status.is_converged(),
+                    counts: [f_evals, jac_evals, f_evals + n * jac_evals],
+                    objective: r.cost,
+                    end: End::Controls(r.controls),
+                }
             }
-            Err(e) => (format!("error: {e}"), false, f0, None, 0, 0),
+            Err(e) => Measured {
+                status: format!("error: {e}"),
+                converged: false,
+                counts: [0; 3],
+                objective: f64::INFINITY,
+                end: End::Controls(forms.ddp.initial_controls().to_vec()),
+            },
         };
-        let evals = f_evals + n * jac_evals;
-        Ok(RunRecord {
-            solver: self.name().into(),
-            set: instance.set.into(),
-            problem: instance.problem.clone(),
-            n: instance.n(),
-            m: instance.residuals,
-            scale: instance.scale,
-            status,
-            converged,
-            f0,
-            f,
-            f_star: instance.f_star,
-            objective,
-            f_evals,
-            jac_evals,
-            evals,
-            time_s: median_time(times),
-            repeats: repeats.max(1),
-            trace: end_trace(f0, f, evals),
-        })
+        Ok((time, measured))
     }
 
     /// One solve; `Err` only for refused settings.
     fn solve(self, counted: &Counted<'_>, instance: &Instance) -> Result<Outcome> {
-        let refused = |e: String| BenchError::Solver {
-            solver: self.name().into(),
-            problem: instance.problem.clone(),
-            reason: e,
-        };
+        let refused = |e: String| self.refused(instance, e);
         let x0 = instance.start.as_slice();
         Ok(match self {
             Self::GaussNewton | Self::Newton | Self::Adaptive => {
@@ -350,6 +347,27 @@ impl Solver {
             Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
         })
     }
+}
+
+/// What one solve measured, besides its time.
+struct Measured {
+    status: String,
+    converged: bool,
+    /// Residual (cost) evaluations, Jacobian evaluations, evaluation equivalents.
+    counts: [u64; 3],
+    /// The solver's best objective value.
+    objective: f64,
+    end: End,
+}
+
+/// Where a solve ended, for its figure of merit.
+enum End {
+    /// The trace of the best objective (scored by the objective).
+    Trace(Vec<(u64, f64)>),
+    /// The best point of the Eq. 3 form (scored by its rollout).
+    Point(Vec<f64>),
+    /// DDP's controls (scored by their rollout).
+    Controls(Vec<Vec<f64>>),
 }
 
 /// The median of the timings (0 when there are none).
