@@ -474,8 +474,22 @@ impl SecondOrder for Counted<'_> {
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// MGH's Rosenbrock from $x_0$ (n = 2) and a budget of
+    /// `simplex_gradients` and a minute.
+    pub(crate) fn rosenbrock(simplex_gradients: u64) -> (Instance, Budget) {
+        let inst = ProblemSet::Mgh
+            .instances(Some("rosenbrock"))
+            .expect("mgh")
+            .swap_remove(0);
+        let budget = Budget {
+            simplex_gradients,
+            time: Duration::from_secs(60),
+        };
+        (inst, budget)
+    }
 
     #[test]
     fn the_mgh_set_has_105_instances_with_unique_names() {
@@ -492,11 +506,8 @@ mod tests {
 
     #[test]
     fn counting_and_budget() {
-        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0]; // Rosenbrock, n = 2
-        let budget = Budget {
-            simplex_gradients: 2,
-            time: Duration::from_secs(60),
-        };
+        let (inst, budget) = rosenbrock(2);
+        let inst = &inst;
         let c = Counted::new(inst, &budget);
         let f0 = c.cost(&inst.start).expect("cost");
         assert!((f0 - 24.2).abs() < 1e-12);
@@ -514,11 +525,8 @@ mod tests {
     #[test]
     fn second_order_matches_rosenbrock_by_hand() {
         // r = (10 (x2 - x1^2), 1 - x1): S = r1 * [[-20, 0], [0, 0]]
-        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0];
-        let budget = Budget {
-            simplex_gradients: 100,
-            time: Duration::from_secs(60),
-        };
+        let (inst, budget) = rosenbrock(100);
+        let inst = &inst;
         let c = Counted::new(inst, &budget);
         let x = [0.5, 2.0];
         let r = [10.0 * (2.0 - 0.25), 0.5];

@@ -442,10 +442,7 @@ impl Gradient for ArgminView<'_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use std::time::Duration;
-
     use super::*;
-    use crate::problems::ProblemSet;
 
     #[test]
     fn solver_lists_parse_and_unknown_names_are_typed_errors() {
@@ -469,11 +466,8 @@ mod tests {
 
     #[test]
     fn every_solver_solves_rosenbrock_and_records_its_run() {
-        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0];
-        let budget = Budget {
-            simplex_gradients: 5000,
-            time: Duration::from_secs(30),
-        };
+        let (inst, budget) = crate::problems::tests::rosenbrock(5000);
+        let inst = &inst;
         for solver in Solver::ALL.into_iter().filter(|s| s.applies_to(inst)) {
             let rec = solver.run(inst, &budget, 1).expect("runs");
             assert_eq!((rec.solver.as_str(), rec.n, rec.m), (solver.name(), 2, 2));
@@ -487,11 +481,8 @@ mod tests {
 
     #[test]
     fn a_spent_budget_is_a_status_with_the_best_point() {
-        let inst = &ProblemSet::Mgh.instances(None).expect("mgh")[0];
-        let budget = Budget {
-            simplex_gradients: 10,
-            time: Duration::from_secs(30),
-        };
+        let (inst, budget) = crate::problems::tests::rosenbrock(10);
+        let inst = &inst;
         let rec = Solver::Powell.run(inst, &budget, 1).expect("runs");
         assert_eq!(rec.status, "budget");
         assert!(!rec.converged && rec.evals <= 30 && rec.f < rec.f0);
