@@ -344,7 +344,7 @@ fn markdown(
         s.push_str(&format!("\n## Summary (tau = {strict:e})\n\n{summary_md}\n"));
     } else {
         s.push_str(
-            "Figure of merit: the task cost of each run's final controls rolled out through the exact dynamics (`pendulum-lwr`: its Eq. 3 criterion); solved at tau when within tau (relative) of the best any solver found on the instance. Evaluations of a solved run: all it spent. See `bench/README.md`.\n\n");
+            "Figure of merit: the task cost of each run's final controls rolled out through the exact dynamics (`pendulum-lwr`: its Eq. 3 criterion); solved at tau when within tau (relative) of the best any solver found on the instance. Evaluations of a solved run: all it spent (`pendulum-lwr`: those at which its trace first passed, as on the MGH set). See `bench/README.md`.\n\n");
     }
     s.push_str(&format!("## Solvers\n\n{}\n", report::solvers_markdown(a)));
     s.push_str("## Figures\n\n");
