@@ -6,10 +6,11 @@ use std::collections::BTreeMap;
 
 use serde::Serialize;
 
-use crate::profiles::{Profile, data_profiles, f_low, performance_profiles, threshold};
+use crate::profiles::{ConvergenceTest, Profile, data_profiles, f_low, performance_profiles};
 use crate::record::RunRecord;
 
-/// The two tolerances reported.
+/// The two tolerances reported for the MGH set
+/// ([`ConvergenceTest::MoreWild`]).
 pub const TAUS: [f64; 2] = [1e-3, 1e-7];
 
 /// How one run did at one $\tau$.
@@ -39,10 +40,12 @@ pub struct Analysis {
     pub f_low: Vec<f64>,
     /// `runs[p][s]`: solver `s`'s run on instance `p`, if any.
     pub runs: Vec<Vec<Option<RunRecord>>>,
+    /// The convergence test the runs are judged by.
+    pub test: ConvergenceTest,
 }
 
 impl Analysis {
-    /// Groups `runs`; `ours` lists our solvers' names in order (any solver
+    /// Groups `runs`, judged by Moré and Wild's test; `ours` lists our solvers' names in order (any solver
     /// not in it is an outside one, listed after them).
     pub fn new(runs: Vec<RunRecord>, ours: &[String]) -> Self {
         let mut solvers: Vec<String> = ours.to_vec();
@@ -85,7 +88,24 @@ impl Analysis {
             n,
             f_low: lows,
             runs: rows,
+            test: ConvergenceTest::MoreWild,
         }
+    }
+
+    /// The same runs judged by `test`.
+    pub fn with_test(mut self, test: ConvergenceTest) -> Self {
+        self.test = test;
+        self
+    }
+
+    /// The two tolerances reported, loose then strict.
+    pub fn taus(&self) -> [f64; 2] {
+        self.test.taus()
+    }
+
+    /// The strict tolerance: the tables' and the summary's.
+    pub fn strict_tau(&self) -> f64 {
+        self.taus()[1]
     }
 
     /// The solver's column, if it ran.
@@ -96,7 +116,7 @@ impl Analysis {
     /// How run `[p][s]` did at `tau` (`None`: no such run).
     pub fn outcome(&self, p: usize, s: usize, tau: f64) -> Option<Outcome> {
         let run = self.runs[p][s].as_ref()?;
-        let limit = threshold(run.f0, self.f_low[p], tau);
+        let limit = self.test.threshold(run.f0, self.f_low[p], tau);
         let solved = run.f <= limit;
         Some(Outcome {
             solved,
@@ -158,6 +178,38 @@ impl Analysis {
 mod tests {
     use super::*;
     use crate::record::tests::run;
+
+    #[test]
+    fn relative_to_best_classifies_by_the_best_value_found() {
+        // best 40: at tau 1e-2 the limit is 40.4, at 1e-4 40.004, whatever f0
+        let runs = [("a", 40.0), ("b", 40.3), ("c", 40.5), ("d", 40.003)]
+            .map(|(s, f)| {
+                let mut r = run(s, "p", f, 10);
+                r.f0 = 500.0;
+                r.f_star = None;
+                r.trace = vec![(1, 500.0), (10, f)];
+                r
+            })
+            .to_vec();
+        let an = Analysis::new(runs, &["a".into(), "b".into(), "c".into(), "d".into()])
+            .with_test(ConvergenceTest::RelativeToBest);
+        assert_eq!(an.taus(), [1e-2, 1e-4]);
+        assert_eq!(an.f_low, vec![40.0]);
+        let solved = |tau: f64| {
+            (0..4)
+                .map(|s| an.outcome(0, s, tau).expect("ran").solved)
+                .collect::<Vec<_>>()
+        };
+        assert_eq!(solved(1e-2), vec![true, true, false, true]);
+        assert_eq!(solved(1e-4), vec![true, false, false, true]);
+        // a solved run's evaluations are those of its trace's point that passed
+        assert_eq!(an.outcome(0, 1, 1e-2).and_then(|o| o.evals), Some(10));
+        // the same runs under Moré and Wild's test from f0 = 500: the limit at
+        // 1e-3 is 40.46, so 40.3 passes and 40.5 does not
+        let mw = an.clone().with_test(ConvergenceTest::MoreWild);
+        assert!(mw.outcome(0, 1, 1e-3).expect("ran").solved);
+        assert!(!mw.outcome(0, 2, 1e-3).expect("ran").solved);
+    }
 
     #[test]
     fn outcomes_follow_the_convergence_test() {

@@ -34,5 +34,6 @@ pub mod record;
 pub mod report;
 pub mod runner;
 pub mod solvers;
+pub mod trajectory;
 
 pub use error::{BenchError, Result};

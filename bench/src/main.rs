@@ -15,11 +15,13 @@ use clap::Parser;
 #[derive(Debug, Parser)]
 #[command(name = "nprl-bench", version)]
 struct Cli {
-    /// Problem set: mgh.
+    /// Problem set: mgh (the Moré-Garbow-Hillstrom problems) or trajectory
+    /// (the swing-ups in Eq. 3 and DDP form and the learned-LWR plan).
     #[arg(long, default_value = "mgh")]
     set: String,
     /// Solvers: `all` or a comma-separated list of gauss-newton, newton,
-    /// adaptive, powell, argmin-nelder-mead, argmin-lbfgs.
+    /// adaptive, powell, argmin-nelder-mead, argmin-lbfgs, ddp-ilqr,
+    /// ddp-full (each runs where it applies).
     #[arg(long, default_value = "all")]
     solvers: String,
     /// Only problems whose name contains this (e.g. `penalty2`).
@@ -36,9 +38,10 @@ struct Cli {
     #[arg(long, default_value_t = 3)]
     repeats: u32,
     /// Directory of runs, table, profiles and figures (outside records are
-    /// read from OUT/outside/*.json).
-    #[arg(long, default_value = "results/benchmarks")]
-    out: PathBuf,
+    /// read from OUT/outside/*.json); default `results/benchmarks` for
+    /// mgh, `results/benchmarks/<set>` for the others.
+    #[arg(long)]
+    out: Option<PathBuf>,
     /// Directory of benchmarks.md, benchmarks.json, benchmarks_summary.md.
     #[arg(long, default_value = "results")]
     report_dir: PathBuf,
@@ -72,8 +75,15 @@ fn run(cli: Cli) -> bench::Result<()> {
             reason: format!("must be finite and > 0, got {}", cli.time_limit),
         });
     }
+    let set = ProblemSet::parse(&cli.set)?;
+    if cli.update_readme.is_some() && set != ProblemSet::Mgh {
+        return Err(bench::BenchError::InvalidSetting {
+            name: "update_readme",
+            reason: "the README's summary is the mgh set's".into(),
+        });
+    }
     let settings = RunnerSettings {
-        set: ProblemSet::parse(&cli.set)?,
+        set,
         solvers: Solver::parse_list(&cli.solvers)?,
         filter: cli.filter,
         budget: Budget {
@@ -81,7 +91,7 @@ fn run(cli: Cli) -> bench::Result<()> {
             time: Duration::from_secs_f64(cli.time_limit),
         },
         repeats: cli.repeats,
-        out: cli.out,
+        out: cli.out.unwrap_or_else(|| set.default_out()),
         report_dir: cli.report_dir,
         outside: cli.outside,
         reuse: cli.reuse,
@@ -105,8 +115,10 @@ fn run(cli: Cli) -> bench::Result<()> {
         })?;
         println!("updated the benchmark summary in {}", path.display());
     }
-    for goal in bench::report::goals(&analysis) {
-        println!("{}: {}", goal.verdict, goal.goal);
+    if settings.set == ProblemSet::Mgh {
+        for goal in bench::report::goals(&analysis) {
+            println!("{}: {}", goal.verdict, goal.goal);
+        }
     }
     println!(
         "{} runs on {} instances at {}; wrote {} and {}",

@@ -4,23 +4,29 @@
 //!
 //! Every instance is a [`LeastSquaresProblem`]: Gauss-Newton uses it as
 //! it is, the derivative-free solvers see only $f = \lVert r \rVert^2$, and
-//! argmin's gradient solvers $\nabla f = 2 J^\top r$. **Adding a set** (the
-//! trajectory problems of `trajopt::problems`, whose `Eq3Problem` is a
-//! `LeastSquaresProblem`): a variant of [`ProblemSet`], its name in
-//! [`ProblemSet::name`] and [`ProblemSet::ALL`], and its instances in
-//! [`ProblemSet::instances`]; solvers that need another form of the same
-//! problem (DDP) get it through a field of [`Instance`] and say in
+//! argmin's gradient solvers $\nabla f = 2 J^\top r$. **Adding a set** (as
+//! the trajectory set, [`crate::trajectory`]): a variant of
+//! [`ProblemSet`], its name in [`ProblemSet::name`] and
+//! [`ProblemSet::ALL`], its convergence test in [`ProblemSet::test`], and
+//! its instances in [`ProblemSet::instances`]; solvers that need another
+//! form of the same problem (DDP) get it through a field of [`Instance`]
+//! ([`Instance::rollout`]) and say in
 //! [`Solver::applies_to`](crate::solvers::Solver::applies_to) where they run.
 
 use std::cell::{Cell, RefCell};
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+use std::ops::Range;
+
 use faer::sparse::{SymbolicSparseColMat, SymbolicSparseRowMat};
 use trajopt::problems::mgh;
-use trajopt::{LeastSquaresProblem, SecondOrder, TrajoptError};
+use trajopt::{
+    BandForm, BandLayout, BandNormalEquations, BandedSym, LeastSquaresProblem, Part, Point, SecondOrder, TrajoptError,
+};
 
 use crate::error::{BenchError, Result};
+use crate::profiles::ConvergenceTest;
 
 /// A problem for the runner: a least-squares problem any solver here can use.
 pub type SharedProblem = Arc<dyn LeastSquaresProblem + Send + Sync>;
@@ -32,16 +38,47 @@ pub enum ProblemSet {
     /// The 35 Moré-Garbow-Hillstrom problems at their standard sizes
     /// ([`trajopt::problems::mgh`]), each from $x_0$, $10 x_0$ and $100 x_0$.
     Mgh,
+    /// The trajectory swing-ups in Eq. 3 and DDP form and the learned-LWR
+    /// swing-up plan ([`crate::trajectory`]).
+    Trajectory,
 }
 
 impl ProblemSet {
     /// Every set.
-    pub const ALL: [Self; 1] = [Self::Mgh];
+    pub const ALL: [Self; 2] = [Self::Mgh, Self::Trajectory];
 
     /// The set's name on the command line and in the records.
     pub fn name(self) -> &'static str {
         match self {
             Self::Mgh => "mgh",
+            Self::Trajectory => crate::trajectory::SET,
+        }
+    }
+
+    /// The convergence test its runs are judged by.
+    pub fn test(self) -> ConvergenceTest {
+        match self {
+            Self::Mgh => ConvergenceTest::MoreWild,
+            Self::Trajectory => ConvergenceTest::RelativeToBest,
+        }
+    }
+
+    /// Where its report goes in the report directory: `benchmarks` for
+    /// the MGH set (`benchmarks.md`, `.json`), `benchmarks_<set>` for the
+    /// others.
+    pub fn report_stem(self) -> String {
+        match self {
+            Self::Mgh => "benchmarks".into(),
+            other => format!("benchmarks_{}", other.name()),
+        }
+    }
+
+    /// Its default output directory: `results/benchmarks` for the MGH
+    /// set, `results/benchmarks/<set>` for the others.
+    pub fn default_out(self) -> std::path::PathBuf {
+        match self {
+            Self::Mgh => "results/benchmarks".into(),
+            other => std::path::Path::new("results/benchmarks").join(other.name()),
         }
     }
 
@@ -59,9 +96,15 @@ impl ProblemSet {
             })
     }
 
-    /// The set's instances, in a fixed order.
-    pub fn instances(self) -> Vec<Instance> {
-        match self {
+    /// The set's instances whose problem names contain `filter` (all when
+    /// `None`), in a fixed order.
+    ///
+    /// # Errors
+    /// A trajectory problem that cannot be built.
+    pub fn instances(self, filter: Option<&str>) -> Result<Vec<Instance>> {
+        let keep = |i: &Instance| filter.is_none_or(|f| i.problem.contains(f));
+        Ok(match self {
+            Self::Trajectory => crate::trajectory::instances(filter)?,
             Self::Mgh => mgh::all()
                 .into_iter()
                 .flat_map(|p| {
@@ -73,10 +116,12 @@ impl ProblemSet {
                         f_star: p.optimal_value(),
                         residuals: p.m(),
                         least_squares: Arc::new(p),
+                        rollout: None,
                     })
                 })
+                .filter(keep)
                 .collect(),
-        }
+        })
     }
 }
 
@@ -97,6 +142,11 @@ pub struct Instance {
     pub residuals: usize,
     /// The problem.
     pub least_squares: SharedProblem,
+    /// The trajectory set's two forms of the problem, by which its runs
+    /// are scored ([`crate::trajectory::rollout_cost`]) and on which the
+    /// DDP solvers run; `None` when runs are scored by the problem's own
+    /// $f$.
+    pub rollout: Option<Arc<crate::trajectory::Forms>>,
 }
 
 impl std::fmt::Debug for Instance {
@@ -134,12 +184,19 @@ impl Budget {
 pub const BUDGET_SPENT: &str = "benchmark budget spent";
 
 /// A problem seen through counters: residual and Jacobian evaluations, the
-/// trace of the best $f$ so far, and the budget, which makes every
-/// evaluation past it an error. Its [`SecondOrder`] is
-/// $S = \sum_i r_i \nabla^2 r_i$ from central differences of the analytic
-/// Jacobian ($2n$ Jacobians, counted), for the Newton modes.
+/// trace of the best $f$ so far (and the point where it was found), and the
+/// budget, which makes every evaluation past it an error.
+///
+/// Its [`SecondOrder`] is the problem's own when it has one (Eq. 3:
+/// counted as one Jacobian evaluation, $\delta^\top S \delta$ as one
+/// residual evaluation), else $S = \sum_i r_i \nabla^2 r_i$ from central
+/// differences of the analytic Jacobian ($2n$ Jacobians, counted), for the
+/// Newton modes. A problem with a [`BandForm`] (Eq. 3) keeps it: its
+/// normal equations count as one Jacobian evaluation, two when they
+/// include $S$.
 pub struct Counted<'a> {
     inner: &'a (dyn LeastSquaresProblem + Send + Sync),
+    band: Option<&'a dyn BandForm>,
     n: usize,
     max_evals: u64,
     deadline: Instant,
@@ -147,6 +204,7 @@ pub struct Counted<'a> {
     jac_evals: Cell<u64>,
     spent: Cell<bool>,
     best: Cell<f64>,
+    best_x: RefCell<Vec<f64>>,
     trace: RefCell<Vec<(u64, f64)>>,
 }
 
@@ -154,8 +212,10 @@ impl<'a> Counted<'a> {
     /// `instance`'s problem under `budget`, counting from now.
     pub fn new(instance: &'a Instance, budget: &Budget) -> Self {
         let n = instance.n();
+        let inner = instance.least_squares.as_ref();
         Self {
-            inner: instance.least_squares.as_ref(),
+            inner,
+            band: inner.band_form(),
             n,
             max_evals: budget.evals(n),
             deadline: Instant::now() + budget.time,
@@ -163,6 +223,7 @@ impl<'a> Counted<'a> {
             jac_evals: Cell::new(0),
             spent: Cell::new(false),
             best: Cell::new(f64::INFINITY),
+            best_x: RefCell::new(instance.start.clone()),
             trace: RefCell::new(Vec::new()),
         }
     }
@@ -193,6 +254,11 @@ impl<'a> Counted<'a> {
         self.best.get()
     }
 
+    /// The point of the best $f$ (the start before any evaluation).
+    pub fn best_point(&self) -> Vec<f64> {
+        self.best_x.borrow().clone()
+    }
+
     /// The improvement trace `[evals, f]`, unthinned.
     pub fn trace(&self) -> Vec<(u64, f64)> {
         self.trace.borrow().clone()
@@ -219,21 +285,25 @@ impl<'a> Counted<'a> {
     /// residuals at `x` come with it, uncounted: a solver asks for the
     /// gradient where it has the cost).
     pub fn gradient(&self, x: &[f64]) -> trajopt::Result<Vec<f64>> {
-        let (r, jac) = self.residuals_and_jacobian(x)?;
+        let mut r = vec![0.0; self.inner.n_residuals()];
+        self.inner.residuals(x, &mut r)?;
+        let pattern = self.inner.jacobian_pattern();
+        let mut values = vec![0.0; pattern.compute_nnz()];
+        self.jacobian_values(x, &mut values)?;
         let mut g = vec![0.0; self.n];
-        for (row, ri) in jac.chunks_exact(self.n).zip(&r) {
-            for (gj, jij) in g.iter_mut().zip(row) {
-                *gj += 2.0 * jij * ri;
+        for (i, ri) in r.iter().enumerate() {
+            let range = pattern.row_range(i);
+            for (&j, v) in pattern.col_idx()[range.clone()].iter().zip(&values[range]) {
+                g[j] += 2.0 * v * ri;
             }
         }
         Ok(g)
     }
 
-    /// The residuals (uncounted) and the dense row-major Jacobian (counted).
-    fn residuals_and_jacobian(&self, x: &[f64]) -> trajopt::Result<(Vec<f64>, Vec<f64>)> {
-        let mut r = vec![0.0; self.inner.n_residuals()];
-        self.inner.residuals(x, &mut r)?;
-        Ok((r, self.dense_jacobian(x)?))
+    /// Counts `k` more Jacobian evaluations without checking the budget
+    /// (for work the solver asked for together with a counted one).
+    fn add_jacobians(&self, k: u64) {
+        self.jac_evals.set(self.jac_evals.get() + k);
     }
 
     /// The dense row-major Jacobian, counted.
@@ -268,6 +338,7 @@ impl LeastSquaresProblem for Counted<'_> {
         let f: f64 = r.iter().map(|v| v * v).sum();
         if f < self.best.get() {
             self.best.set(f);
+            self.best_x.borrow_mut().copy_from_slice(theta);
             self.trace.borrow_mut().push((self.evals(), f));
         }
         Ok(())
@@ -286,12 +357,72 @@ impl LeastSquaresProblem for Counted<'_> {
     fn second_order(&self) -> Option<&dyn SecondOrder> {
         Some(self)
     }
+
+    fn band_form(&self) -> Option<&dyn BandForm> {
+        self.band.map(|_| self as &dyn BandForm)
+    }
 }
 
-/// $S = \sum_i r_i \nabla^2 r_i$ by central differences of the Jacobian,
-/// symmetrised, dense.
+/// The problem's band form, counted (see [`Counted`]).
+impl BandForm for Counted<'_> {
+    fn layout(&self) -> BandLayout {
+        match self.band {
+            Some(b) => b.layout(),
+            None => BandLayout {
+                position: (0..self.n).collect(),
+                half_bandwidth: self.n.saturating_sub(1),
+            },
+        }
+    }
+
+    fn normal_equations(
+        &self,
+        at: Point<'_>,
+        layout: &BandLayout,
+        out: BandNormalEquations<'_>,
+    ) -> trajopt::Result<bool> {
+        let band = self.band.ok_or_else(|| TrajoptError::Model("no band form".into()))?;
+        self.charge(self.n as u64)?;
+        self.add_jacobians(1);
+        let with_s = band.normal_equations(at, layout, out)?;
+        if with_s {
+            self.add_jacobians(1);
+        }
+        Ok(with_s)
+    }
+
+    fn residuals_part(&self, part: Part, theta: &[f64], r: &mut [f64]) -> trajopt::Result<Range<usize>> {
+        part.check()?;
+        if part.index > 0 {
+            return Ok(0..0);
+        }
+        self.residuals(theta, r)?;
+        Ok(0..self.n_residuals())
+    }
+
+    fn second_order_part(
+        &self,
+        part: Part,
+        at: Point<'_>,
+        layout: &BandLayout,
+        s: &mut BandedSym,
+    ) -> trajopt::Result<bool> {
+        let band = self.band.ok_or_else(|| TrajoptError::Model("no band form".into()))?;
+        if part.index == 0 {
+            self.charge(self.n as u64)?;
+            self.add_jacobians(1);
+        }
+        band.second_order_part(part, at, layout, s)
+    }
+}
+
+/// The problem's own $S$, counted, or $S = \sum_i r_i \nabla^2 r_i$ by
+/// central differences of the Jacobian, symmetrised, dense.
 impl SecondOrder for Counted<'_> {
     fn pattern(&self) -> SymbolicSparseColMat<usize> {
+        if let Some(own) = self.inner.second_order() {
+            return own.pattern();
+        }
         let n = self.n;
         let col_ptr = (0..=n).map(|j| j * n).collect();
         let row_idx = (0..n).flat_map(|_| 0..n).collect();
@@ -299,6 +430,11 @@ impl SecondOrder for Counted<'_> {
     }
 
     fn values(&self, theta: &[f64], r: &[f64], values: &mut [f64]) -> trajopt::Result<bool> {
+        if let Some(own) = self.inner.second_order() {
+            self.charge(self.n as u64)?;
+            self.add_jacobians(1);
+            return own.values(theta, r, values);
+        }
         let n = self.n;
         let mut s = vec![0.0; n * n];
         let mut x = theta.to_vec();
@@ -324,15 +460,40 @@ impl SecondOrder for Counted<'_> {
         }
         Ok(true)
     }
+
+    fn form(&self, theta: &[f64], r: &[f64], delta: &[f64]) -> trajopt::Result<Option<f64>> {
+        match self.inner.second_order() {
+            Some(own) => {
+                self.charge(1)?;
+                self.f_evals.set(self.f_evals.get() + 1);
+                own.form(theta, r, delta)
+            }
+            None => Ok(None),
+        }
+    }
 }
 
 #[cfg(test)]
-mod tests {
+pub(crate) mod tests {
     use super::*;
+
+    /// MGH's Rosenbrock from $x_0$ (n = 2) and a budget of
+    /// `simplex_gradients` and a minute.
+    pub(crate) fn rosenbrock(simplex_gradients: u64) -> (Instance, Budget) {
+        let inst = ProblemSet::Mgh
+            .instances(Some("rosenbrock"))
+            .expect("mgh")
+            .swap_remove(0);
+        let budget = Budget {
+            simplex_gradients,
+            time: Duration::from_secs(60),
+        };
+        (inst, budget)
+    }
 
     #[test]
     fn the_mgh_set_has_105_instances_with_unique_names() {
-        let all = ProblemSet::Mgh.instances();
+        let all = ProblemSet::Mgh.instances(None).expect("mgh");
         assert_eq!(all.len(), 105);
         let mut keys: Vec<_> = all.iter().map(|i| (i.problem.clone(), i.scale.to_bits())).collect();
         keys.sort();
@@ -345,11 +506,8 @@ mod tests {
 
     #[test]
     fn counting_and_budget() {
-        let inst = &ProblemSet::Mgh.instances()[0]; // Rosenbrock, n = 2
-        let budget = Budget {
-            simplex_gradients: 2,
-            time: Duration::from_secs(60),
-        };
+        let (inst, budget) = rosenbrock(2);
+        let inst = &inst;
         let c = Counted::new(inst, &budget);
         let f0 = c.cost(&inst.start).expect("cost");
         assert!((f0 - 24.2).abs() < 1e-12);
@@ -367,11 +525,8 @@ mod tests {
     #[test]
     fn second_order_matches_rosenbrock_by_hand() {
         // r = (10 (x2 - x1^2), 1 - x1): S = r1 * [[-20, 0], [0, 0]]
-        let inst = &ProblemSet::Mgh.instances()[0];
-        let budget = Budget {
-            simplex_gradients: 100,
-            time: Duration::from_secs(60),
-        };
+        let (inst, budget) = rosenbrock(100);
+        let inst = &inst;
         let c = Counted::new(inst, &budget);
         let x = [0.5, 2.0];
         let r = [10.0 * (2.0 - 0.25), 0.5];

@@ -39,6 +39,46 @@ pub fn threshold(f0: f64, f_low: f64, tau: f64) -> f64 {
     f_low + tau * (f0 - f_low)
 }
 
+/// Which convergence test a set's runs are judged by.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+pub enum ConvergenceTest {
+    /// Moré and Wild's test ([`threshold`]) at $\tau = 10^{-3}$ and
+    /// $10^{-7}$: the MGH set.
+    MoreWild,
+    /// Within a relative tolerance of the best value any solver found:
+    /// $f \le f_L + \tau \lvert f_L \rvert$ at $\tau = 10^{-2}$ and
+    /// $10^{-4}$ ([`relative_threshold`]): the trajectory set, whose
+    /// figure of merit (a rolled-out task cost) is not the objective the
+    /// solvers descend, so that a fraction of the descent from the start
+    /// says little.
+    RelativeToBest,
+}
+
+impl ConvergenceTest {
+    /// The two tolerances reported, loose then strict.
+    pub fn taus(self) -> [f64; 2] {
+        match self {
+            Self::MoreWild => [1e-3, 1e-7],
+            Self::RelativeToBest => [1e-2, 1e-4],
+        }
+    }
+
+    /// The largest $f$ that passes the test at `tau` for a run from `f0`
+    /// on an instance with smallest known value `f_low`.
+    pub fn threshold(self, f0: f64, f_low: f64, tau: f64) -> f64 {
+        match self {
+            Self::MoreWild => threshold(f0, f_low, tau),
+            Self::RelativeToBest => relative_threshold(f_low, tau),
+        }
+    }
+}
+
+/// The largest $f$ within relative tolerance `tau` of `f_low`:
+/// $f_L + \tau \lvert f_L \rvert$.
+pub fn relative_threshold(f_low: f64, tau: f64) -> f64 {
+    f_low + tau * f_low.abs()
+}
+
 /// One solver's profile: the finite values ($r_{p,s}$ or
 /// $t_{p,s} / (n_p + 1)$), sorted, out of `problems` problems.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -171,6 +211,15 @@ mod tests {
     fn the_convergence_test_by_hand() {
         // f0 = 101, fL = 1: tau = 1e-3 accepts f <= 1.1
         assert!((threshold(101.0, 1.0, 1e-3) - 1.1).abs() < 1e-15);
+        // relative to the best: f_L = 40, tau = 1e-2 -> 40.4, whatever f0
+        assert_eq!(relative_threshold(40.0, 1e-2), 40.4);
+        let rel = ConvergenceTest::RelativeToBest;
+        assert_eq!(rel.threshold(1e6, 40.0, 1e-2), rel.threshold(41.0, 40.0, 1e-2));
+        assert_eq!(rel.threshold(1e6, -2.0, 0.5), -1.0);
+        assert_eq!(
+            ConvergenceTest::MoreWild.threshold(101.0, 1.0, 1e-3),
+            threshold(101.0, 1.0, 1e-3)
+        );
         // the published value is used when no run came near it
         assert_eq!(f_low(48.98, Some(0.0)), 0.0);
         assert_eq!(f_low(1e-20, Some(0.0)), 0.0);

@@ -51,6 +51,12 @@ pub struct RunRecord {
     pub f: f64,
     /// The problem's published optimal value, if known.
     pub f_star: Option<f64>,
+    /// The solver's own final objective when `f` is another figure of
+    /// merit (the trajectory set: `f` is the task cost of the final
+    /// controls rolled out through the exact dynamics, this the Eq. 3
+    /// criterion or DDP's cost); absent otherwise.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub objective: Option<f64>,
     /// Residual (or cost) evaluations.
     pub f_evals: u64,
     /// Jacobian (or gradient) evaluations.
@@ -226,6 +232,7 @@ pub(crate) mod tests {
             f0: 10.0,
             f,
             f_star: Some(0.0),
+            objective: None,
             f_evals: evals,
             jac_evals: 0,
             evals,

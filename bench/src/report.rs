@@ -8,7 +8,7 @@ use std::process::Command;
 
 use serde::Serialize;
 
-use crate::analysis::{Analysis, TAUS};
+use crate::analysis::Analysis;
 use crate::error::{BenchError, Result};
 use crate::profiles::Profile;
 
@@ -314,7 +314,7 @@ pub fn runs_csv(a: &Analysis) -> Result<String> {
         path: "table.csv".into(),
         source: std::io::Error::other(e),
     };
-    w.write_record([
+    let mut header: Vec<String> = [
         "set",
         "problem",
         "scale",
@@ -330,12 +330,14 @@ pub fn runs_csv(a: &Analysis) -> Result<String> {
         "jac_evals",
         "evals",
         "time_s",
-        "solved_1e-3",
-        "evals_to_1e-3",
-        "solved_1e-7",
-        "evals_to_1e-7",
-    ])
-    .map_err(csv_err)?;
+    ]
+    .map(String::from)
+    .to_vec();
+    for tau in a.taus() {
+        header.push(format!("solved_{tau:e}"));
+        header.push(format!("evals_to_{tau:e}"));
+    }
+    w.write_record(&header).map_err(csv_err)?;
     for (p, key) in a.instances.iter().enumerate() {
         for (s, run) in a.runs[p].iter().enumerate() {
             let Some(r) = run else { continue };
@@ -356,7 +358,7 @@ pub fn runs_csv(a: &Analysis) -> Result<String> {
                 r.evals.to_string(),
                 format!("{:e}", r.time_s),
             ];
-            for tau in TAUS {
+            for tau in a.taus() {
                 let o = a.outcome(p, s, tau);
                 row.push(o.is_some_and(|o| o.solved).to_string());
                 row.push(o.and_then(|o| o.evals).map_or(String::new(), |e| e.to_string()));
@@ -372,14 +374,15 @@ pub fn runs_csv(a: &Analysis) -> Result<String> {
 }
 
 /// Per problem and start: each solver's final $f$ (bold where it solved at
-/// [`GOAL_TAU`]) and its evaluations to solve, as Markdown.
+/// the strict tolerance, [`GOAL_TAU`] for the MGH set) and its evaluations
+/// to solve, as Markdown.
 pub fn problems_markdown(a: &Analysis) -> String {
     let mut s = format!("| problem | scale | n | f_L | {} |\n", a.solvers.join(" | "));
     let _ = writeln!(s, "|---|---|---|---|{}", "---|".repeat(a.solvers.len()));
     for (p, key) in a.instances.iter().enumerate() {
         let _ = write!(s, "| {} | {} | {} | {:.6e} |", key.1, key.2, a.n[p], a.f_low[p]);
         for (col, run) in a.runs[p].iter().enumerate() {
-            match (run, a.outcome(p, col, GOAL_TAU)) {
+            match (run, a.outcome(p, col, a.strict_tau())) {
                 (Some(r), Some(o)) if o.solved => {
                     let _ = write!(s, " **{:.4e}** ({}) |", r.f, o.evals.unwrap_or(r.evals));
                 }
@@ -404,10 +407,11 @@ fn status_word(status: &str) -> String {
 /// its profile at ratio 1 (best) by time and evaluations.
 pub fn solvers_markdown(a: &Analysis) -> String {
     let all: Vec<usize> = (0..a.solvers.len()).collect();
-    let mut s = String::from(
-        "| solver | derivative-free | runs | solved (tau 1e-3) | solved (tau 1e-7) | fastest (tau 1e-7) | fewest evaluations (tau 1e-7) |\n|---|---|---|---|---|---|---|\n",
+    let [loose, strict] = a.taus();
+    let mut s = format!(
+        "| solver | derivative-free | runs | solved (tau {loose:e}) | solved (tau {strict:e}) | fastest (tau {strict:e}) | fewest evaluations (tau {strict:e}) |\n|---|---|---|---|---|---|---|\n",
     );
-    let (time, evals) = a.performance(GOAL_TAU, &all);
+    let (time, evals) = a.performance(strict, &all);
     for (col, name) in a.solvers.iter().enumerate() {
         let runs = a.runs.iter().filter(|r| r[col].is_some()).count();
         let solved = |tau: f64| {
@@ -420,8 +424,8 @@ pub fn solvers_markdown(a: &Analysis) -> String {
             s,
             "| {name} | {} | {runs} | {} | {} | {:.0}% | {:.0}% |",
             if a.derivative_free[col] { "yes" } else { "no" },
-            solved(TAUS[0]),
-            solved(TAUS[1]),
+            solved(loose),
+            solved(strict),
             100.0 * best(&time),
             100.0 * best(&evals),
         );

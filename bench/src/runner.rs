@@ -13,16 +13,23 @@
 //! | `REPORT/benchmarks.md` | goals, summary, per-solver and per-problem tables |
 //! | `REPORT/benchmarks.json` | the stamp, goals, summary and every run's outcome |
 //! | `REPORT/benchmarks_summary.md` | the five-row summary alone |
+//!
+//! The MGH set writes the three `REPORT` files above; another set writes
+//! `REPORT/benchmarks_<set>.{md,json}` (stamp, per-solver and per-problem
+//! tables, every run's outcome; no goals, no summary), and its `OUT` is
+//! its own directory (`results/benchmarks/<set>` from the command line),
+//! so that no set overwrites another's files.
 
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 
 use serde_json::json;
 
-use crate::analysis::{Analysis, TAUS};
+use crate::analysis::Analysis;
 use crate::error::{BenchError, Result};
 use crate::plot::ProfileFigure;
 use crate::problems::{Budget, ProblemSet};
+use crate::profiles::ConvergenceTest;
 use crate::record::{RecordFile, RunRecord};
 use crate::report::{self, Stamp};
 use crate::solvers::Solver;
@@ -118,8 +125,14 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         sources.push(format!("{} ({})", file.source, path.display()));
         all.extend(file.runs);
     }
-    let our_names: Vec<String> = settings.solvers.iter().map(|s| s.name().to_string()).collect();
-    let analysis = Analysis::new(all, &our_names);
+    // a solver that applies to none of the instances gets no column
+    let our_names: Vec<String> = settings
+        .solvers
+        .iter()
+        .map(|s| s.name().to_string())
+        .filter(|name| all.iter().any(|r| r.solver == *name))
+        .collect();
+    let analysis = Analysis::new(all, &our_names).with_test(settings.set.test());
     let (commit, dirty, date) = Stamp::git();
     let stamp = Stamp {
         commit,
@@ -135,19 +148,14 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         sources,
         elapsed_s,
     };
-    write_all(&analysis, &stamp, &settings.out, &settings.report_dir)?;
+    write_all(&analysis, &stamp, settings)?;
     Ok((analysis, stamp))
 }
 
 /// Every solver on every instance, one at a time (so that the timings do
 /// not share the cores), with progress on stderr.
 fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
-    let instances: Vec<_> = settings
-        .set
-        .instances()
-        .into_iter()
-        .filter(|i| settings.filter.as_ref().is_none_or(|f| i.problem.contains(f.as_str())))
-        .collect();
+    let instances = settings.set.instances(settings.filter.as_deref())?;
     let mut runs = Vec::new();
     for (k, instance) in instances.iter().enumerate() {
         for solver in &settings.solvers {
@@ -193,49 +201,67 @@ fn tau_tag(tau: f64) -> String {
 }
 
 /// Writes the table, profiles, figures and reports.
-fn write_all(a: &Analysis, stamp: &Stamp, out: &Path, report_dir: &Path) -> Result<()> {
+fn write_all(a: &Analysis, stamp: &Stamp, settings: &RunnerSettings) -> Result<()> {
+    let (out, report_dir) = (settings.out.as_path(), settings.report_dir.as_path());
+    let set = settings.set;
     report::write(&out.join("table.csv"), &report::runs_csv(a)?)?;
     let all: Vec<usize> = (0..a.solvers.len()).collect();
     let free: Vec<usize> = all.iter().copied().filter(|&s| a.derivative_free[s]).collect();
+    let label = set.name().to_uppercase();
     let mut profiles = serde_json::Map::new();
-    for tau in TAUS {
+    for tau in a.taus() {
         let (time, evals) = a.performance(tau, &all);
         let data = a.data(tau, &free);
         let tag = tau_tag(tau);
         let rows = a.common_rows(&all).len();
-        ProfileFigure {
-            title: format!("Performance profile, time, tau = {tau:e} ({rows} MGH instances)"),
-            x_label: "ratio to the fastest (alpha)",
-            x_min: 1.0,
-            profiles: &time,
-        }
-        .write(out, &format!("perf_time_{tag}"))?;
-        ProfileFigure {
-            title: format!("Performance profile, evaluations, tau = {tau:e} ({rows} MGH instances)"),
-            x_label: "ratio to the fewest evaluation equivalents (alpha)",
-            x_min: 1.0,
-            profiles: &evals,
-        }
-        .write(out, &format!("perf_evals_{tag}"))?;
-        ProfileFigure {
-            title: format!(
-                "Data profile, derivative-free, tau = {tau:e} ({} MGH instances)",
-                a.common_rows(&free).len()
+        let figures = [
+            (
+                "perf_time",
+                format!("Performance profile, time, tau = {tau:e} ({rows} {label} instances)"),
+                "ratio to the fastest (alpha)",
+                1.0,
+                &time,
             ),
-            x_label: "budget in simplex gradients, evaluations / (n + 1) (kappa)",
-            x_min: 0.1,
-            profiles: &data,
+            (
+                "perf_evals",
+                format!("Performance profile, evaluations, tau = {tau:e} ({rows} {label} instances)"),
+                "ratio to the fewest evaluation equivalents (alpha)",
+                1.0,
+                &evals,
+            ),
+            (
+                "data",
+                format!(
+                    "Data profile, derivative-free, tau = {tau:e} ({} {label} instances)",
+                    a.common_rows(&free).len()
+                ),
+                "budget in simplex gradients, evaluations / (n + 1) (kappa)",
+                0.1,
+                &data,
+            ),
+        ];
+        for (stem, title, x_label, x_min, profiles) in figures {
+            ProfileFigure {
+                title,
+                x_label,
+                x_min,
+                profiles,
+            }
+            .write(out, &format!("{stem}_{tag}"))?;
         }
-        .write(out, &format!("data_{tag}"))?;
         profiles.insert(tag, json!({"tau": tau, "time": time, "evals": evals, "data": data}));
     }
     let profiles_text = serde_json::to_string(&profiles).unwrap_or_default();
     report::write(&out.join("profiles.json"), &(profiles_text + "\n"))?;
 
-    let goals = report::goals(a);
-    let summary = report::summary(a);
+    // the goals and the summary are the MGH set's
+    let mgh = set == ProblemSet::Mgh;
+    let goals = if mgh { report::goals(a) } else { Vec::new() };
+    let summary = if mgh { report::summary(a) } else { Vec::new() };
     let summary_md = report::summary_markdown(&summary, stamp);
-    report::write(&report_dir.join("benchmarks_summary.md"), &summary_md)?;
+    if mgh {
+        report::write(&report_dir.join("benchmarks_summary.md"), &summary_md)?;
+    }
     let outcomes: Vec<_> = a
         .instances
         .iter()
@@ -248,7 +274,8 @@ fn write_all(a: &Analysis, stamp: &Stamp, out: &Path, report_dir: &Path) -> Resu
                     "status": r.status, "converged": r.converged, "f0": r.f0, "f": r.f, "f_low": a.f_low[p],
                     "f_star": r.f_star, "f_evals": r.f_evals, "jac_evals": r.jac_evals, "evals": r.evals,
                     "time_s": r.time_s,
-                    "outcomes": TAUS.iter().map(|&t| json!({"tau": t, "outcome": a.outcome(p, s, t)})).collect::<Vec<_>>(),
+                    "objective": r.objective,
+                    "outcomes": a.taus().iter().map(|&t| json!({"tau": t, "outcome": a.outcome(p, s, t)})).collect::<Vec<_>>(),
                 }))
             })
         })
@@ -256,13 +283,15 @@ fn write_all(a: &Analysis, stamp: &Stamp, out: &Path, report_dir: &Path) -> Resu
     let report_json = json!({
         "stamp": stamp, "goals": goals, "summary": summary, "solvers": a.solvers, "runs": outcomes,
     });
+    let stem = set.report_stem();
     report::write(
-        &report_dir.join("benchmarks.json"),
+        &report_dir.join(format!("{stem}.json")),
         &(serde_json::to_string_pretty(&report_json).unwrap_or_default() + "\n"),
     )?;
+    let summary_md = mgh.then_some(summary_md);
     report::write(
-        &report_dir.join("benchmarks.md"),
-        &markdown(a, stamp, &goals, &summary_md, out, report_dir),
+        &report_dir.join(format!("{stem}.md")),
+        &markdown(a, stamp, &goals, summary_md.as_deref(), out, report_dir),
     )
 }
 
@@ -270,13 +299,17 @@ fn markdown(
     a: &Analysis,
     stamp: &Stamp,
     goals: &[report::Goal],
-    summary_md: &str,
+    summary_md: Option<&str>,
     out: &Path,
     report_dir: &Path,
 ) -> String {
     let rel = out.strip_prefix(report_dir).unwrap_or(out).display().to_string();
+    let title = match a.test {
+        ConvergenceTest::MoreWild => "Benchmarks".to_string(),
+        ConvergenceTest::RelativeToBest => "Benchmarks: the trajectory set".to_string(),
+    };
     let mut s = format!(
-        "# Benchmarks\n\nGenerated by `nprl-bench` (see `bench/README.md`); do not edit. Commit {}{}, {} cores, load {} before and {} after, {} runs (each of ours timed {} times, median), budget {} simplex gradients and {} s per run, {}; our runs took {:.1} s of wall time.\n\nSources: {}.\n\n",
+        "# {title}\n\nGenerated by `nprl-bench` (see `bench/README.md`); do not edit. Commit {}{}, {} cores, load {} before and {} after, {} runs (each of ours timed {} times, median), budget {} simplex gradients and {} s per run, {}; our runs took {:.1} s of wall time.\n\nSources: {}.\n\n",
         stamp.commit,
         if stamp.dirty { " (dirty)" } else { "" },
         stamp.cores,
@@ -290,37 +323,39 @@ fn markdown(
         stamp.elapsed_s,
         stamp.sources.join("; "),
     );
-    s.push_str("## Goals (issue 21)\n\n");
-    for g in goals {
-        s.push_str(&format!("- **{}**: {}\n", g.verdict, g.goal));
-        for c in &g.evidence {
-            s.push_str(&format!(
-                "  - {}: {} {}, {} {}, ratio {} ({} runs)\n",
-                c.task,
-                c.ours,
-                report::num(c.ours_value, &c.unit),
-                c.reference,
-                report::num(c.reference_value, &c.unit),
-                report::ratio_text(c.ratio),
-                c.runs
-            ));
+    let strict = a.strict_tau();
+    if let Some(summary_md) = summary_md {
+        s.push_str("## Goals (issue 21)\n\n");
+        for g in goals {
+            s.push_str(&format!("- **{}**: {}\n", g.verdict, g.goal));
+            for c in &g.evidence {
+                s.push_str(&format!(
+                    "  - {}: {} {}, {} {}, ratio {} ({} runs)\n",
+                    c.task,
+                    c.ours,
+                    report::num(c.ours_value, &c.unit),
+                    c.reference,
+                    report::num(c.reference_value, &c.unit),
+                    report::ratio_text(c.ratio),
+                    c.runs
+                ));
+            }
         }
+        s.push_str(&format!("\n## Summary (tau = {strict:e})\n\n{summary_md}\n"));
+    } else {
+        s.push_str(
+            "Figure of merit: the task cost of each run's final controls rolled out through the exact dynamics (`pendulum-lwr`: its Eq. 3 criterion); solved at tau when within tau (relative) of the best any solver found on the instance. Evaluations of a solved run: all it spent (`pendulum-lwr`: those at which its trace first passed, as on the MGH set). See `bench/README.md`.\n\n");
     }
-    s.push_str(&format!(
-        "\n## Summary (tau = {:e})\n\n{summary_md}\n## Solvers\n\n{}\n",
-        report::GOAL_TAU,
-        report::solvers_markdown(a)
-    ));
+    s.push_str(&format!("## Solvers\n\n{}\n", report::solvers_markdown(a)));
     s.push_str("## Figures\n\n");
-    for tau in TAUS {
+    for tau in a.taus() {
         let tag = tau_tag(tau);
         s.push_str(&format!(
             "- tau = {tau:e}: [time]({rel}/perf_time_{tag}.svg), [evaluations]({rel}/perf_evals_{tag}.svg), [data profile]({rel}/data_{tag}.svg)\n"
         ));
     }
     s.push_str(&format!(
-        "\n## Per problem\n\nFinal f per solver; **bold** where the run solved its instance at tau = {:e}, with its evaluation equivalents to solve in parentheses; otherwise the status in brackets. f_L as in `bench/README.md`.\n\n{}",
-        report::GOAL_TAU,
+        "\n## Per problem\n\nFinal f per solver; **bold** where the run solved its instance at tau = {strict:e}, with its evaluation equivalents to solve in parentheses; otherwise the status in brackets. f_L as in `bench/README.md`.\n\n{}",
         report::problems_markdown(a)
     ));
     s
@@ -331,5 +366,76 @@ pub fn default_budget() -> Budget {
     Budget {
         simplex_gradients: 2000,
         time: Duration::from_secs(10),
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_trajectory_set_runs_every_solver_on_a_tiny_instance_and_writes_its_own_files() {
+        let dir = std::env::temp_dir().join(format!("nprl-bench-smoke-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        let settings = RunnerSettings {
+            set: ProblemSet::Trajectory,
+            solvers: Solver::ALL.to_vec(),
+            filter: Some("pendulum-h50-lambda1e2".into()),
+            budget: Budget {
+                simplex_gradients: 3,
+                time: Duration::from_secs(5),
+            },
+            repeats: 1,
+            out: dir.join("benchmarks/trajectory"),
+            report_dir: dir.clone(),
+            outside: vec![],
+            reuse: false,
+        };
+        let (analysis, stamp) = execute(&settings).expect("runs");
+        assert_eq!(analysis.instances.len(), 1);
+        // every solver but Nelder-Mead (off the trajectory set) ran
+        let ran: Vec<&str> = analysis.runs[0].iter().flatten().map(|r| r.solver.as_str()).collect();
+        let expected: Vec<&str> = Solver::ALL
+            .iter()
+            .filter(|s| **s != Solver::NelderMead)
+            .map(|s| s.name())
+            .collect();
+        assert_eq!(ran, expected);
+        assert_eq!(stamp.runs, expected.len());
+        for r in analysis.runs[0].iter().flatten() {
+            // one start, one figure of merit: the rollout of zero controls
+            assert_eq!(
+                r.f0,
+                analysis.runs[0][0].as_ref().expect("gauss-newton").f0,
+                "{}",
+                r.solver
+            );
+            assert!(r.objective.is_some() && r.f.is_finite(), "{r:?}");
+        }
+        // DDP converges on the pendulum: the best value, solved at both taus
+        let ilqr = analysis.column("ddp-ilqr").expect("ran");
+        assert!(analysis.outcome(0, ilqr, 1e-4).expect("ran").solved);
+        for file in [
+            "benchmarks/trajectory/runs.json",
+            "benchmarks/trajectory/table.csv",
+            "benchmarks/trajectory/profiles.json",
+            "benchmarks/trajectory/perf_time_tau1e-4.svg",
+            "benchmarks/trajectory/perf_evals_tau1e-2.png",
+            "benchmarks/trajectory/data_tau1e-4.svg",
+            "benchmarks_trajectory.md",
+            "benchmarks_trajectory.json",
+        ] {
+            assert!(dir.join(file).is_file(), "{file} missing");
+        }
+        // the MGH set's files are not written
+        for file in ["benchmarks.md", "benchmarks.json", "benchmarks_summary.md"] {
+            assert!(!dir.join(file).exists(), "{file} written");
+        }
+        let md = std::fs::read_to_string(dir.join("benchmarks_trajectory.md")).expect("md");
+        assert!(
+            md.contains("pendulum-h50-lambda1e2") && md.contains("rolled out"),
+            "{md}"
+        );
+        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -9,6 +9,18 @@
 //! | `powell` | [`trajopt::Powell`] | $f$ |
 //! | `argmin-nelder-mead` | argmin's `NelderMead` (scipy's initial simplex: 5% of each coordinate, 0.00025 for a zero) | $f$ |
 //! | `argmin-lbfgs` | argmin's `LBFGS`, memory 7, Moré-Thuente line search | $f$, $\nabla f = 2 J^\top r$ |
+//! | `ddp-ilqr` | [`ddp::Ddp`], [`DdpMethod::Ilqr`], on the DDP form (trajectory set) | rollouts, linearisations |
+//! | `ddp-full` | the same, [`DdpMethod::Ddp`] (second derivatives of the dynamics) | rollouts, linearisations with second derivatives |
+//!
+//! On the trajectory set Nelder-Mead does not run (hundreds to thousands
+//! of parameters), the DDP solvers run only where the instance has a DDP
+//! form, and every run on an instance with one is scored by the rolled-out
+//! task cost of its final controls ([`crate::trajectory`]). A DDP rollout
+//! counts as one evaluation, a linearisation along the trajectory as $n$
+//! (the Eq. 3 form's parameter count: an Eq. 3 Jacobian holds the same
+//! dynamics derivatives at every knot), $2n$ with second derivatives
+//! (full DDP), as Newton's $J$ and $S$. DDP stops by its own tests or at
+//! 1000 iterations; it does not see the budget.
 //!
 //! Every solver runs with tight tolerances of its own and stops at the
 //! [`Budget`] at the latest; the profiles read when each run first met the
@@ -21,11 +33,13 @@ use argmin::core::{CostFunction, Executor, Gradient};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
+use ddp::{Ddp, DdpMethod, DdpSettings};
 use trajopt::{DampingScale, GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
 
 use crate::error::{BenchError, Result};
 use crate::problems::{Budget, Counted, Instance};
 use crate::record::{RunRecord, thin_trace};
+use crate::trajectory::{self, rollout_cost};
 
 /// A solver of the runner; see the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -43,17 +57,23 @@ pub enum Solver {
     NelderMead,
     /// argmin's L-BFGS.
     Lbfgs,
+    /// `ddp`'s iLQR on the DDP form.
+    Ilqr,
+    /// `ddp`'s full DDP on the DDP form.
+    FullDdp,
 }
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 6] = [
+    pub const ALL: [Self; 8] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
         Self::Powell,
         Self::NelderMead,
         Self::Lbfgs,
+        Self::Ilqr,
+        Self::FullDdp,
     ];
 
     /// The solver's name on the command line and in the records.
@@ -65,6 +85,8 @@ impl Solver {
             Self::Powell => "powell",
             Self::NelderMead => "argmin-nelder-mead",
             Self::Lbfgs => "argmin-lbfgs",
+            Self::Ilqr => "ddp-ilqr",
+            Self::FullDdp => "ddp-full",
         }
     }
 
@@ -73,10 +95,14 @@ impl Solver {
         matches!(self, Self::Powell | Self::NelderMead)
     }
 
-    /// Whether it runs on `instance` (every solver runs on every
-    /// least-squares instance; a set with other forms says so here).
+    /// Whether it runs on `instance`: the DDP solvers where it has a DDP
+    /// form, Nelder-Mead off the trajectory set, the others everywhere.
     pub fn applies_to(self, instance: &Instance) -> bool {
-        !instance.start.is_empty()
+        match self {
+            Self::Ilqr | Self::FullDdp => instance.rollout.is_some(),
+            Self::NelderMead => instance.set != trajectory::SET,
+            _ => !instance.start.is_empty(),
+        }
     }
 
     /// The solvers named in `list`: `all`, or names separated by commas.
@@ -119,34 +145,39 @@ impl Solver {
         let mut times = Vec::new();
         let mut first = None;
         for _ in 0..repeats.max(1) {
-            let counted = Counted::new(instance, budget);
-            let start = Instant::now();
-            let outcome = self.solve(&counted, instance);
-            times.push(start.elapsed().as_secs_f64());
-            if first.is_none() {
-                first = Some((
-                    outcome?,
-                    counted.f_evals(),
-                    counted.jac_evals(),
-                    counted.evals(),
-                    counted.spent(),
-                    counted.best(),
-                    counted.trace(),
-                ));
-            }
+            let (time, measured) = match self {
+                Self::Ilqr | Self::FullDdp => self.ddp_once(instance)?,
+                _ => self.once(instance, budget)?,
+            };
+            times.push(time);
+            first.get_or_insert(measured);
         }
-        let (outcome, f_evals, jac_evals, evals, spent, best, trace) =
-            first.ok_or_else(|| BenchError::InvalidSetting {
-                name: "repeats",
-                reason: "no run".into(),
-            })?;
-        times.sort_by(f64::total_cmp);
-        let (status, converged) = match outcome {
-            _ if spent => ("budget".to_string(), false),
-            Outcome::Stopped { status, converged } => (status, converged),
-            Outcome::Failed(e) => (format!("error: {e}"), false),
+        let m = first.ok_or_else(|| BenchError::InvalidSetting {
+            name: "repeats",
+            reason: "no run".into(),
+        })?;
+        let [f_evals, jac_evals, evals] = m.counts;
+        let (f0, f, objective, trace) = match (&instance.rollout, m.end) {
+            (None, End::Trace(trace)) => (
+                trace.first().map_or(f64::NAN, |p| p.1),
+                m.objective,
+                None,
+                thin_trace(&trace),
+            ),
+            (Some(forms), end) => {
+                let f0 = finite(rollout_cost(forms, &instance.start)?);
+                let f = finite(match end {
+                    End::Point(theta) => rollout_cost(forms, &theta)?,
+                    End::Controls(u) => forms
+                        .ddp
+                        .rollout_cost(&u)
+                        .map_err(|e| self.refused(instance, e.to_string()))?,
+                    End::Trace(_) => f0,
+                });
+                (f0, f, Some(m.objective), end_trace(f0, f, evals))
+            }
+            (None, _) => return Err(self.refused(instance, "the instance has no DDP form".into())),
         };
-        let f0 = trace.first().map_or(f64::NAN, |p| p.1);
         Ok(RunRecord {
             solver: self.name().into(),
             set: instance.set.into(),
@@ -154,27 +185,105 @@ impl Solver {
             n: instance.n(),
             m: instance.residuals,
             scale: instance.scale,
-            status,
-            converged,
+            status: m.status,
+            converged: m.converged,
             f0,
-            f: best,
+            f,
             f_star: instance.f_star,
+            objective,
             f_evals,
             jac_evals,
             evals,
-            time_s: times[times.len() / 2],
+            time_s: median_time(times),
             repeats: repeats.max(1),
-            trace: thin_trace(&trace),
+            trace,
         })
+    }
+
+    /// The error of a solver refusing its input.
+    fn refused(self, instance: &Instance, reason: String) -> BenchError {
+        BenchError::Solver {
+            solver: self.name().into(),
+            problem: instance.problem.clone(),
+            reason,
+        }
+    }
+
+    /// One timed solve of the least-squares form under the budget.
+    fn once(self, instance: &Instance, budget: &Budget) -> Result<(f64, Measured)> {
+        let counted = Counted::new(instance, budget);
+        let start = Instant::now();
+        let outcome = self.solve(&counted, instance)?;
+        let time = start.elapsed().as_secs_f64();
+        let (status, converged) = match outcome {
+            _ if counted.spent() => ("budget".to_string(), false),
+            Outcome::Stopped { status, converged } => (status, converged),
+            Outcome::Failed(e) => (format!("error: {e}"), false),
+        };
+        let end = match instance.rollout {
+            Some(_) => End::Point(counted.best_point()),
+            None => End::Trace(counted.trace()),
+        };
+        let counts = [counted.f_evals(), counted.jac_evals(), counted.evals()];
+        Ok((
+            time,
+            Measured {
+                status,
+                converged,
+                counts,
+                objective: counted.best(),
+                end,
+            },
+        ))
+    }
+
+    /// One timed DDP solve of the instance's DDP form.
+    fn ddp_once(self, instance: &Instance) -> Result<(f64, Measured)> {
+        let forms = instance
+            .rollout
+            .as_ref()
+            .ok_or_else(|| self.refused(instance, "the instance has no DDP form".into()))?;
+        let method = if self == Self::FullDdp {
+            DdpMethod::Ddp
+        } else {
+            DdpMethod::Ilqr
+        };
+        let solver = Ddp::new(DdpSettings {
+            max_iterations: 1000,
+            method,
+            ..DdpSettings::default()
+        })
+        .map_err(|e| self.refused(instance, e.to_string()))?;
+        let start = Instant::now();
+        let result = solver.solve(&forms.ddp);
+        let time = start.elapsed().as_secs_f64();
+        let n = instance.n() as u64;
+        let measured = match result {
+            Ok(r) => {
+                let jac_evals = (1 + u64::from(r.method == DdpMethod::Ddp)) * r.jacobian_evals as u64;
+                let f_evals = r.cost_evals as u64;
+                Measured {
+                    status: format!("{:?}", r.status),
+                    converged: r.status.is_converged(),
+                    counts: [f_evals, jac_evals, f_evals + n * jac_evals],
+                    objective: r.cost,
+                    end: End::Controls(r.controls),
+                }
+            }
+            Err(e) => Measured {
+                status: format!("error: {e}"),
+                converged: false,
+                counts: [0; 3],
+                objective: f64::INFINITY,
+                end: End::Controls(forms.ddp.initial_controls().to_vec()),
+            },
+        };
+        Ok((time, measured))
     }
 
     /// One solve; `Err` only for refused settings.
     fn solve(self, counted: &Counted<'_>, instance: &Instance) -> Result<Outcome> {
-        let refused = |e: String| BenchError::Solver {
-            solver: self.name().into(),
-            problem: instance.problem.clone(),
-            reason: e,
-        };
+        let refused = |e: String| self.refused(instance, e);
         let x0 = instance.start.as_slice();
         Ok(match self {
             Self::GaussNewton | Self::Newton | Self::Adaptive => {
@@ -235,8 +344,54 @@ impl Solver {
                     .run();
                 Outcome::from_argmin(run.map(|r| r.state.termination_status.to_string()))
             }
+            Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
         })
     }
+}
+
+/// What one solve measured, besides its time.
+struct Measured {
+    status: String,
+    converged: bool,
+    /// Residual (cost) evaluations, Jacobian evaluations, evaluation equivalents.
+    counts: [u64; 3],
+    /// The solver's best objective value.
+    objective: f64,
+    end: End,
+}
+
+/// Where a solve ended, for its figure of merit.
+enum End {
+    /// The trace of the best objective (scored by the objective).
+    Trace(Vec<(u64, f64)>),
+    /// The best point of the Eq. 3 form (scored by its rollout).
+    Point(Vec<f64>),
+    /// DDP's controls (scored by their rollout).
+    Controls(Vec<Vec<f64>>),
+}
+
+/// The median of the timings (0 when there are none).
+fn median_time(mut times: Vec<f64>) -> f64 {
+    times.sort_by(f64::total_cmp);
+    times.get(times.len() / 2).copied().unwrap_or(0.0)
+}
+
+/// A figure of merit for the records, which hold finite values: a
+/// rollout that blew up (infinite cost) is recorded as `f64::MAX`.
+fn finite(f: f64) -> f64 {
+    if f.is_finite() { f } else { f64::MAX }
+}
+
+/// The trace of a run whose figure of merit is known only at its end
+/// (the trajectory set): the start's value at the first evaluation and,
+/// when lower, the final value at the run's last evaluation, so that a
+/// solved run's evaluations to solve are all it spent.
+pub fn end_trace(f0: f64, f: f64, evals: u64) -> Vec<(u64, f64)> {
+    let mut trace = vec![(1, f0)];
+    if f < f0 {
+        trace.push((evals.max(1), f));
+    }
+    trace
 }
 
 /// How a solve ended.
@@ -287,10 +442,7 @@ impl Gradient for ArgminView<'_, '_> {
 
 #[cfg(test)]
 mod tests {
-    use std::time::Duration;
-
     use super::*;
-    use crate::problems::ProblemSet;
 
     #[test]
     fn solver_lists_parse_and_unknown_names_are_typed_errors() {
@@ -314,12 +466,9 @@ mod tests {
 
     #[test]
     fn every_solver_solves_rosenbrock_and_records_its_run() {
-        let inst = &ProblemSet::Mgh.instances()[0];
-        let budget = Budget {
-            simplex_gradients: 5000,
-            time: Duration::from_secs(30),
-        };
-        for solver in Solver::ALL {
+        let (inst, budget) = crate::problems::tests::rosenbrock(5000);
+        let inst = &inst;
+        for solver in Solver::ALL.into_iter().filter(|s| s.applies_to(inst)) {
             let rec = solver.run(inst, &budget, 1).expect("runs");
             assert_eq!((rec.solver.as_str(), rec.n, rec.m), (solver.name(), 2, 2));
             assert!((rec.f0 - 24.2).abs() < 1e-12);
@@ -332,11 +481,8 @@ mod tests {
 
     #[test]
     fn a_spent_budget_is_a_status_with_the_best_point() {
-        let inst = &ProblemSet::Mgh.instances()[0];
-        let budget = Budget {
-            simplex_gradients: 10,
-            time: Duration::from_secs(30),
-        };
+        let (inst, budget) = crate::problems::tests::rosenbrock(10);
+        let inst = &inst;
         let rec = Solver::Powell.run(inst, &budget, 1).expect("runs");
         assert_eq!(rec.status, "budget");
         assert!(!rec.converged && rec.evals <= 30 && rec.f < rec.f0);

@@ -1,0 +1,210 @@
+//! The trajectory set: the swing-ups of `trajopt::problems::trajectory`
+//! (Eq. 3 form) with their twins of `ddp::problems` (DDP form), and the
+//! learned-LWR swing-up plan of `swingup` (`pendulum-lwr`).
+//!
+//! **Figure of merit.** The Eq. 3 criterion penalises dynamic
+//! inconsistency by $\lambda$ while DDP rolls out exactly, so neither
+//! objective is fair to the other. Every run on a registry instance is
+//! scored by [`rollout_cost`]: the controls of the solver's final point
+//! rolled out from the start through the exact dynamics and scored by the
+//! DDP form's task cost (stage + terminal), the cost a controller that
+//! replays them open loop would pay. Eq. 3's own criterion and DDP's cost
+//! go into the record's `objective`. The learned-LWR instance has no exact
+//! dynamics to roll out through: it is scored by its Eq. 3 criterion
+//! itself, and only the solvers of the Eq. 3 form run on it.
+//!
+//! **Instances.** Each registry instance `"<system>-h<N>-lambda<λ>"`
+//! ([`trajopt::problems::trajectory::standard_instances`]); the DDP
+//! solvers run on its twin `"<system>-h<N>"`, which does not depend on
+//! $\lambda$, so their runs on the two $\lambda$ of one horizon solve the
+//! same problem (timed separately).
+
+use std::sync::Arc;
+
+use ddp::problems as ddp_problems;
+use ddp::{DdpProblem, models::QuadraticCost};
+use trajopt::problems::trajectory::{self as eq3_problems, SwingUpProblem};
+
+use crate::error::{BenchError, Result};
+use crate::problems::Instance;
+
+/// The set's name in the records.
+pub const SET: &str = "trajectory";
+
+/// The name of the learned-LWR instance.
+pub const LWR_INSTANCE: &str = "pendulum-lwr";
+
+/// The DDP form of a registry swing-up.
+pub type DdpSwingUp = DdpProblem<ddp_problems::SwingUpModel, QuadraticCost>;
+
+/// The two forms of one registry instance: the Eq. 3 problem (to read the
+/// controls of a point) and the DDP problem (to roll them out, and for the
+/// DDP solvers).
+#[derive(Debug)]
+pub struct Forms {
+    /// The Eq. 3 form.
+    pub eq3: Arc<SwingUpProblem>,
+    /// The DDP form (exact dynamics, task cost).
+    pub ddp: DdpSwingUp,
+}
+
+/// The task cost of the controls of `theta` (a point of `forms.eq3`)
+/// rolled out from the start through the exact dynamics: the DDP form's
+/// stage and terminal costs, infinite when the rollout is not finite. The
+/// states of `theta` are ignored.
+///
+/// # Errors
+/// A `theta` of the wrong length or not finite, or a failed step.
+pub fn rollout_cost(forms: &Forms, theta: &[f64]) -> Result<f64> {
+    let (_, controls) = forms.eq3.trajectory(theta).map_err(|e| model_error(e.to_string()))?;
+    let controls: Vec<Vec<f64>> = (0..controls.nrows())
+        .map(|k| (0..controls.ncols()).map(|j| controls[(k, j)]).collect())
+        .collect();
+    forms
+        .ddp
+        .rollout_cost(&controls)
+        .map_err(|e| model_error(e.to_string()))
+}
+
+fn model_error(reason: String) -> BenchError {
+    BenchError::InvalidSetting {
+        name: "trajectory instance",
+        reason,
+    }
+}
+
+/// The names of the set's instances, in order: the registry's, then
+/// [`LWR_INSTANCE`].
+pub fn names() -> Vec<String> {
+    let mut names: Vec<String> = eq3_problems::standard_instances().iter().map(|i| i.name()).collect();
+    names.push(LWR_INSTANCE.into());
+    names
+}
+
+/// The instances whose names contain `filter` (all when `None`), built
+/// only for those (the learned-LWR one runs two learning trials first).
+///
+/// # Errors
+/// A problem that cannot be built (the message names it).
+pub fn instances(filter: Option<&str>) -> Result<Vec<Instance>> {
+    let keep = |name: &str| filter.is_none_or(|f| name.contains(f));
+    let mut out = Vec::new();
+    for spec in eq3_problems::standard_instances() {
+        let name = spec.name();
+        if !keep(&name) {
+            continue;
+        }
+        let fail = |e: String| model_error(format!("{name}: {e}"));
+        let (eq3, start) = spec.problem().map_err(|e| fail(e.to_string()))?;
+        let ddp = ddp_problems::by_name(&spec.ddp_name())
+            .and_then(|i| i.problem())
+            .map_err(|e| fail(e.to_string()))?;
+        let eq3 = Arc::new(eq3);
+        out.push(Instance {
+            set: SET,
+            residuals: trajopt::LeastSquaresProblem::n_residuals(eq3.as_ref()),
+            problem: name,
+            scale: 1.0,
+            start,
+            f_star: None,
+            least_squares: eq3.clone(),
+            rollout: Some(Arc::new(Forms { eq3, ddp })),
+        });
+    }
+    if keep(LWR_INSTANCE) {
+        out.push(lwr_instance()?);
+    }
+    Ok(out)
+}
+
+/// The Eq. 3 problem of the swing-up plan with the pure LWR model learned
+/// from trials 1 and 2 of seed 1 (as `swingup/benches/plan_lwr.rs`), from
+/// the planner's own start (the knot points fitted to the demonstration),
+/// at the default configuration's final $\lambda$.
+///
+/// # Errors
+/// A failed learning run, model or problem (the message names it).
+pub fn lwr_instance() -> Result<Instance> {
+    use swingup::config::{Config, ModelKind};
+    let fail = |e: String| model_error(format!("{LWR_INSTANCE}: {e}"));
+    let mut cfg = Config {
+        seed: 1,
+        max_trials: 2,
+        ..Config::default()
+    };
+    cfg.model.kind = ModelKind::Lwr;
+    let record = swingup::learn::run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {})
+        .map_err(|e| fail(e.to_string()))?;
+    let trials = record
+        .trials
+        .get(..2)
+        .ok_or_else(|| fail("fewer than 2 trials".into()))?;
+    let (model, _) = swingup::models::learned::learn_model(&cfg, trials).map_err(|e| fail(e.to_string()))?;
+    let demo = cfg.demonstration().map_err(|e| fail(e.to_string()))?;
+    let (problem, start) =
+        swingup::planning::eq3::build_problem(&cfg, &demo, model, None).map_err(|e| fail(e.to_string()))?;
+    Ok(Instance {
+        set: SET,
+        problem: LWR_INSTANCE.into(),
+        scale: 1.0,
+        residuals: trajopt::LeastSquaresProblem::n_residuals(&problem),
+        start,
+        f_star: None,
+        least_squares: Arc::new(problem),
+        rollout: None,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use std::f64::consts::PI;
+
+    use trajopt::problems::trajectory::{System, parameters_of};
+
+    use super::*;
+
+    /// The pendulum over 2 steps, both forms.
+    fn tiny() -> Forms {
+        let (eq3, _) = System::Pendulum.problem(2, 1.0).expect("eq3");
+        let ddp = ddp_problems::System::Pendulum.problem(2).expect("ddp");
+        Forms {
+            eq3: Arc::new(eq3),
+            ddp,
+        }
+    }
+
+    #[test]
+    fn the_rollout_cost_is_the_hand_computed_task_cost_of_the_controls() {
+        let forms = tiny();
+        let (u0, u1) = (3.0, -2.0);
+        // states that are not the rollout's: they must not matter
+        let states = vec![vec![0.3, -1.0], vec![1.0, 2.0], vec![-0.5, 4.0]];
+        let theta = parameters_of(&forms.eq3, &states, &[vec![u0], vec![u1]]).expect("theta");
+        // semi-implicit Euler from rest hanging down, dt = 0.01, g / l = 9.81
+        let (dt, g) = (0.01, 9.81);
+        let w1 = dt * u0;
+        let t1 = dt * w1;
+        let w2 = w1 + dt * (u1 - g * t1.sin());
+        let t2 = t1 + dt * w2;
+        let running = |t: f64, w: f64, u: f64| dt * (0.5 * (t - PI).powi(2) + 0.05 * w * w + 0.005 * u * u);
+        let want = running(0.0, 0.0, u0) + running(t1, w1, u1) + 50.0 * (t2 - PI).powi(2) + 5.0 * w2 * w2;
+        let got = rollout_cost(&forms, &theta).expect("rollout");
+        assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
+        assert!(rollout_cost(&forms, &theta[1..]).is_err());
+    }
+
+    #[test]
+    fn the_registry_instances_come_with_both_forms() {
+        let names = names();
+        assert_eq!(names.len(), eq3_problems::standard_instances().len() + 1);
+        assert_eq!(names.last().map(String::as_str), Some(LWR_INSTANCE));
+        let picked = instances(Some("pendulum-h50-lambda1e2")).expect("builds");
+        assert_eq!(picked.len(), 1);
+        let inst = &picked[0];
+        let forms = inst.rollout.as_ref().expect("forms");
+        assert_eq!(forms.ddp.horizon(), 50);
+        // the start has zero controls: its rollout cost is DDP's warm start cost
+        let zero = forms.ddp.rollout_cost(&vec![vec![0.0]; 50]).expect("rollout");
+        assert_eq!(rollout_cost(forms, &inst.start).expect("rollout"), zero);
+    }
+}
