@@ -45,9 +45,12 @@ pub struct RunRecord {
     pub status: String,
     /// Whether the solver claims convergence.
     pub converged: bool,
-    /// $f$ at the start.
+    /// $f$ at the start (not finite, e.g. an overflow at a far start:
+    /// written as `null`, read back as NaN).
+    #[serde(deserialize_with = "null_as_nan")]
     pub f0: f64,
-    /// The best $f$ found.
+    /// The best $f$ found (not finite: written as `null`, read back as NaN).
+    #[serde(deserialize_with = "null_as_nan")]
     pub f: f64,
     /// The problem's published optimal value, if known.
     pub f_star: Option<f64>,
@@ -69,6 +72,12 @@ pub struct RunRecord {
     pub repeats: u32,
     /// `[evals, f]` where the best $f$ so far fell (see [`thin_trace`]).
     pub trace: Vec<(u64, f64)>,
+}
+
+/// An `f64` that JSON holds as `null` when it was not finite (serde_json
+/// writes NaN and infinities so) comes back as NaN.
+fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> std::result::Result<f64, D::Error> {
+    Ok(<Option<f64> as serde::Deserialize>::deserialize(d)?.unwrap_or(f64::NAN))
 }
 
 impl RunRecord {
@@ -99,9 +108,14 @@ impl RunRecord {
         if self.n == 0 {
             return Err(bad("n", "must be at least 1".into()));
         }
-        for (field, v) in [("scale", self.scale), ("f0", self.f0), ("f", self.f)] {
-            if !v.is_finite() {
-                return Err(bad(field, format!("must be finite, got {v}")));
+        // f0 and f may be NaN: a start where the problem overflows is a
+        // record (of a run that solves nothing), written as null
+        if !self.scale.is_finite() {
+            return Err(bad("scale", format!("must be finite, got {}", self.scale)));
+        }
+        for (field, v) in [("f0", self.f0), ("f", self.f)] {
+            if v.is_infinite() {
+                return Err(bad(field, format!("must be finite or null, got {v}")));
             }
         }
         if self.f_star.is_some_and(|v| !v.is_finite()) {
@@ -110,8 +124,11 @@ impl RunRecord {
         if !(self.time_s.is_finite() && self.time_s >= 0.0) {
             return Err(bad("time_s", format!("must be finite and >= 0, got {}", self.time_s)));
         }
-        if self.trace.is_empty() {
-            return Err(bad("trace", "must hold at least the start".into()));
+        if self.trace.is_empty() && self.f0.is_finite() {
+            return Err(bad(
+                "trace",
+                "must hold at least the start (empty only when f0 is null)".into(),
+            ));
         }
         if self.trace.windows(2).any(|w| w[1].0 < w[0].0 || w[1].1 > w[0].1) {
             return Err(bad("trace", "evals must not decrease nor f increase".into()));
@@ -248,6 +265,20 @@ pub(crate) mod tests {
         let text = serde_json::to_string(&file).expect("serialises");
         let back = RecordFile::parse(&text, Path::new("x.json")).expect("parses");
         assert_eq!(back, file);
+    }
+
+    /// A run whose start overflowed (f0 and f infinite or NaN) is written
+    /// with nulls and read back, as NaN, instead of refusing the file.
+    #[test]
+    fn a_run_that_overflowed_reads_back() {
+        let mut r = run("a", "p", 1.0, 7);
+        r.f0 = f64::INFINITY;
+        r.f = f64::NAN;
+        r.trace.clear();
+        let text = serde_json::to_string(&RecordFile::new("test", vec![r])).expect("serialises");
+        assert!(text.contains("\"f0\":null"), "{text}");
+        let back = RecordFile::parse(&text, Path::new("runs.json")).expect("reads back");
+        assert!(back.runs[0].f0.is_nan() && back.runs[0].f.is_nan());
     }
 
     #[test]
