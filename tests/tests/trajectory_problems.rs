@@ -1,6 +1,7 @@
 //! The trajectory problems of `trajopt::problems::trajectory` (Eq. 3 form)
 //! and `ddp::problems` (DDP form) are the same problems: for every
-//! registered instance the two models step the same state and control to
+//! registered instance the model (one `nprl-systems` type under each
+//! crate's trait) steps the same state and control to
 //! the same next state with the same Jacobians (each passing its crate's
 //! check), the two costs give the same stage and terminal costs of the same
 //! trajectory, and DDP's optimum costs the same in both forms; and both
@@ -81,12 +82,16 @@ fn models_step_alike_and_pass_both_jacobian_checks() {
         let (problem, _) = instance.problem().expect("problem");
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (model, dyn_) = (problem.model(), ddp_problem.dynamics());
-        let n = model.state_dim();
-        assert_eq!((n, model.control_dim()), (dyn_.state_dim(), dyn_.control_dim()));
+        // one type (`systems::SwingUpModel`) under both crates' traits
+        let n = Model::state_dim(model);
+        assert_eq!(
+            (n, Model::control_dim(model)),
+            (Dynamics::state_dim(dyn_), Dynamics::control_dim(dyn_))
+        );
         for (x, u) in points(n) {
             let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-            model.step(&x, &u, &mut a).expect("step");
-            dyn_.step(&x, &u, &mut b).expect("step");
+            Model::step(model, &x, &u, &mut a).expect("step");
+            Dynamics::step(dyn_, &x, &u, &mut b).expect("step");
             for i in 0..n {
                 assert!(
                     (a[i] - b[i]).abs() <= 1e-12 * (1.0 + b[i].abs()),

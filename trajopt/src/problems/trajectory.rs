@@ -103,8 +103,6 @@
 
 mod models;
 
-use std::f64::consts::PI;
-
 use faer::Mat;
 use splines::BSplineBasis;
 
@@ -112,107 +110,25 @@ use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::error::{Result, TrajoptError, expect_len};
 
 pub use models::{Acrobot, CartPole, Pendulum, SwingUpModel};
-
-/// Time step of the trajectory benchmarks (s), as `ddp::problems::DT`.
-pub const DT: f64 = 0.01;
-
-/// The consistency weights $\lambda$ of the registry.
-pub const STANDARD_LAMBDAS: [f64; 2] = [1.0, 100.0];
+pub use systems::{DT, STANDARD_LAMBDAS, SwingUpWeights, System};
 
 /// An Eq. 3 swing-up: see the [module docs](self).
 pub type SwingUpProblem = Eq3Problem<SwingUpModel, TrackingCost>;
 
-/// The three systems; see the [module docs](self).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum System {
-    /// The torque-driven [`Pendulum`].
-    Pendulum,
-    /// The force-driven [`CartPole`].
-    CartPole,
-    /// The elbow-driven [`Acrobot`].
-    Acrobot,
-}
-
-/// The weights and target of a swing-up's [`TrackingCost`], and its start;
-/// see the [module docs](self).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SwingUpWeights {
-    /// Running state weights $q$ (diagonal).
-    pub state: Vec<f64>,
-    /// Running control weights $r$ (diagonal).
-    pub control: Vec<f64>,
-    /// Terminal state weights $q^f$ (diagonal).
-    pub terminal: Vec<f64>,
-    /// The target state $x^r$ (running and terminal).
-    pub target: Vec<f64>,
-    /// The initial state $\bar x_0$.
-    pub initial_state: Vec<f64>,
-}
-
-impl System {
-    /// The three, in the order of the registry.
-    pub const ALL: [System; 3] = [System::Pendulum, System::CartPole, System::Acrobot];
-
-    /// The name used in instance names: `"pendulum"`, `"cartpole"`, `"acrobot"`.
-    pub fn name(self) -> &'static str {
-        match self {
-            System::Pendulum => "pendulum",
-            System::CartPole => "cartpole",
-            System::Acrobot => "acrobot",
-        }
-    }
-
-    /// The model with its default parameters at $\Delta t$ = [`DT`].
-    pub fn model(self) -> SwingUpModel {
-        match self {
-            System::Pendulum => SwingUpModel::Pendulum(Pendulum {
-                dt: DT,
-                ..Pendulum::default()
-            }),
-            System::CartPole => SwingUpModel::CartPole(CartPole {
-                dt: DT,
-                ..CartPole::default()
-            }),
-            System::Acrobot => SwingUpModel::Acrobot(Acrobot {
-                dt: DT,
-                ..Acrobot::default()
-            }),
-        }
-    }
-
-    /// The cost weights, target and start of the swing-up.
-    pub fn weights(self) -> SwingUpWeights {
-        let (nq, target) = match self {
-            System::Pendulum => (1, vec![PI, 0.0]),
-            System::CartPole => (2, vec![0.0, PI, 0.0, 0.0]),
-            System::Acrobot => (2, vec![PI, 0.0, 0.0, 0.0]),
-        };
-        let per = |pos: f64, rate: f64| [vec![pos; nq], vec![rate; nq]].concat();
-        SwingUpWeights {
-            state: per(0.5 * DT, 0.05 * DT),
-            control: vec![0.005 * DT],
-            terminal: per(50.0, 5.0),
-            initial_state: vec![0.0; 2 * nq],
-            target,
-        }
-    }
-
-    /// The horizons of the registry's instances (steps of [`DT`]).
-    pub fn standard_horizons(self) -> &'static [usize] {
-        match self {
-            System::Pendulum => &[50, 100, 200],
-            System::CartPole => &[100, 200, 400],
-            System::Acrobot => &[200, 400],
-        }
-    }
-
+/// The Eq. 3 swing-up of a [`System`] (the system itself, with its data,
+/// lives in `nprl-systems`, shared with `ddp`).
+pub trait Eq3SwingUp {
     /// The swing-up over `horizon` steps with consistency weight `lambda`,
     /// and its initial guess; see the [module docs](self).
     ///
     /// # Errors
     /// [`TrajoptError::InvalidParameter`] for a horizon below 2 or a
     /// `lambda` that is not finite and positive.
-    pub fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)> {
+    fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)>;
+}
+
+impl Eq3SwingUp for System {
+    fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)> {
         if horizon < 2 {
             return Err(TrajoptError::InvalidParameter {
                 name: "horizon",
@@ -297,13 +213,13 @@ impl Instance {
 
     /// `ddp`'s name of the same system and horizon, `"<system>-h<horizon>"`.
     pub fn ddp_name(&self) -> String {
-        format!("{}-h{}", self.system.name(), self.horizon)
+        self.system.instance_name(self.horizon)
     }
 
-    /// The problem and its initial guess ([`System::problem`]).
+    /// The problem and its initial guess ([`Eq3SwingUp::problem`]).
     ///
     /// # Errors
-    /// As [`System::problem`].
+    /// As [`Eq3SwingUp::problem`].
     pub fn problem(&self) -> Result<(SwingUpProblem, Vec<f64>)> {
         self.system.problem(self.horizon, self.lambda)
     }

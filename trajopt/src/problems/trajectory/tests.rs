@@ -1,3 +1,5 @@
+use std::f64::consts::PI;
+
 use super::*;
 use crate::check::{check_jacobian, check_model_jacobians};
 use crate::{GaussNewton, GaussNewtonSettings};
