@@ -416,12 +416,21 @@ impl Helpers {
     }
 
     /// Sends a job to the first helper's split part; false if it is gone.
-    pub(crate) fn split_send(&mut self, job: SplitJob) -> bool {
+    fn split_send(&mut self, job: SplitJob) -> bool {
         self.helpers.first_mut().is_some_and(|h| h.send(Job::Split(job)))
     }
 
+    /// Sends `job` to the first helper's split part, runs `mine` on this
+    /// thread meanwhile, and returns its result with the helper's answer
+    /// (`None` if the helper is gone).
+    pub(crate) fn split_alongside<R>(&mut self, job: SplitJob, mine: impl FnOnce() -> R) -> (R, Option<SplitDone>) {
+        let sent = self.split_send(job);
+        let mine = mine();
+        (mine, sent.then(|| self.split_receive()).flatten())
+    }
+
     /// The first helper's answer to its split job; `None` if it is gone.
-    pub(crate) fn split_receive(&mut self) -> Option<SplitDone> {
+    fn split_receive(&mut self) -> Option<SplitDone> {
         let Self { helpers, late, .. } = self;
         match helpers.first()?.answer(late)? {
             Done::Split(done) => Some(done),
