@@ -9,8 +9,9 @@
 
 use ddp::Dynamics;
 use ddp::strategies::check_dynamics;
+use integration_tests::gauss_newton_plan;
 use trajopt::problems::trajectory::{self, SwingUpProblem, parameters_of};
-use trajopt::{GaussNewton, GaussNewtonSettings, Model, StageCost, check_model_jacobians};
+use trajopt::{Model, StageCost, check_model_jacobians};
 
 /// Deterministic spread-out test points: states in $[-3, 3]^n$ (angles
 /// beyond $\pm\pi/2$, fast rates), controls in $[-8, 8]$.
@@ -187,16 +188,8 @@ fn both_solvers_swing_each_system_up_at_comparable_cost() {
         let target = system.weights().target;
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (problem, theta0) = instance.problem().expect("problem");
-        let settings = GaussNewtonSettings {
-            max_iterations: 500,
-            ..GaussNewtonSettings::default()
-        };
-        let g = GaussNewton::new(settings)
-            .expect("settings")
-            .solve(&problem, &theta0)
-            .expect("solve");
-        let parts = problem.cost_breakdown(&g.x).expect("cost");
-        let (xs, us) = problem.trajectory(&g.x).expect("trajectory");
+        let plan = gauss_newton_plan(&problem, &theta0, 500);
+        let (g, parts, xs, us) = (plan.result, plan.parts, plan.states, plan.controls);
         let gn_end = end_error(
             &(0..target.len()).map(|i| xs[(horizon, i)]).collect::<Vec<_>>(),
             &target,
