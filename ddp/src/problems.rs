@@ -198,13 +198,12 @@ pub fn standard_instances() -> Vec<Instance> {
 /// [`DdpError::InvalidParameter`] naming `name` when no standard instance
 /// has it.
 pub fn by_name(name: &str) -> Result<Instance> {
-    standard_instances()
-        .into_iter()
-        .find(|i| i.name() == name)
-        .ok_or_else(|| DdpError::InvalidParameter {
+    systems::find_instance(standard_instances(), name, Instance::name, "pendulum-h100").map_err(|reason| {
+        DdpError::InvalidParameter {
             name: "instance name",
-            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h100\")"),
-        })
+            reason,
+        }
+    })
 }
 
 #[cfg(test)]

@@ -8,7 +8,7 @@ mod registry;
 pub use acrobot::Acrobot;
 pub use cart_pole::CartPole;
 pub use pendulum::Pendulum;
-pub use registry::{DT, STANDARD_LAMBDAS, SwingUpModel, SwingUpWeights, System};
+pub use registry::{DT, STANDARD_LAMBDAS, SwingUpModel, SwingUpWeights, System, find_instance};
 
 /// Most positions $n_q$ a [`Mechanics`] may have.
 pub const MAX_POSITIONS: usize = 2;

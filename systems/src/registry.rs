@@ -100,7 +100,7 @@ impl System {
     }
 
     /// `"<system>-h<horizon>"`, e.g. `"pendulum-h100"`: the name of the
-    /// system's swing-up over `horizon` steps.
+    /// system's swing-up over `horizon` steps (see [`find_instance`]).
     pub fn instance_name(self, horizon: usize) -> String {
         format!("{}-h{horizon}", self.name())
     }
@@ -141,4 +141,22 @@ impl Mechanics for SwingUpModel {
             SwingUpModel::Acrobot(a) => a.accelerations(x, u),
         }
     }
+}
+
+/// The first of `instances` whose `name_of` is `name`; otherwise `Err` with
+/// a message naming `name` and what names look like (`example`), for the
+/// caller's own error type.
+///
+/// # Errors
+/// The message, when no instance is named `name`.
+pub fn find_instance<I>(
+    instances: impl IntoIterator<Item = I>,
+    name: &str,
+    name_of: impl Fn(&I) -> String,
+    example: &str,
+) -> Result<I, String> {
+    instances
+        .into_iter()
+        .find(|i| name_of(i) == name)
+        .ok_or_else(|| format!("no standard instance is named {name:?} (names look like {example:?})"))
 }

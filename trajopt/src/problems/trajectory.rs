@@ -250,13 +250,12 @@ pub fn standard_instances() -> Vec<Instance> {
 /// [`TrajoptError::InvalidParameter`] naming `name` when no standard
 /// instance has it.
 pub fn by_name(name: &str) -> Result<Instance> {
-    standard_instances()
-        .into_iter()
-        .find(|i| i.name() == name)
-        .ok_or_else(|| TrajoptError::InvalidParameter {
+    systems::find_instance(standard_instances(), name, Instance::name, "pendulum-h50-lambda1e2").map_err(|reason| {
+        TrajoptError::InvalidParameter {
             name: "instance name",
-            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h50-lambda1e2\")"),
-        })
+            reason,
+        }
+    })
 }
 
 #[cfg(test)]

@@ -90,21 +90,12 @@ pub(super) fn check_size(f: MghFunction, n: usize, m: usize) -> Result<()> {
         })
     };
     // n first
-    let variable = matches!(
-        f,
-        F::PenaltyI
-            | F::PenaltyII
-            | F::VariablyDimensioned
-            | F::Trigonometric
-            | F::BrownAlmostLinear
-            | F::DiscreteBoundaryValue
-            | F::DiscreteIntegralEquation
-            | F::BroydenTridiagonal
-            | F::BroydenBanded
-            | F::LinearFullRank
-            | F::LinearRank1
-            | F::Chebyquad
-    );
+    // (the extended problems among the square ones have their own rule below)
+    let variable = square_any_size(f)
+        || matches!(
+            f,
+            F::PenaltyI | F::PenaltyII | F::VariablyDimensioned | F::LinearFullRank | F::LinearRank1 | F::Chebyquad
+        );
     let (n_ok, n_rule) = match f {
         F::Watson => ((2..=31).contains(&n), "2 <= n <= 31".to_string()),
         F::ExtendedRosenbrock => (n > 0 && n.is_multiple_of(2), "an even n >= 2".to_string()),
