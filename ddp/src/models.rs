@@ -15,7 +15,7 @@ use systems::Mechanics;
 pub use systems::{Acrobot, CartPole, Pendulum, SwingUpModel};
 
 use crate::error::{DdpError, Result, check_finite, check_len};
-use crate::problem::{Cost, CostDerivatives, Dynamics};
+use crate::problem::{Cost, CostDerivatives, Dynamics, SecondDerivatives};
 
 fn to_row_major(what: &'static str, a: &Mat<f64>) -> Result<Vec<f64>> {
     let v: Vec<f64> = (0..a.nrows())
@@ -98,7 +98,7 @@ impl Dynamics for LinearDynamics {
         fu.copy_from_slice(&self.b);
         Ok(())
     }
-    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64], _: &mut [f64]) -> bool {
+    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: SecondDerivatives<'_>) -> bool {
         true // all zero
     }
 }
@@ -331,16 +331,8 @@ macro_rules! euler_dynamics {
                 self.euler_jacobians(x, u, fx, fu);
                 Ok(())
             }
-            fn second_derivatives(
-                &self,
-                x: &[f64],
-                _u: &[f64],
-                v: &[f64],
-                fxx: &mut [f64],
-                _fux: &mut [f64],
-                _fuu: &mut [f64],
-            ) -> bool {
-                self.pendulum().map(|p| fxx[0] = p.euler_curvature(x, v)).is_some()
+            fn second_derivatives(&self, x: &[f64], _u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
+                self.pendulum().map(|p| out.fxx[0] = p.euler_curvature(x, v)).is_some()
             }
         }
     )*};
