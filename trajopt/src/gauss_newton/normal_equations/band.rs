@@ -61,7 +61,7 @@ impl BandSystem {
     fn jtj_from_second_order<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
         let (helpers, layout) = (&mut self.helpers, &self.layout);
         self.band.jtj_from_second_order(|s| match helpers {
-            Some(helpers) => helpers.band_second_order(problem, at, layout, s),
+            Some(helpers) => helpers.band_parts(problem, at, layout, s.into()),
             None => band_form_of(problem)?.second_order_part(Part::WHOLE, at, layout, s),
         })
     }
@@ -168,7 +168,7 @@ fn form_band<P: LeastSquaresProblem + ?Sized>(
     out: BandNormalEquations<'_>,
 ) -> Result<bool> {
     match helpers {
-        Some(helpers) => helpers.band_normal_equations(problem, at, layout, out),
+        Some(helpers) => helpers.band_parts(problem, at, layout, out.into()),
         None => band_form_of(problem)?.normal_equations(at, layout, out),
     }
 }
