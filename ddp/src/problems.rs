@@ -67,10 +67,13 @@
 //! shooting, see [`DdpProblem::shooting_cost`]).
 
 use crate::error::{DdpError, Result};
-use crate::models::{Acrobot, CartPole, Pendulum, QuadraticCost, SwingUpModel};
+pub use crate::models::SwingUpModel;
+use crate::models::{Acrobot, CartPole, Pendulum, QuadraticCost};
 use crate::problem::{DdpProblem, Dynamics};
 
-pub use systems::{DT, SwingUpWeights, System};
+pub use systems::{DT, SwingUpWeights};
+
+systems::system_enum!();
 
 /// Pendulum swing-up over `horizon` steps of [`DT`] from rest hanging down,
 /// zero warm start, to the upright $(\pi, 0)$:
@@ -132,18 +135,12 @@ pub fn acrobot_swingup(horizon: usize) -> Result<DdpProblem<Acrobot, QuadraticCo
     )
 }
 
-/// The DDP swing-up of a [`System`] (the system itself, with its data,
-/// lives in `nprl-systems`, shared with `trajopt`).
-pub trait DdpSwingUp {
+impl System {
     /// The swing-up over `horizon` steps with the [`SwingUpModel`].
     ///
     /// # Errors
     /// A zero horizon.
-    fn problem(self, horizon: usize) -> Result<DdpProblem<SwingUpModel, QuadraticCost>>;
-}
-
-impl DdpSwingUp for System {
-    fn problem(self, horizon: usize) -> Result<DdpProblem<SwingUpModel, QuadraticCost>> {
+    pub fn problem(self, horizon: usize) -> Result<DdpProblem<SwingUpModel, QuadraticCost>> {
         build(self, self.model(), horizon)
     }
 }
@@ -166,7 +163,7 @@ pub struct Instance {
 impl Instance {
     /// `"<system>-h<horizon>"`, e.g. `"pendulum-h100"`.
     pub fn name(&self) -> String {
-        self.system.instance_name(self.horizon)
+        self.system.spec().instance_name(self.horizon)
     }
 
     /// The problem, warm-started with zero controls.

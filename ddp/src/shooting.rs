@@ -114,7 +114,7 @@ impl<D: Dynamics, C: Cost> argmin::core::Gradient for DdpProblem<D, C> {
 
 #[cfg(test)]
 mod tests {
-    use crate::problems::{DdpSwingUp, System, cartpole_swingup};
+    use crate::problems::{System, cartpole_swingup};
 
     #[test]
     fn shooting_cost_is_the_rollout_cost() {

@@ -160,3 +160,57 @@ pub fn find_instance<I>(
         .find(|i| name_of(i) == name)
         .ok_or_else(|| format!("no standard instance is named {name:?} (names look like {example:?})"))
 }
+
+/// Defines, in the calling crate, `pub enum System { Pendulum, CartPole,
+/// Acrobot }` mirroring [`System`] (its data methods delegate to it), so
+/// that the crate can add its own inherent `problem` constructor.
+#[macro_export]
+macro_rules! system_enum {
+    () => {
+        /// The three swing-up systems (`nprl-systems`' `System`, which
+        /// holds their data); see the [module docs](self).
+        #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+        pub enum System {
+            /// The torque-driven [`Pendulum`].
+            Pendulum,
+            /// The force-driven [`CartPole`].
+            CartPole,
+            /// The elbow-driven [`Acrobot`].
+            Acrobot,
+        }
+
+        impl System {
+            /// The three, in the order of the registry.
+            pub const ALL: [System; 3] = [System::Pendulum, System::CartPole, System::Acrobot];
+
+            /// The same system in `nprl-systems`.
+            pub fn spec(self) -> $crate::System {
+                match self {
+                    System::Pendulum => $crate::System::Pendulum,
+                    System::CartPole => $crate::System::CartPole,
+                    System::Acrobot => $crate::System::Acrobot,
+                }
+            }
+
+            /// The name used in instance names: `"pendulum"`, `"cartpole"`, `"acrobot"`.
+            pub fn name(self) -> &'static str {
+                self.spec().name()
+            }
+
+            /// The model with its default parameters at $\Delta t$ = [`DT`].
+            pub fn model(self) -> SwingUpModel {
+                self.spec().model()
+            }
+
+            /// The cost weights, target and start of the swing-up.
+            pub fn weights(self) -> SwingUpWeights {
+                self.spec().weights()
+            }
+
+            /// The horizons of the registry's instances (steps of [`DT`]).
+            pub fn standard_horizons(self) -> &'static [usize] {
+                self.spec().standard_horizons()
+            }
+        }
+    };
+}

@@ -110,25 +110,21 @@ use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::error::{Result, TrajoptError, expect_len};
 
 pub use models::{Acrobot, CartPole, Pendulum, SwingUpModel};
-pub use systems::{DT, STANDARD_LAMBDAS, SwingUpWeights, System};
+pub use systems::{DT, STANDARD_LAMBDAS, SwingUpWeights};
+
+systems::system_enum!();
 
 /// An Eq. 3 swing-up: see the [module docs](self).
 pub type SwingUpProblem = Eq3Problem<SwingUpModel, TrackingCost>;
 
-/// The Eq. 3 swing-up of a [`System`] (the system itself, with its data,
-/// lives in `nprl-systems`, shared with `ddp`).
-pub trait Eq3SwingUp {
+impl System {
     /// The swing-up over `horizon` steps with consistency weight `lambda`,
     /// and its initial guess; see the [module docs](self).
     ///
     /// # Errors
     /// [`TrajoptError::InvalidParameter`] for a horizon below 2 or a
     /// `lambda` that is not finite and positive.
-    fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)>;
-}
-
-impl Eq3SwingUp for System {
-    fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)> {
+    pub fn problem(self, horizon: usize, lambda: f64) -> Result<(SwingUpProblem, Vec<f64>)> {
         if horizon < 2 {
             return Err(TrajoptError::InvalidParameter {
                 name: "horizon",
@@ -213,13 +209,13 @@ impl Instance {
 
     /// `ddp`'s name of the same system and horizon, `"<system>-h<horizon>"`.
     pub fn ddp_name(&self) -> String {
-        self.system.instance_name(self.horizon)
+        self.system.spec().instance_name(self.horizon)
     }
 
-    /// The problem and its initial guess ([`Eq3SwingUp::problem`]).
+    /// The problem and its initial guess ([`System::problem`]).
     ///
     /// # Errors
-    /// As [`Eq3SwingUp::problem`].
+    /// As [`System::problem`].
     pub fn problem(&self) -> Result<(SwingUpProblem, Vec<f64>)> {
         self.system.problem(self.horizon, self.lambda)
     }
