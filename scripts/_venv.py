@@ -5,6 +5,7 @@ import os
 import pathlib
 import subprocess
 import sys
+import timeit
 
 ROOT = pathlib.Path(__file__).resolve().parents[1]
 VENV = ROOT / ".venv-ref"
@@ -20,3 +21,13 @@ def ensure_venv(script):
         subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)
     os.execv(str(py), [str(py), script, *sys.argv[1:]])
 
+
+
+def median_time(f, repeat, divide):
+    """The median seconds per call of `f` over `repeat` (odd) timings, each
+    of 1/`divide` of the call count timeit's autorange picks."""
+    timer = timeit.Timer(f)
+    number, _ = timer.autorange()
+    number = max(1, number // divide)
+    runs = sorted(t / number for t in timer.repeat(repeat=repeat, number=number))
+    return runs[repeat // 2]

@@ -20,17 +20,8 @@ evaluations, for n = 2, 5, 10, 20).
 import json
 import subprocess
 import sys
-import timeit
 
-from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
-
-
-def median_time(f):
-    timer = timeit.Timer(f)
-    number, _ = timer.autorange()
-    number = max(1, number // 5)
-    runs = sorted(t / number for t in timer.repeat(repeat=5, number=number))
-    return runs[2]
+from _venv import ROOT, ensure_venv, median_time  # noqa: E402  (scripts/ is on sys.path)
 
 
 def problems():
@@ -82,7 +73,7 @@ def main():
         f, x0 = table[name]
         r = rust[name]
         res = minimize(f, x0, method="Powell")
-        t_py = median_time(lambda: minimize(f, x0, method="Powell"))
+        t_py = median_time(lambda: minimize(f, x0, method="Powell"), 5, 5)
         agree = abs(r["cost"] - res.fun) <= 1e-8 + 1e-6 * abs(res.fun)
         dx = float(np.max(np.abs(np.array(r["x"]) - res.x)))
         print(

@@ -17,17 +17,8 @@ Compared operations (same inputs on both sides, see scripts/drivers/src/bin/spli
 import json
 import subprocess
 import sys
-import timeit
 
-from _venv import ROOT, ensure_venv  # noqa: E402  (scripts/ is on sys.path)
-
-
-def median_time(f):
-    timer = timeit.Timer(f)
-    number, _ = timer.autorange()
-    number = max(1, number // 10)
-    runs = sorted(t / number for t in timer.repeat(repeat=7, number=number))
-    return runs[3]
+from _venv import ROOT, ensure_venv, median_time  # noqa: E402  (scripts/ is on sys.path)
 
 
 def inputs(n):
@@ -52,18 +43,18 @@ def python_results(n):
     m = BSpline.design_matrix(times, knots, 3).tocsr()
     rows = np.repeat(np.arange(n), np.diff(m.indptr))
     out["bspline_design_matrix"] = (
-        median_time(lambda: BSpline.design_matrix(times, knots, 3)),
+        median_time(lambda: BSpline.design_matrix(times, knots, 3), 7, 10),
         float(np.sum(m.data * (m.indices + 1) * (rows % 7 + 1))),
     )
     coeffs = pywt.wavedec(signal, "db4", mode="symmetric")
     flat = np.concatenate(coeffs)
     out["wavedec"] = (
-        median_time(lambda: pywt.wavedec(signal, "db4", mode="symmetric")),
+        median_time(lambda: pywt.wavedec(signal, "db4", mode="symmetric"), 7, 10),
         float(np.sum(flat * (np.arange(flat.size) % 5 + 1))),
     )
     rec = pywt.waverec(coeffs, "db4", mode="symmetric")[:n]
     out["waverec"] = (
-        median_time(lambda: pywt.waverec(coeffs, "db4", mode="symmetric")),
+        median_time(lambda: pywt.waverec(coeffs, "db4", mode="symmetric"), 7, 10),
         float(np.sum(rec * (np.arange(n) % 5 + 1))),
     )
     return out

@@ -72,6 +72,17 @@ def problem(horizon, lam):
                 wq=wq, wr=wr, wqf=wqf, w_cons=w_cons, horizon=horizon)
 
 
+def euler_step(th, om, hx, hv, u, sin, cos):
+    """One semi-implicit Euler step of the hand-driven pendulum, elementwise
+    over numpy arrays or CasADi expressions (`sin`, `cos` of that library)."""
+    acc = -(9.81 / 0.5) * sin(th) - (u / 0.5) * cos(th) - 0.05 * om
+    om1 = om + DT * acc
+    th1 = th + DT * om1
+    hv1 = hv + DT * u
+    hx1 = hx + DT * hv1
+    return th1, om1, hx1, hv1
+
+
 def residuals_np(theta, p):
     import numpy as np
 
@@ -79,12 +90,7 @@ def residuals_np(theta, p):
     x = p["phix"] @ theta[: 4 * ncx].reshape(4, ncx).T
     u = p["phiu"] @ theta[4 * ncx:]
     th, om, hx, hv = x[:-1, 0], x[:-1, 1], x[:-1, 2], x[:-1, 3]
-    acc = -(9.81 / 0.5) * np.sin(th) - (u / 0.5) * np.cos(th) - 0.05 * om
-    om1 = om + DT * acc
-    th1 = th + DT * om1
-    hv1 = hv + DT * u
-    hx1 = hx + DT * hv1
-    f = np.stack([th1, om1, hx1, hv1], axis=1)
+    f = np.stack(euler_step(th, om, hx, hv, u, np.sin, np.cos), axis=1)
     d = x - p["ref"]
     return np.concatenate([
         (d[:-1] * p["wq"]).ravel(),
@@ -140,12 +146,7 @@ def solve_casadi(p):
     x = ca.mtimes(ca.DM(p["phix"].tocsc()), cx)
     u = ca.mtimes(ca.DM(p["phiu"].tocsc()), theta[4 * ncx:])
     th, om, hx, hv = x[:-1, 0], x[:-1, 1], x[:-1, 2], x[:-1, 3]
-    acc = -(9.81 / 0.5) * ca.sin(th) - (u / 0.5) * ca.cos(th) - 0.05 * om
-    om1 = om + DT * acc
-    th1 = th + DT * om1
-    hv1 = hv + DT * u
-    hx1 = hx + DT * hv1
-    f = ca.horzcat(th1, om1, hx1, hv1)
+    f = ca.horzcat(*euler_step(th, om, hx, hv, u, ca.sin, ca.cos))
     d = x - ca.DM(p["ref"])
     cost = 0
     for i in range(4):

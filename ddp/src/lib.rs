@@ -20,5 +20,5 @@ pub use faer;
 
 pub use error::{DdpError, Result};
 pub use models::{Acrobot, CartPole, LinearDynamics, Pendulum, QuadraticCost};
-pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
+pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics, SecondDerivatives};
 pub use solver::{Ddp, DdpMethod, DdpResult, DdpSettings, DdpStatus, Regularization};

@@ -3,14 +3,19 @@
 //! discretised by semi-implicit Euler (the discretisation of Crocoddyl's
 //! `IntegratedActionModelEuler`).
 
-mod acrobot;
-
-pub use acrobot::Acrobot;
-
 use faer::Mat;
+use systems::Mechanics;
+
+/// The benchmark systems of `nprl-systems` (the very types `trajopt`'s
+/// Eq. 3 swing-ups step), here as [`Dynamics`]: a torque-driven
+/// pendulum, a cart-pole and an acrobot, and the enum of the three. The
+/// pendulum has analytic second derivatives, so with
+/// [`DdpMethod::Ddp`](crate::DdpMethod::Ddp) DDP on it is full DDP; on the
+/// others the solver is iLQR.
+pub use systems::{Acrobot, CartPole, Pendulum, SwingUpModel};
 
 use crate::error::{DdpError, Result, check_finite, check_len};
-use crate::problem::{Cost, CostDerivatives, Dynamics};
+use crate::problem::{Cost, CostDerivatives, Dynamics, SecondDerivatives};
 
 fn to_row_major(what: &'static str, a: &Mat<f64>) -> Result<Vec<f64>> {
     let v: Vec<f64> = (0..a.nrows())
@@ -93,7 +98,7 @@ impl Dynamics for LinearDynamics {
         fu.copy_from_slice(&self.b);
         Ok(())
     }
-    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64], _: &mut [f64]) -> bool {
+    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: SecondDerivatives<'_>) -> bool {
         true // all zero
     }
 }
@@ -280,202 +285,60 @@ impl Cost for QuadraticCost {
     }
 }
 
-/// A torque-driven pendulum, state $(\theta, \omega)$ with $\theta = 0$
-/// hanging down, control the torque $u$:
-/// $$\dot\omega = \frac{u - b\,\omega}{m l^2} - \frac{g}{l} \sin\theta,$$
-/// discretised by semi-implicit Euler: $\omega_{k+1} = \omega_k + \Delta t\,\dot\omega_k$,
-/// $\theta_{k+1} = \theta_k + \Delta t\,\omega_{k+1}$.
-///
-/// It has analytic second derivatives, so with
-/// [`DdpMethod::Ddp`](crate::DdpMethod::Ddp) DDP on it is full DDP.
-///
-/// | field | default |
-/// |---|---|
-/// | `mass` | 1 kg |
-/// | `length` | 1 m |
-/// | `damping` | 0 N m s |
-/// | `gravity` | 9.81 m/s² |
-/// | `dt` | 0.01 s |
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pendulum {
-    /// Point mass $m$.
-    pub mass: f64,
-    /// Rod length $l$.
-    pub length: f64,
-    /// Viscous damping $b$.
-    pub damping: f64,
-    /// Gravity $g$.
-    pub gravity: f64,
-    /// Time step $\Delta t$.
-    pub dt: f64,
+/// The pendulum inside a model, whose step has second derivatives.
+trait SecondOrder {
+    fn pendulum(&self) -> Option<&Pendulum> {
+        None
+    }
 }
 
-impl Default for Pendulum {
-    fn default() -> Self {
-        Self {
-            mass: 1.0,
-            length: 1.0,
-            damping: 0.0,
-            gravity: 9.81,
-            dt: 0.01,
+impl SecondOrder for Pendulum {
+    fn pendulum(&self) -> Option<&Pendulum> {
+        Some(self)
+    }
+}
+
+impl SecondOrder for CartPole {}
+
+impl SecondOrder for Acrobot {}
+
+impl SecondOrder for SwingUpModel {
+    fn pendulum(&self) -> Option<&Pendulum> {
+        match self {
+            SwingUpModel::Pendulum(p) => Some(p),
+            SwingUpModel::CartPole(_) | SwingUpModel::Acrobot(_) => None,
         }
     }
 }
 
-impl Dynamics for Pendulum {
-    fn state_dim(&self) -> usize {
-        2
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        let ml2 = self.mass * self.length * self.length;
-        let acc = (u[0] - self.damping * x[1]) / ml2 - self.gravity / self.length * x[0].sin();
-        next[1] = x[1] + self.dt * acc;
-        next[0] = x[0] + self.dt * next[1];
-        Ok(())
-    }
-    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        let ml2 = self.mass * self.length * self.length;
-        let dt = self.dt;
-        let (a_th, a_w, a_u) = (-self.gravity / self.length * x[0].cos(), -self.damping / ml2, 1.0 / ml2);
-        // omega' row
-        fx[2] = dt * a_th;
-        fx[3] = 1.0 + dt * a_w;
-        fu[1] = dt * a_u;
-        // theta' = theta + dt omega'
-        fx[0] = 1.0 + dt * fx[2];
-        fx[1] = dt * fx[3];
-        fu[0] = dt * fu[1];
-        Ok(())
-    }
-    fn second_derivatives(
-        &self,
-        x: &[f64],
-        _u: &[f64],
-        v: &[f64],
-        fxx: &mut [f64],
-        _fux: &mut [f64],
-        _fuu: &mut [f64],
-    ) -> bool {
-        let a_thth = self.gravity / self.length * x[0].sin();
-        fxx[0] = (v[1] * self.dt + v[0] * self.dt * self.dt) * a_thth;
-        true
-    }
-}
-
-/// A cart-pole, state $(x, \theta, \dot x, \dot\theta)$ (cart position,
-/// pole angle, then their rates: positions first, as in every model of the
-/// workspace; `trajopt` has no cart-pole) with $\theta = 0$ hanging down,
-/// control the horizontal force $f$ on the cart (massless rod, point mass
-/// at its end, no friction): with
-/// $D = m_c + m_p \sin^2\theta$,
-/// $$\ddot x = \frac{f + m_p \sin\theta\,(l \dot\theta^2 + g \cos\theta)}{D}, \qquad
-/// \ddot\theta = \frac{-f \cos\theta - m_p l \dot\theta^2 \cos\theta \sin\theta - (m_c + m_p) g \sin\theta}{l D},$$
-/// discretised by semi-implicit Euler (velocities first, then positions with
-/// the new velocities). First derivatives only (the solver is iLQR on it).
-///
-/// | field | default |
-/// |---|---|
-/// | `cart_mass` | 1 kg |
-/// | `pole_mass` | 0.1 kg |
-/// | `length` | 0.5 m |
-/// | `gravity` | 9.81 m/s² |
-/// | `dt` | 0.01 s |
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct CartPole {
-    /// Cart mass $m_c$.
-    pub cart_mass: f64,
-    /// Pole (tip) mass $m_p$.
-    pub pole_mass: f64,
-    /// Pole length $l$.
-    pub length: f64,
-    /// Gravity $g$.
-    pub gravity: f64,
-    /// Time step $\Delta t$.
-    pub dt: f64,
-}
-
-impl Default for CartPole {
-    fn default() -> Self {
-        Self {
-            cart_mass: 1.0,
-            pole_mass: 0.1,
-            length: 0.5,
-            gravity: 9.81,
-            dt: 0.01,
-        }
-    }
-}
-
-impl CartPole {
-    /// Accelerations $(\ddot x, \ddot\theta)$ and their derivatives with
-    /// respect to $(\theta, \dot\theta, f)$.
-    fn accelerations(&self, theta: f64, omega: f64, f: f64) -> ([f64; 2], [[f64; 3]; 2]) {
-        let (mc, mp, l, g) = (self.cart_mass, self.pole_mass, self.length, self.gravity);
-        let (s, c) = theta.sin_cos();
-        let d = mc + mp * s * s;
-        let d_th = 2.0 * mp * s * c;
-        let n1 = f + mp * s * (l * omega * omega + g * c);
-        let n1_d = [
-            mp * (c * l * omega * omega + g * (c * c - s * s)),
-            2.0 * mp * s * l * omega,
-            1.0,
-        ];
-        let n2 = -f * c - mp * l * omega * omega * c * s - (mc + mp) * g * s;
-        let n2_d = [
-            f * s - mp * l * omega * omega * (c * c - s * s) - (mc + mp) * g * c,
-            -2.0 * mp * l * omega * c * s,
-            -c,
-        ];
-        let acc = [n1 / d, n2 / (l * d)];
-        let quotient = |nd: [f64; 3], nval: f64, scale: f64| {
-            [
-                (nd[0] * d - nval * d_th) / (d * d) / scale,
-                nd[1] / d / scale,
-                nd[2] / d / scale,
-            ]
-        };
-        (acc, [quotient(n1_d, n1, 1.0), quotient(n2_d, n2, l)])
-    }
-}
-
-impl Dynamics for CartPole {
-    fn state_dim(&self) -> usize {
-        4
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        let (acc, _) = self.accelerations(x[1], x[3], u[0]);
-        next[2] = x[2] + self.dt * acc[0];
-        next[3] = x[3] + self.dt * acc[1];
-        next[0] = x[0] + self.dt * next[2];
-        next[1] = x[1] + self.dt * next[3];
-        Ok(())
-    }
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        let (_, da) = self.accelerations(x[1], x[3], u[0]);
-        let dt = self.dt;
-        for i in 0..2 {
-            // velocity row 2 + i: v' = v + dt a(theta, omega, f)
-            let r = (2 + i) * 4;
-            fx[r] = 0.0;
-            fx[r + 1] = dt * da[i][0];
-            fx[r + 2] = if i == 0 { 1.0 } else { 0.0 };
-            fx[r + 3] = dt * da[i][1] + if i == 1 { 1.0 } else { 0.0 };
-            fu[2 + i] = dt * da[i][2];
-            // position row i: q' = q + dt v'
-            for j in 0..4 {
-                fx[i * 4 + j] = dt * fx[r + j] + if i == j { 1.0 } else { 0.0 };
+macro_rules! euler_dynamics {
+    ($($t:ty),*) => {$(
+        /// Semi-implicit Euler ([`Mechanics::euler_step`]) with its analytic
+        /// Jacobians ([`Mechanics::euler_jacobians`]); second derivatives
+        /// ([`Pendulum::euler_curvature`]) for the pendulum only.
+        impl Dynamics for $t {
+            fn state_dim(&self) -> usize {
+                self.n_x()
             }
-            fu[i] = dt * fu[2 + i];
+            fn control_dim(&self) -> usize {
+                self.n_u()
+            }
+            fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+                self.euler_step(x, u, next);
+                Ok(())
+            }
+            fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+                self.euler_jacobians(x, u, fx, fu);
+                Ok(())
+            }
+            fn second_derivatives(&self, x: &[f64], _u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
+                self.pendulum().map(|p| out.fxx[0] = p.euler_curvature(x, v)).is_some()
+            }
         }
-        Ok(())
-    }
+    )*};
 }
+
+euler_dynamics!(Pendulum, CartPole, Acrobot, SwingUpModel);
 
 #[cfg(test)]
 mod tests {

@@ -66,24 +66,28 @@ pub trait Dynamics {
         Ok(())
     }
 
-    /// Second derivatives contracted with a vector $v \in \mathbb{R}^n$:
-    /// writes $\sum_i v_i \, \partial^2 f_i / \partial x^2$ into `fxx`
-    /// ($n \times n$), $\sum_i v_i \, \partial^2 f_i / \partial u \partial x$ into
-    /// `fux` ($m \times n$) and $\sum_i v_i \, \partial^2 f_i / \partial u^2$ into
-    /// `fuu` ($m \times m$), and returns `true`. The default returns `false`
-    /// (no second derivatives: the solver is iLQR).
-    fn second_derivatives(
-        &self,
-        x: &[f64],
-        u: &[f64],
-        v: &[f64],
-        fxx: &mut [f64],
-        fux: &mut [f64],
-        fuu: &mut [f64],
-    ) -> bool {
-        let _ = (x, u, v, fxx, fux, fuu);
+    /// Second derivatives contracted with a vector $v \in \mathbb{R}^n$,
+    /// written into `out` ([`SecondDerivatives`]), returning `true`. The
+    /// default returns `false` (no second derivatives: the solver is iLQR).
+    fn second_derivatives(&self, x: &[f64], u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
+        let _ = (x, u, v, out);
         false
     }
+}
+
+/// Where [`Dynamics::second_derivatives`] writes, row-major and zeroed by
+/// the solver (write only the nonzeros): $\sum_i v_i \, \partial^2 f_i / \partial x^2$
+/// into `fxx` ($n \times n$), $\sum_i v_i \, \partial^2 f_i / \partial u \partial x$
+/// into `fux` ($m \times n$) and $\sum_i v_i \, \partial^2 f_i / \partial u^2$
+/// into `fuu` ($m \times m$).
+#[derive(Debug)]
+pub struct SecondDerivatives<'a> {
+    /// $\sum_i v_i \, \partial^2 f_i / \partial x^2$, $n \times n$.
+    pub fxx: &'a mut [f64],
+    /// $\sum_i v_i \, \partial^2 f_i / \partial u \partial x$, $m \times n$.
+    pub fux: &'a mut [f64],
+    /// $\sum_i v_i \, \partial^2 f_i / \partial u^2$, $m \times m$.
+    pub fuu: &'a mut [f64],
 }
 
 /// A reference to dynamics is dynamics, so that one model can serve several
@@ -105,16 +109,8 @@ impl<D: Dynamics + ?Sized> Dynamics for &D {
         (**self).derivatives(x, u, fx, fu)
     }
 
-    fn second_derivatives(
-        &self,
-        x: &[f64],
-        u: &[f64],
-        v: &[f64],
-        fxx: &mut [f64],
-        fux: &mut [f64],
-        fuu: &mut [f64],
-    ) -> bool {
-        (**self).second_derivatives(x, u, v, fxx, fux, fuu)
+    fn second_derivatives(&self, x: &[f64], u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
+        (**self).second_derivatives(x, u, v, out)
     }
 }
 

@@ -66,14 +66,14 @@
 //! `CostFunction` and `Gradient` over its stacked controls (single
 //! shooting, see [`DdpProblem::shooting_cost`]).
 
-use std::f64::consts::PI;
-
 use crate::error::{DdpError, Result};
+pub use crate::models::SwingUpModel;
 use crate::models::{Acrobot, CartPole, Pendulum, QuadraticCost};
 use crate::problem::{DdpProblem, Dynamics};
 
-/// Time step of the benchmark problems (s).
-pub const DT: f64 = 0.01;
+pub use systems::{DT, SwingUpWeights};
+
+systems::system_enum!();
 
 /// Pendulum swing-up over `horizon` steps of [`DT`] from rest hanging down,
 /// zero warm start, to the upright $(\pi, 0)$:
@@ -86,7 +86,8 @@ pub const DT: f64 = 0.01;
 /// # Errors
 /// A zero horizon.
 pub fn pendulum_swingup(horizon: usize) -> Result<DdpProblem<Pendulum, QuadraticCost>> {
-    System::Pendulum.build(
+    build(
+        System::Pendulum,
         Pendulum {
             dt: DT,
             ..Pendulum::default()
@@ -106,7 +107,8 @@ pub fn pendulum_swingup(horizon: usize) -> Result<DdpProblem<Pendulum, Quadratic
 /// # Errors
 /// A zero horizon.
 pub fn cartpole_swingup(horizon: usize) -> Result<DdpProblem<CartPole, QuadraticCost>> {
-    System::CartPole.build(
+    build(
+        System::CartPole,
         CartPole {
             dt: DT,
             ..CartPole::default()
@@ -123,7 +125,8 @@ pub fn cartpole_swingup(horizon: usize) -> Result<DdpProblem<CartPole, Quadratic
 /// # Errors
 /// A zero horizon.
 pub fn acrobot_swingup(horizon: usize) -> Result<DdpProblem<Acrobot, QuadraticCost>> {
-    System::Acrobot.build(
+    build(
+        System::Acrobot,
         Acrobot {
             dt: DT,
             ..Acrobot::default()
@@ -132,116 +135,20 @@ pub fn acrobot_swingup(horizon: usize) -> Result<DdpProblem<Acrobot, QuadraticCo
     )
 }
 
-/// The three benchmark systems; see the [module docs](self).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum System {
-    /// The torque-driven [`Pendulum`].
-    Pendulum,
-    /// The force-driven [`CartPole`].
-    CartPole,
-    /// The elbow-driven [`Acrobot`].
-    Acrobot,
-}
-
-/// The weights and target of a swing-up's [`QuadraticCost`], and its
-/// start; see the [module docs](self).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SwingUpWeights {
-    /// Running state weights $q$ (diagonal).
-    pub state: Vec<f64>,
-    /// Running control weights $r$ (diagonal).
-    pub control: Vec<f64>,
-    /// Terminal state weights $q^f$ (diagonal).
-    pub terminal: Vec<f64>,
-    /// The target state $x^r$ (running and terminal).
-    pub target: Vec<f64>,
-    /// The initial state $x_0$.
-    pub initial_state: Vec<f64>,
-}
-
 impl System {
-    /// The three, in the order of the registry.
-    pub const ALL: [System; 3] = [System::Pendulum, System::CartPole, System::Acrobot];
-
-    /// The name used in instance names: `"pendulum"`, `"cartpole"`, `"acrobot"`.
-    pub fn name(self) -> &'static str {
-        match self {
-            System::Pendulum => "pendulum",
-            System::CartPole => "cartpole",
-            System::Acrobot => "acrobot",
-        }
-    }
-
-    /// The model with its default parameters at $\Delta t$ = [`DT`].
-    pub fn model(self) -> SwingUpModel {
-        match self {
-            System::Pendulum => SwingUpModel::Pendulum(Pendulum {
-                dt: DT,
-                ..Pendulum::default()
-            }),
-            System::CartPole => SwingUpModel::CartPole(CartPole {
-                dt: DT,
-                ..CartPole::default()
-            }),
-            System::Acrobot => SwingUpModel::Acrobot(Acrobot {
-                dt: DT,
-                ..Acrobot::default()
-            }),
-        }
-    }
-
-    /// The cost weights, target and start of the swing-up.
-    pub fn weights(self) -> SwingUpWeights {
-        let (state, control, terminal, target) = match self {
-            System::Pendulum => (
-                vec![0.5 * DT, 0.05 * DT],
-                vec![0.005 * DT],
-                vec![50.0, 5.0],
-                vec![PI, 0.0],
-            ),
-            System::CartPole | System::Acrobot => (
-                vec![0.5 * DT, 0.5 * DT, 0.05 * DT, 0.05 * DT],
-                vec![0.005 * DT],
-                vec![50.0, 50.0, 5.0, 5.0],
-                if self == System::CartPole {
-                    vec![0.0, PI, 0.0, 0.0]
-                } else {
-                    vec![PI, 0.0, 0.0, 0.0]
-                },
-            ),
-        };
-        let initial_state = vec![0.0; target.len()];
-        SwingUpWeights {
-            state,
-            control,
-            terminal,
-            target,
-            initial_state,
-        }
-    }
-
-    /// The horizons of the registry's instances (steps of [`DT`]).
-    pub fn standard_horizons(self) -> &'static [usize] {
-        match self {
-            System::Pendulum => &[50, 100, 200],
-            System::CartPole => &[100, 200, 400],
-            System::Acrobot => &[200, 400],
-        }
-    }
-
     /// The swing-up over `horizon` steps with the [`SwingUpModel`].
     ///
     /// # Errors
     /// A zero horizon.
     pub fn problem(self, horizon: usize) -> Result<DdpProblem<SwingUpModel, QuadraticCost>> {
-        self.build(self.model(), horizon)
+        build(self, self.model(), horizon)
     }
+}
 
-    fn build<D: Dynamics>(self, model: D, horizon: usize) -> Result<DdpProblem<D, QuadraticCost>> {
-        let w = self.weights();
-        let cost = QuadraticCost::diagonal(&w.state, &w.control, &w.terminal)?.with_state_target(&w.target)?;
-        DdpProblem::new(model, cost, &w.initial_state, horizon)
-    }
+fn build<D: Dynamics>(system: System, model: D, horizon: usize) -> Result<DdpProblem<D, QuadraticCost>> {
+    let w = system.weights();
+    let cost = QuadraticCost::diagonal(&w.state, &w.control, &w.terminal)?.with_state_target(&w.target)?;
+    DdpProblem::new(model, cost, &w.initial_state, horizon)
 }
 
 /// One standard instance: a system at a horizon.
@@ -256,7 +163,7 @@ pub struct Instance {
 impl Instance {
     /// `"<system>-h<horizon>"`, e.g. `"pendulum-h100"`.
     pub fn name(&self) -> String {
-        format!("{}-h{}", self.system.name(), self.horizon)
+        self.system.spec().instance_name(self.horizon)
     }
 
     /// The problem, warm-started with zero controls.
@@ -288,61 +195,12 @@ pub fn standard_instances() -> Vec<Instance> {
 /// [`DdpError::InvalidParameter`] naming `name` when no standard instance
 /// has it.
 pub fn by_name(name: &str) -> Result<Instance> {
-    standard_instances()
-        .into_iter()
-        .find(|i| i.name() == name)
-        .ok_or_else(|| DdpError::InvalidParameter {
+    systems::find_instance(standard_instances(), name, Instance::name, "pendulum-h100").map_err(|reason| {
+        DdpError::InvalidParameter {
             name: "instance name",
-            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h100\")"),
-        })
-}
-
-/// One of the three models, so that every instance has the same type.
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub enum SwingUpModel {
-    /// A [`Pendulum`].
-    Pendulum(Pendulum),
-    /// A [`CartPole`].
-    CartPole(CartPole),
-    /// An [`Acrobot`].
-    Acrobot(Acrobot),
-}
-
-impl SwingUpModel {
-    fn inner(&self) -> &dyn Dynamics {
-        match self {
-            SwingUpModel::Pendulum(p) => p,
-            SwingUpModel::CartPole(c) => c,
-            SwingUpModel::Acrobot(a) => a,
+            reason,
         }
-    }
-}
-
-/// Each method is the wrapped model's.
-impl Dynamics for SwingUpModel {
-    fn state_dim(&self) -> usize {
-        self.inner().state_dim()
-    }
-    fn control_dim(&self) -> usize {
-        self.inner().control_dim()
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        self.inner().step(x, u, next)
-    }
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        self.inner().derivatives(x, u, fx, fu)
-    }
-    fn second_derivatives(
-        &self,
-        x: &[f64],
-        u: &[f64],
-        v: &[f64],
-        fxx: &mut [f64],
-        fux: &mut [f64],
-        fuu: &mut [f64],
-    ) -> bool {
-        self.inner().second_derivatives(x, u, v, fxx, fux, fuu)
-    }
+    })
 }
 
 #[cfg(test)]

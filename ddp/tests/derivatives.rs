@@ -3,7 +3,7 @@
 //! finite-difference derivatives of [`Dynamics`] equal the analytic ones.
 
 use ddp::strategies::{JacobianCheck, check_dynamics, check_jacobian};
-use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result};
+use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result, SecondDerivatives};
 use faer::Mat;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -20,7 +20,12 @@ fn check_model<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<()
     assert_close("fx", cx, 1e-7)?;
     assert_close("fu", cu, 1e-7)?;
     let (mut hxx, mut hux, mut huu) = (vec![0.0; n * n], vec![0.0; m * n], vec![0.0; m * m]);
-    if f.second_derivatives(x, u, v, &mut hxx, &mut hux, &mut huu) {
+    let out = SecondDerivatives {
+        fxx: &mut hxx,
+        fux: &mut hux,
+        fuu: &mut huu,
+    };
+    if f.second_derivatives(x, u, v, out) {
         // d/dx (v^T f_x), d/dx (v^T f_u), d/du (v^T f_u)
         let vt = |a: &[f64], cols: usize| {
             (0..cols)

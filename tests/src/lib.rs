@@ -1,3 +1,45 @@
 //! Cross-crate integration tests of the workspace; the tests live in
-//! `tests/tests/`. This library is empty.
+//! `tests/tests/`. This library holds what several of them share.
 #![warn(missing_docs)]
+
+use faer::Mat;
+use trajopt::{CostBreakdown, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Model, StageCost};
+
+/// An Eq. 3 plan: Gauss-Newton's result on the problem, the cost breakdown
+/// of its answer, and the answer's states and controls (one row per
+/// sample).
+pub struct Eq3Plan {
+    /// The solver's result.
+    pub result: GaussNewtonResult,
+    /// [`Eq3Problem::cost_breakdown`] at the answer.
+    pub parts: CostBreakdown,
+    /// [`Eq3Problem::trajectory`] of the answer: the states.
+    pub states: Mat<f64>,
+    /// The controls.
+    pub controls: Mat<f64>,
+}
+
+/// Gauss-Newton (default settings but at most `max_iterations`) on
+/// `problem` from `theta0`; panics if the solver fails (a test's failure).
+pub fn gauss_newton_plan<M: Model, C: StageCost>(
+    problem: &Eq3Problem<M, C>,
+    theta0: &[f64],
+    max_iterations: usize,
+) -> Eq3Plan {
+    let settings = GaussNewtonSettings {
+        max_iterations,
+        ..GaussNewtonSettings::default()
+    };
+    let result = GaussNewton::new(settings)
+        .expect("settings")
+        .solve(problem, theta0)
+        .expect("solve");
+    let parts = problem.cost_breakdown(&result.x).expect("cost");
+    let (states, controls) = problem.trajectory(&result.x).expect("trajectory");
+    Eq3Plan {
+        result,
+        parts,
+        states,
+        controls,
+    }
+}

@@ -5,8 +5,9 @@
 //! reverse.
 
 use faer::Mat;
+use integration_tests::gauss_newton_plan;
 use splines::BSplineBasis;
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LinearModel, TrackingCost};
+use trajopt::{Eq3Problem, Lambda, LinearModel, TrackingCost};
 
 const DT: f64 = 0.1;
 const N: usize = 40;
@@ -60,17 +61,8 @@ fn eq3_plan(lambda: f64) -> (f64, f64, Mat<f64>) {
     .with_initial_state(&[1.0, 0.0], 1e12)
     .expect("x0");
     let theta0 = vec![0.0; problem.n_state_coeffs() * 2 + problem.n_control_coeffs()];
-    let settings = GaussNewtonSettings {
-        max_iterations: 50,
-        ..GaussNewtonSettings::default()
-    };
-    let result = GaussNewton::new(settings)
-        .expect("settings")
-        .solve(&problem, &theta0)
-        .expect("solve");
-    let parts = problem.cost_breakdown(&result.x).expect("cost");
-    let (states, _) = problem.trajectory(&result.x).expect("trajectory");
-    (parts.task, parts.max_mismatch, states)
+    let plan = gauss_newton_plan(&problem, &theta0, 50);
+    (plan.parts.task, plan.parts.max_mismatch, plan.states)
 }
 
 #[test]

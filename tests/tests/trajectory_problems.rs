@@ -1,6 +1,7 @@
 //! The trajectory problems of `trajopt::problems::trajectory` (Eq. 3 form)
 //! and `ddp::problems` (DDP form) are the same problems: for every
-//! registered instance the two models step the same state and control to
+//! registered instance the model (one `nprl-systems` type under each
+//! crate's trait) steps the same state and control to
 //! the same next state with the same Jacobians (each passing its crate's
 //! check), the two costs give the same stage and terminal costs of the same
 //! trajectory, and DDP's optimum costs the same in both forms; and both
@@ -8,8 +9,9 @@
 
 use ddp::Dynamics;
 use ddp::strategies::check_dynamics;
+use integration_tests::gauss_newton_plan;
 use trajopt::problems::trajectory::{self, SwingUpProblem, parameters_of};
-use trajopt::{GaussNewton, GaussNewtonSettings, Model, StageCost, check_model_jacobians};
+use trajopt::{Model, StageCost, check_model_jacobians};
 
 /// Deterministic spread-out test points: states in $[-3, 3]^n$ (angles
 /// beyond $\pm\pi/2$, fast rates), controls in $[-8, 8]$.
@@ -81,12 +83,16 @@ fn models_step_alike_and_pass_both_jacobian_checks() {
         let (problem, _) = instance.problem().expect("problem");
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (model, dyn_) = (problem.model(), ddp_problem.dynamics());
-        let n = model.state_dim();
-        assert_eq!((n, model.control_dim()), (dyn_.state_dim(), dyn_.control_dim()));
+        // one type (`systems::SwingUpModel`) under both crates' traits
+        let n = Model::state_dim(model);
+        assert_eq!(
+            (n, Model::control_dim(model)),
+            (Dynamics::state_dim(dyn_), Dynamics::control_dim(dyn_))
+        );
         for (x, u) in points(n) {
             let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-            model.step(&x, &u, &mut a).expect("step");
-            dyn_.step(&x, &u, &mut b).expect("step");
+            Model::step(model, &x, &u, &mut a).expect("step");
+            Dynamics::step(dyn_, &x, &u, &mut b).expect("step");
             for i in 0..n {
                 assert!(
                     (a[i] - b[i]).abs() <= 1e-12 * (1.0 + b[i].abs()),
@@ -182,16 +188,8 @@ fn both_solvers_swing_each_system_up_at_comparable_cost() {
         let target = system.weights().target;
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (problem, theta0) = instance.problem().expect("problem");
-        let settings = GaussNewtonSettings {
-            max_iterations: 500,
-            ..GaussNewtonSettings::default()
-        };
-        let g = GaussNewton::new(settings)
-            .expect("settings")
-            .solve(&problem, &theta0)
-            .expect("solve");
-        let parts = problem.cost_breakdown(&g.x).expect("cost");
-        let (xs, us) = problem.trajectory(&g.x).expect("trajectory");
+        let plan = gauss_newton_plan(&problem, &theta0, 500);
+        let (g, parts, xs, us) = (plan.result, plan.parts, plan.states, plan.controls);
         let gn_end = end_error(
             &(0..target.len()).map(|i| xs[(horizon, i)]).collect::<Vec<_>>(),
             &target,

@@ -66,10 +66,32 @@ struct PartJob {
 
 /// Where [`Helpers::band_parts`] writes: the normal equations (with
 /// `grad`) or $S$ alone (without).
-struct PartsOut<'a> {
+pub(crate) struct PartsOut<'a> {
     h: &'a mut BandedSym,
     grad: Option<&'a mut [f64]>,
     second_order: Option<&'a mut [f64]>,
+}
+
+impl<'a> From<BandNormalEquations<'a>> for PartsOut<'a> {
+    /// The normal equations.
+    fn from(out: BandNormalEquations<'a>) -> Self {
+        Self {
+            h: out.h,
+            grad: Some(out.grad),
+            second_order: out.second_order_diagonal,
+        }
+    }
+}
+
+impl<'a> From<&'a mut BandedSym> for PartsOut<'a> {
+    /// $S$ alone.
+    fn from(s: &'a mut BandedSym) -> Self {
+        Self {
+            h: s,
+            grad: None,
+            second_order: None,
+        }
+    }
 }
 
 /// A formed part: the job (its buffers), the problem's answer, and the
@@ -261,44 +283,13 @@ impl Helpers {
     }
 
     /// [`BandForm::normal_equations`](crate::BandForm::normal_equations)
-    /// formed in parts, part 0 on this thread and one part on each helper,
-    /// and summed in the part order (so the result depends on the number of
-    /// parts, not on timing).
-    pub(crate) fn band_normal_equations<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        at: Point<'_>,
-        layout: &Arc<BandLayout>,
-        out: BandNormalEquations<'_>,
-    ) -> Result<bool> {
-        let out = PartsOut {
-            h: out.h,
-            grad: Some(out.grad),
-            second_order: out.second_order_diagonal,
-        };
-        self.band_parts(problem, at, layout, out)
-    }
-
+    /// (`out` with `grad`) or
     /// [`BandForm::second_order_part`](crate::BandForm::second_order_part)
-    /// over the parts, as [`band_normal_equations`](Self::band_normal_equations):
-    /// $S$ alone into `s`; false unless every part has it.
-    pub(crate) fn band_second_order<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        at: Point<'_>,
-        layout: &Arc<BandLayout>,
-        s: &mut BandedSym,
-    ) -> Result<bool> {
-        let out = PartsOut {
-            h: s,
-            grad: None,
-            second_order: None,
-        };
-        self.band_parts(problem, at, layout, out)
-    }
-
-    /// The normal equations (with `grad`) or $S$ alone (without), in parts.
-    fn band_parts<P: LeastSquaresProblem + ?Sized>(
+    /// ($S$ alone, `out` without; false unless every part has it), formed
+    /// in parts, part 0 on this thread and one part on each helper, and
+    /// summed in the part order (so the result depends on the number of
+    /// parts, not on timing).
+    pub(crate) fn band_parts<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
         at: Point<'_>,
@@ -416,12 +407,21 @@ impl Helpers {
     }
 
     /// Sends a job to the first helper's split part; false if it is gone.
-    pub(crate) fn split_send(&mut self, job: SplitJob) -> bool {
+    fn split_send(&mut self, job: SplitJob) -> bool {
         self.helpers.first_mut().is_some_and(|h| h.send(Job::Split(job)))
     }
 
+    /// Sends `job` to the first helper's split part, runs `mine` on this
+    /// thread meanwhile, and returns its result with the helper's answer
+    /// (`None` if the helper is gone).
+    pub(crate) fn split_alongside<R>(&mut self, job: SplitJob, mine: impl FnOnce() -> R) -> (R, Option<SplitDone>) {
+        let sent = self.split_send(job);
+        let mine = mine();
+        (mine, sent.then(|| self.split_receive()).flatten())
+    }
+
     /// The first helper's answer to its split job; `None` if it is gone.
-    pub(crate) fn split_receive(&mut self) -> Option<SplitDone> {
+    fn split_receive(&mut self) -> Option<SplitDone> {
         let Self { helpers, late, .. } = self;
         match helpers.first()?.answer(late)? {
             Done::Split(done) => Some(done),

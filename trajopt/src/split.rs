@@ -129,8 +129,7 @@ impl SplitPart {
     pub(crate) fn assemble<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
         want_s: bool,
     ) -> Result<bool> {
         let part = self.part();
@@ -140,7 +139,7 @@ impl SplitPart {
             grad: &mut self.grad,
             second_order_diagonal: diag_s,
         };
-        self.band.has_s = band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, &self.layout, out)?;
+        self.band.has_s = band_form_of(problem)?.normal_equations_part(part, at, &self.layout, out)?;
         if !self.band.has_s {
             self.diag_s.fill(0.0);
         }
@@ -188,10 +187,10 @@ impl SplitPart {
 
     /// This part's $J^\top J$ alone ([`BandModel::form_jtj`]); false if
     /// not finite.
-    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
+    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
         let (part, layout) = (self.part(), &self.layout);
         self.band
-            .form_jtj(|out| band_form_of(problem)?.normal_equations_part(part, Point { theta, r }, layout, out))
+            .form_jtj(|out| band_form_of(problem)?.normal_equations_part(part, at, layout, out))
     }
 
     /// After a non-finite $S$: $J^\top J$ alone becomes the matrix; false
@@ -199,10 +198,9 @@ impl SplitPart {
     pub(crate) fn replace_by_jtj<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
     ) -> Result<bool> {
-        if !self.form_jtj(problem, theta, r)? {
+        if !self.form_jtj(problem, at)? {
             return Ok(false);
         }
         self.band.replace_by_jtj();
@@ -218,8 +216,7 @@ impl SplitPart {
     pub(crate) fn ensure_gauss_newton<P: LeastSquaresProblem + ?Sized>(
         &mut self,
         problem: &P,
-        theta: &[f64],
-        r: &[f64],
+        at: Point<'_>,
     ) -> Result<bool> {
         if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
@@ -227,11 +224,11 @@ impl SplitPart {
         let (part, layout) = (self.part(), &self.layout);
         let from_s = self
             .band
-            .jtj_from_second_order(|s| band_form_of(problem)?.second_order_part(part, Point { theta, r }, layout, s))?;
+            .jtj_from_second_order(|s| band_form_of(problem)?.second_order_part(part, at, layout, s))?;
         if from_s {
             return Ok(true);
         }
-        self.form_jtj(problem, theta, r)
+        self.form_jtj(problem, at)
     }
 
     /// Eliminates the interior of the damped model matrix for the global
@@ -424,7 +421,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
     } = job
     {
         let p = part.get_or_insert_with(|| SplitPart::new(1, &layout));
-        let result = p.assemble(problem, &theta, &r, want_s);
+        let result = p.assemble(problem, Point { theta: &theta, r: &r }, want_s);
         let mut diagonal = vec![0.0; p.n];
         p.add_diagonal(&mut diagonal);
         return Some(SplitDone::Assembled {
@@ -441,7 +438,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
     Some(match job {
         SplitJob::Assemble { .. } => return None,
         SplitJob::ReplaceByJtj { theta, r } => {
-            let result = p.replace_by_jtj(problem, &theta, &r);
+            let result = p.replace_by_jtj(problem, Point { theta: &theta, r: &r });
             let mut diagonal = vec![0.0; p.n];
             p.add_diagonal(&mut diagonal);
             SplitDone::Replaced {
@@ -451,7 +448,9 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
                 extent: p.extent(),
             }
         }
-        SplitJob::GaussNewton { theta, r } => SplitDone::GaussNewton(p.ensure_gauss_newton(problem, &theta, &r)),
+        SplitJob::GaussNewton { theta, r } => {
+            SplitDone::GaussNewton(p.ensure_gauss_newton(problem, Point { theta: &theta, r: &r }))
+        }
         SplitJob::Eliminate {
             newton,
             total,
@@ -507,8 +506,14 @@ mod tests {
             p.normal_equations(Point { theta: &theta, r: &r }, &layout, out)
                 .expect("whole");
             let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
-            assert_eq!(a.assemble(&p, &theta, &r, with_s).expect("part 0"), with_s);
-            assert_eq!(b.assemble(&p, &theta, &r, with_s).expect("part 1"), with_s);
+            assert_eq!(
+                a.assemble(&p, Point { theta: &theta, r: &r }, with_s).expect("part 0"),
+                with_s
+            );
+            assert_eq!(
+                b.assemble(&p, Point { theta: &theta, r: &r }, with_s).expect("part 1"),
+                with_s
+            );
             for i in 0..n {
                 assert!((a.grad[i] + b.grad[i] - grad[i]).abs() <= 1e-9 * (1.0 + grad[i].abs()));
             }
@@ -587,8 +592,8 @@ mod tests {
         let n = layout.position.len();
         for with_s in [false, true] {
             let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
-            a.assemble(&p, &theta, &r, with_s).expect("part 0");
-            b.assemble(&p, &theta, &r, with_s).expect("part 1");
+            a.assemble(&p, Point { theta: &theta, r: &r }, with_s).expect("part 0");
+            b.assemble(&p, Point { theta: &theta, r: &r }, with_s).expect("part 1");
             let split = split_points(n, a.extent(), b.extent());
             let kd_s = layout.half_bandwidth.min(split.1 - split.0 - 1);
             // the solver's numbers, from the sums of both parts
@@ -616,8 +621,8 @@ mod tests {
         let (p, theta, layout, r) = benchmark();
         let n = layout.position.len();
         let (mut a, mut b) = (SplitPart::new(0, &layout), SplitPart::new(1, &layout));
-        a.assemble(&p, &theta, &r, false).expect("part 0");
-        b.assemble(&p, &theta, &r, false).expect("part 1");
+        a.assemble(&p, Point { theta: &theta, r: &r }, false).expect("part 0");
+        b.assemble(&p, Point { theta: &theta, r: &r }, false).expect("part 1");
         let (s0, s1) = split_points(n, a.extent(), b.extent());
         let kd_s = layout.half_bandwidth.min(s1 - s0 - 1);
         let rhs = vec![1.0; n];

@@ -5,7 +5,7 @@ use super::regularization::Regularization;
 use super::settings::DdpMethod;
 use super::work::Work;
 use crate::linalg::{add_at_b, add_at_x, cholesky, cholesky_solve, set_a_b};
-use crate::problem::{Cost, Dynamics};
+use crate::problem::{Cost, Dynamics, SecondDerivatives};
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// Derivatives along the current trajectory; `false` if any is not
@@ -73,10 +73,12 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                 self.huu.fill(0.0);
                 let x = &self.xs[k * n..(k + 1) * n];
                 let u = &self.us[k * m..(k + 1) * m];
-                let has =
-                    self.p
-                        .dynamics()
-                        .second_derivatives(x, u, vx_next, &mut self.hxx, &mut self.hux, &mut self.huu);
+                let out = SecondDerivatives {
+                    fxx: &mut self.hxx,
+                    fux: &mut self.hux,
+                    fuu: &mut self.huu,
+                };
+                let has = self.p.dynamics().second_derivatives(x, u, vx_next, out);
                 if has {
                     self.second_order = true;
                     for (q, h) in self.qxx.iter_mut().zip(&self.hxx) {

@@ -105,7 +105,7 @@ pub mod settings;
 use std::time::Instant;
 
 use crate::error::{Result, TrajoptError, check_point};
-use crate::least_squares::{BandForm, LeastSquaresProblem};
+use crate::least_squares::{BandForm, LeastSquaresProblem, Point};
 use crate::parallel::Helpers;
 use damping::{
     ACCURATE, PROBE, SHIFT_DECREASE, SHIFT_DECREASE_ACCURATE, SHIFT_INCREASE, SHIFT_MAX, SHIFT_MIN, lower_damping,
@@ -342,7 +342,7 @@ impl GaussNewton {
             iterations += 1;
             jacobian_evals += 1;
             let want_s = !adaptive || prefer_newton;
-            let Some(mut newton) = system.assemble(problem, &theta, &r, &mut grad, want_s)? else {
+            let Some(mut newton) = system.assemble(problem, Point { theta: &theta, r: &r }, &mut grad, want_s)? else {
                 status = GaussNewtonStatus::NumericalError;
                 break;
             };
@@ -379,7 +379,9 @@ impl GaussNewton {
                 };
                 let solved = match bounds {
                     // bounded: the damped model minimised subject to the bounds (a QP)
-                    Some(b) => system.bounded_step(damping, &grad, b, &theta, &mut step),
+                    Some(b) => system
+                        .as_sparse()
+                        .is_some_and(|sparse| sparse.bounded_step(damping, &grad, b, &theta, &mut step)),
                     None => {
                         factorizations += 1;
                         for (d, g) in step.iter_mut().zip(&grad) {
@@ -395,7 +397,7 @@ impl GaussNewton {
                         shift = (shift * SHIFT_INCREASE).max(SHIFT_MIN);
                         if shift > SHIFT_MAX {
                             newton = false;
-                            if !system.ensure_gauss_newton(problem, &theta, &r)? {
+                            if !system.ensure_gauss_newton(problem, Point { theta: &theta, r: &r })? {
                                 status = GaussNewtonStatus::NumericalError;
                                 break 'outer;
                             }

@@ -103,8 +103,6 @@
 
 mod models;
 
-use std::f64::consts::PI;
-
 use faer::Mat;
 use splines::BSplineBasis;
 
@@ -112,100 +110,14 @@ use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::error::{Result, TrajoptError, expect_len};
 
 pub use models::{Acrobot, CartPole, Pendulum, SwingUpModel};
+pub use systems::{DT, STANDARD_LAMBDAS, SwingUpWeights};
 
-/// Time step of the trajectory benchmarks (s), as `ddp::problems::DT`.
-pub const DT: f64 = 0.01;
-
-/// The consistency weights $\lambda$ of the registry.
-pub const STANDARD_LAMBDAS: [f64; 2] = [1.0, 100.0];
+systems::system_enum!();
 
 /// An Eq. 3 swing-up: see the [module docs](self).
 pub type SwingUpProblem = Eq3Problem<SwingUpModel, TrackingCost>;
 
-/// The three systems; see the [module docs](self).
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
-pub enum System {
-    /// The torque-driven [`Pendulum`].
-    Pendulum,
-    /// The force-driven [`CartPole`].
-    CartPole,
-    /// The elbow-driven [`Acrobot`].
-    Acrobot,
-}
-
-/// The weights and target of a swing-up's [`TrackingCost`], and its start;
-/// see the [module docs](self).
-#[derive(Debug, Clone, PartialEq)]
-pub struct SwingUpWeights {
-    /// Running state weights $q$ (diagonal).
-    pub state: Vec<f64>,
-    /// Running control weights $r$ (diagonal).
-    pub control: Vec<f64>,
-    /// Terminal state weights $q^f$ (diagonal).
-    pub terminal: Vec<f64>,
-    /// The target state $x^r$ (running and terminal).
-    pub target: Vec<f64>,
-    /// The initial state $\bar x_0$.
-    pub initial_state: Vec<f64>,
-}
-
 impl System {
-    /// The three, in the order of the registry.
-    pub const ALL: [System; 3] = [System::Pendulum, System::CartPole, System::Acrobot];
-
-    /// The name used in instance names: `"pendulum"`, `"cartpole"`, `"acrobot"`.
-    pub fn name(self) -> &'static str {
-        match self {
-            System::Pendulum => "pendulum",
-            System::CartPole => "cartpole",
-            System::Acrobot => "acrobot",
-        }
-    }
-
-    /// The model with its default parameters at $\Delta t$ = [`DT`].
-    pub fn model(self) -> SwingUpModel {
-        match self {
-            System::Pendulum => SwingUpModel::Pendulum(Pendulum {
-                dt: DT,
-                ..Pendulum::default()
-            }),
-            System::CartPole => SwingUpModel::CartPole(CartPole {
-                dt: DT,
-                ..CartPole::default()
-            }),
-            System::Acrobot => SwingUpModel::Acrobot(Acrobot {
-                dt: DT,
-                ..Acrobot::default()
-            }),
-        }
-    }
-
-    /// The cost weights, target and start of the swing-up.
-    pub fn weights(self) -> SwingUpWeights {
-        let (nq, target) = match self {
-            System::Pendulum => (1, vec![PI, 0.0]),
-            System::CartPole => (2, vec![0.0, PI, 0.0, 0.0]),
-            System::Acrobot => (2, vec![PI, 0.0, 0.0, 0.0]),
-        };
-        let per = |pos: f64, rate: f64| [vec![pos; nq], vec![rate; nq]].concat();
-        SwingUpWeights {
-            state: per(0.5 * DT, 0.05 * DT),
-            control: vec![0.005 * DT],
-            terminal: per(50.0, 5.0),
-            initial_state: vec![0.0; 2 * nq],
-            target,
-        }
-    }
-
-    /// The horizons of the registry's instances (steps of [`DT`]).
-    pub fn standard_horizons(self) -> &'static [usize] {
-        match self {
-            System::Pendulum => &[50, 100, 200],
-            System::CartPole => &[100, 200, 400],
-            System::Acrobot => &[200, 400],
-        }
-    }
-
     /// The swing-up over `horizon` steps with consistency weight `lambda`,
     /// and its initial guess; see the [module docs](self).
     ///
@@ -297,7 +209,7 @@ impl Instance {
 
     /// `ddp`'s name of the same system and horizon, `"<system>-h<horizon>"`.
     pub fn ddp_name(&self) -> String {
-        format!("{}-h{}", self.system.name(), self.horizon)
+        self.system.spec().instance_name(self.horizon)
     }
 
     /// The problem and its initial guess ([`System::problem`]).
@@ -334,13 +246,12 @@ pub fn standard_instances() -> Vec<Instance> {
 /// [`TrajoptError::InvalidParameter`] naming `name` when no standard
 /// instance has it.
 pub fn by_name(name: &str) -> Result<Instance> {
-    standard_instances()
-        .into_iter()
-        .find(|i| i.name() == name)
-        .ok_or_else(|| TrajoptError::InvalidParameter {
+    systems::find_instance(standard_instances(), name, Instance::name, "pendulum-h50-lambda1e2").map_err(|reason| {
+        TrajoptError::InvalidParameter {
             name: "instance name",
-            reason: format!("no standard instance is named {name:?} (names look like \"pendulum-h50-lambda1e2\")"),
-        })
+            reason,
+        }
+    })
 }
 
 #[cfg(test)]

@@ -49,25 +49,19 @@ impl BandSystem {
 
     /// $J^\top J$ alone ([`BandModel::form_jtj`]); false if it is not
     /// finite.
-    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
+    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
         let (helpers, layout) = (&mut self.helpers, &self.layout);
-        self.band
-            .form_jtj(|out| form_band(helpers, problem, Point { theta, r }, layout, out))
+        self.band.form_jtj(|out| form_band(helpers, problem, at, layout, out))
     }
 
     /// $J^\top J = H - S$ from the problem's $S$ alone
     /// ([`BandForm::second_order_part`](crate::BandForm::second_order_part)), cheaper than
     /// forming $J^\top J$; false if the problem does not give $S$ alone or
     /// the difference is not finite.
-    fn jtj_from_second_order<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &[f64],
-    ) -> Result<bool> {
-        let (helpers, layout, at) = (&mut self.helpers, &self.layout, Point { theta, r });
+    fn jtj_from_second_order<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
+        let (helpers, layout) = (&mut self.helpers, &self.layout);
         self.band.jtj_from_second_order(|s| match helpers {
-            Some(helpers) => helpers.band_second_order(problem, at, layout, s),
+            Some(helpers) => helpers.band_parts(problem, at, layout, s.into()),
             None => band_form_of(problem)?.second_order_part(Part::WHOLE, at, layout, s),
         })
     }
@@ -85,26 +79,19 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
         }
     }
 
-    fn assemble(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &[f64],
-        grad: &mut [f64],
-        want_s: bool,
-    ) -> Result<Option<bool>> {
+    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
         let diag_s = (self.second_order && want_s).then_some(&mut self.diag_s[..]);
         let out = BandNormalEquations {
             h: &mut self.band.h,
             grad,
             second_order_diagonal: diag_s,
         };
-        self.band.has_s = form_band(&mut self.helpers, problem, Point { theta, r }, &self.layout, out)?;
+        self.band.has_s = form_band(&mut self.helpers, problem, at, &self.layout, out)?;
         self.band.jtj_current = false;
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !(finite(self.band.h.band()) && finite(grad)) {
             // a non-finite S only rules out Newton steps
-            if !self.band.has_s || !self.form_jtj(problem, theta, r)? {
+            if !self.band.has_s || !self.form_jtj(problem, at)? {
                 return Ok(None);
             }
             grad.copy_from_slice(&self.band.grad);
@@ -114,14 +101,14 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
     }
 
     /// Makes $J^\top J$ available for Gauss-Newton steps at this iterate.
-    fn ensure_gauss_newton(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
+    fn ensure_gauss_newton(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
         if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
         }
-        if self.jtj_from_second_order(problem, theta, r)? {
+        if self.jtj_from_second_order(problem, at)? {
             return Ok(true);
         }
-        self.form_jtj(problem, theta, r)
+        self.form_jtj(problem, at)
     }
 
     /// The diagonal of $J^\top J$ in the parameter order.
@@ -181,7 +168,7 @@ fn form_band<P: LeastSquaresProblem + ?Sized>(
     out: BandNormalEquations<'_>,
 ) -> Result<bool> {
     match helpers {
-        Some(helpers) => helpers.band_normal_equations(problem, at, layout, out),
+        Some(helpers) => helpers.band_parts(problem, at, layout, out.into()),
         None => band_form_of(problem)?.normal_equations(at, layout, out),
     }
 }

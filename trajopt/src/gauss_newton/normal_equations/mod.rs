@@ -23,7 +23,7 @@ pub(super) use sparse::SparseSystem;
 pub(super) use split::SplitSystem;
 
 use crate::error::Result;
-use crate::least_squares::{LeastSquaresProblem, LinearBounds};
+use crate::least_squares::{LeastSquaresProblem, Point};
 
 /// The widest band worth factorising as a band: beyond it the sparse
 /// factorisation with a fill-reducing ordering wins.
@@ -52,14 +52,7 @@ pub(super) trait NormalEquations<P: LeastSquaresProblem + ?Sized> {
     /// Forms $J^\top J$ (and $J^\top J + S$ when asked and available) and
     /// $g = J^\top r$ at $\theta$. `None` if the Jacobian is not finite;
     /// otherwise whether the Newton matrix $J^\top J + S$ is ready.
-    fn assemble(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &[f64],
-        grad: &mut [f64],
-        want_s: bool,
-    ) -> Result<Option<bool>>;
+    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>>;
 
     /// $r(\theta)$, split over the helper threads if there are any.
     fn residuals(&mut self, problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
@@ -77,23 +70,15 @@ pub(super) trait NormalEquations<P: LeastSquaresProblem + ?Sized> {
     /// Makes the Gauss-Newton matrix $J^\top J$ available at this iterate
     /// (the band form may hold only $J^\top J + S$); false if it is not
     /// finite.
-    fn ensure_gauss_newton(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
-        let _ = (problem, theta, r);
+    fn ensure_gauss_newton(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
+        let _ = (problem, at);
         Ok(true)
     }
 
-    /// The damped model minimised subject to the bounds (a QP; the sparse
-    /// form only: false by default).
-    fn bounded_step(
-        &mut self,
-        damping: Damping<'_>,
-        grad: &[f64],
-        bounds: &LinearBounds,
-        theta: &[f64],
-        step: &mut [f64],
-    ) -> bool {
-        let _ = (damping, grad, bounds, theta, step);
-        false
+    /// The sparse form, the only one that handles bounds
+    /// ([`SparseSystem::bounded_step`]); `None` by default.
+    fn as_sparse(&mut self) -> Option<&mut SparseSystem> {
+        None
     }
 
     /// $H \delta$ with the undamped model matrix.

@@ -18,7 +18,7 @@ use faer::{Conj, MatMut, Par};
 
 use super::{Damping, NormalEquations};
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::{LeastSquaresProblem, LinearBounds, check_jacobian_pattern};
+use crate::least_squares::{LeastSquaresProblem, LinearBounds, Point, check_jacobian_pattern};
 
 /// For each value of the problem's $S$, its index and its position in the
 /// values of $H$; and $S$'s values.
@@ -107,17 +107,31 @@ impl SparseSystem {
             vals[p] += total * d;
         }
     }
+
+    /// The damped model minimised subject to the bounds (a QP): `step`
+    /// gets the step; false if the QP has no solution.
+    pub(crate) fn bounded_step(
+        &mut self,
+        damping: Damping<'_>,
+        grad: &[f64],
+        bounds: &LinearBounds,
+        theta: &[f64],
+        step: &mut [f64],
+    ) -> bool {
+        self.damp(damping.newton, damping.total, damping.scale);
+        match crate::qp::bounded_step(&self.h_damped, grad, bounds, theta) {
+            Some(d) => {
+                step.copy_from_slice(&d);
+                true
+            }
+            None => false,
+        }
+    }
 }
 
 impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SparseSystem {
-    fn assemble(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &[f64],
-        grad: &mut [f64],
-        want_s: bool,
-    ) -> Result<Option<bool>> {
+    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
+        let Point { theta, r } = at;
         problem.jacobian_values(theta, &mut self.jac.val_mut()[..self.nnz_problem])?;
         if self.jac.val().iter().any(|v| !v.is_finite()) {
             return Ok(None);
@@ -160,22 +174,8 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SparseSystem {
         self.factor.solve(self.h_damped.as_ref(), rhs)
     }
 
-    fn bounded_step(
-        &mut self,
-        damping: Damping<'_>,
-        grad: &[f64],
-        bounds: &LinearBounds,
-        theta: &[f64],
-        step: &mut [f64],
-    ) -> bool {
-        self.damp(damping.newton, damping.total, damping.scale);
-        match crate::qp::bounded_step(&self.h_damped, grad, bounds, theta) {
-            Some(d) => {
-                step.copy_from_slice(&d);
-                true
-            }
-            None => false,
-        }
+    fn as_sparse(&mut self) -> Option<&mut SparseSystem> {
+        Some(self)
     }
 
     fn model_mul(&mut self, newton: bool, step: &[f64], out: &mut [f64]) {

@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::{Damping, NormalEquations};
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::LeastSquaresProblem;
+use crate::least_squares::{LeastSquaresProblem, Point};
 use crate::linalg::BandLayout;
 use crate::parallel::Helpers;
 use crate::split::{SplitDone, SplitJob, SplitPart, split_points};
@@ -80,14 +80,8 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
     }
 
     /// Both parts at `theta`.
-    fn assemble(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &[f64],
-        grad: &mut [f64],
-        want_s: bool,
-    ) -> Result<Option<bool>> {
+    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
+        let Point { theta, r } = at;
         self.product_of = None;
         self.jtj_current = false;
         let mut want = self.second_order && want_s;
@@ -98,8 +92,9 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
                 r: r.to_vec(),
                 want_s: want,
             };
-            let sent = self.helpers.split_send(job);
-            let mine = self.mine.assemble(problem, theta, r, want);
+            let (mine, theirs) = self
+                .helpers
+                .split_alongside(job, || self.mine.assemble(problem, at, want));
             let Some(SplitDone::Assembled {
                 result,
                 finite,
@@ -107,7 +102,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
                 diag_s,
                 diagonal,
                 extent,
-            }) = sent.then(|| self.helpers.split_receive()).flatten()
+            }) = theirs
             else {
                 return Err(Self::helper_lost());
             };
@@ -126,17 +121,19 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
             if !self.has_s {
                 return Ok(None);
             }
-            let sent = self.helpers.split_send(SplitJob::ReplaceByJtj {
+            let job = SplitJob::ReplaceByJtj {
                 theta: theta.to_vec(),
                 r: r.to_vec(),
-            });
-            let mine = self.mine.replace_by_jtj(problem, theta, r);
+            };
+            let (mine, theirs) = self
+                .helpers
+                .split_alongside(job, || self.mine.replace_by_jtj(problem, at));
             let Some(SplitDone::Replaced {
                 result,
                 grad,
                 diagonal,
                 extent,
-            }) = sent.then(|| self.helpers.split_receive()).flatten()
+            }) = theirs
             else {
                 return Err(Self::helper_lost());
             };
@@ -166,16 +163,18 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
         }
     }
 
-    fn ensure_gauss_newton(&mut self, problem: &P, theta: &[f64], r: &[f64]) -> Result<bool> {
+    fn ensure_gauss_newton(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
         if !self.has_s || self.jtj_current {
             return Ok(true);
         }
-        let sent = self.helpers.split_send(SplitJob::GaussNewton {
-            theta: theta.to_vec(),
-            r: r.to_vec(),
-        });
-        let mine = self.mine.ensure_gauss_newton(problem, theta, r);
-        let Some(SplitDone::GaussNewton(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
+        let job = SplitJob::GaussNewton {
+            theta: at.theta.to_vec(),
+            r: at.r.to_vec(),
+        };
+        let (mine, theirs) = self
+            .helpers
+            .split_alongside(job, || self.mine.ensure_gauss_newton(problem, at));
+        let Some(SplitDone::GaussNewton(theirs)) = theirs else {
             return Err(Self::helper_lost());
         };
         let ok = mine? && theirs?;
@@ -199,22 +198,19 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
         // the helper's interior needs only its own numbers; it is idle now,
         // so the flag can be cleared for this elimination
         self.abort.store(false, Ordering::Relaxed);
-        let sent = self.helpers.split_send(SplitJob::Eliminate {
+        let job = SplitJob::Eliminate {
             newton,
             total,
             split: self.split,
             kd_s,
             abort: Arc::clone(&self.abort),
+        };
+        let (mine, theirs) = self.helpers.split_alongside(job, || {
+            let global = Some((&self.damp[..], &self.rhs[..]));
+            self.mine
+                .eliminate(newton, total, global, self.split, kd_s, Some(&self.abort))
         });
-        let mine = self.mine.eliminate(
-            newton,
-            total,
-            Some((&self.damp, &self.rhs)),
-            self.split,
-            kd_s,
-            Some(&self.abort),
-        );
-        let Some(SplitDone::Eliminated(theirs)) = sent.then(|| self.helpers.split_receive()).flatten() else {
+        let Some(SplitDone::Eliminated(theirs)) = theirs else {
             return false;
         };
         let (Some((mut schur, mut b_s)), Some((their_schur, their_b))) = (mine, theirs) else {
@@ -230,16 +226,16 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
             Ok(chol) => chol.solve_in_place(&mut b_s),
             Err(_) => return false,
         }
-        let sent = self
-            .helpers
-            .split_send(SplitJob::BackSubstitute { x_s: b_s.clone(), s0 });
-        self.product.fill(0.0);
-        self.step[s0..s1].copy_from_slice(&b_s);
-        self.mine.back_substitute(&b_s, s0, &mut self.step, &mut self.product);
+        let job = SplitJob::BackSubstitute { x_s: b_s.clone(), s0 };
+        let ((), theirs) = self.helpers.split_alongside(job, || {
+            self.product.fill(0.0);
+            self.step[s0..s1].copy_from_slice(&b_s);
+            self.mine.back_substitute(&b_s, s0, &mut self.step, &mut self.product);
+        });
         let Some(SplitDone::BackSubstituted {
             step: their_step,
             product: their_product,
-        }) = sent.then(|| self.helpers.split_receive()).flatten()
+        }) = theirs
         else {
             return false;
         };
@@ -264,13 +260,15 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
             for (&d, &p) in step.iter().zip(pos) {
                 self.rhs[p] = d;
             }
-            let sent = self.helpers.split_send(SplitJob::Product {
+            let job = SplitJob::Product {
                 newton,
                 x: self.rhs.clone(),
+            };
+            let ((), theirs) = self.helpers.split_alongside(job, || {
+                self.product.fill(0.0);
+                self.mine.add_product(newton, &self.rhs, &mut self.product);
             });
-            self.product.fill(0.0);
-            self.mine.add_product(newton, &self.rhs, &mut self.product);
-            match sent.then(|| self.helpers.split_receive()).flatten() {
+            match theirs {
                 Some(SplitDone::Product(theirs)) => {
                     for (p, t) in self.product.iter_mut().zip(&theirs) {
                         *p += t;

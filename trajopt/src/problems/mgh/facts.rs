@@ -52,6 +52,21 @@ pub(super) fn residuals_for(f: MghFunction, n: usize) -> Result<usize> {
     Ok(m)
 }
 
+/// The problems whose size $n$ is free and whose residuals number $m = n$.
+fn square_any_size(f: MghFunction) -> bool {
+    matches!(
+        f,
+        F::ExtendedRosenbrock
+            | F::ExtendedPowellSingular
+            | F::Trigonometric
+            | F::BrownAlmostLinear
+            | F::DiscreteBoundaryValue
+            | F::DiscreteIntegralEquation
+            | F::BroydenTridiagonal
+            | F::BroydenBanded
+    )
+}
+
 /// [`residuals_for`] without the check.
 fn implied_residuals(f: MghFunction, n: usize) -> usize {
     match f {
@@ -59,15 +74,8 @@ fn implied_residuals(f: MghFunction, n: usize) -> usize {
         F::PenaltyI => n + 1,
         F::VariablyDimensioned => n + 2,
         F::PenaltyII | F::LinearFullRank | F::LinearRank1 | F::LinearRank1ZeroColumnsRows => 2 * n,
-        F::ExtendedRosenbrock
-        | F::ExtendedPowellSingular
-        | F::Trigonometric
-        | F::BrownAlmostLinear
-        | F::DiscreteBoundaryValue
-        | F::DiscreteIntegralEquation
-        | F::BroydenTridiagonal
-        | F::BroydenBanded
-        | F::Chebyquad => n,
+        F::Chebyquad => n,
+        f if square_any_size(f) => n,
         _ => standard_size(f).1,
     }
 }
@@ -82,21 +90,12 @@ pub(super) fn check_size(f: MghFunction, n: usize, m: usize) -> Result<()> {
         })
     };
     // n first
-    let variable = matches!(
-        f,
-        F::PenaltyI
-            | F::PenaltyII
-            | F::VariablyDimensioned
-            | F::Trigonometric
-            | F::BrownAlmostLinear
-            | F::DiscreteBoundaryValue
-            | F::DiscreteIntegralEquation
-            | F::BroydenTridiagonal
-            | F::BroydenBanded
-            | F::LinearFullRank
-            | F::LinearRank1
-            | F::Chebyquad
-    );
+    // (the extended problems among the square ones have their own rule below)
+    let variable = square_any_size(f)
+        || matches!(
+            f,
+            F::PenaltyI | F::PenaltyII | F::VariablyDimensioned | F::LinearFullRank | F::LinearRank1 | F::Chebyquad
+        );
     let (n_ok, n_rule) = match f {
         F::Watson => ((2..=31).contains(&n), "2 <= n <= 31".to_string()),
         F::ExtendedRosenbrock => (n > 0 && n.is_multiple_of(2), "an even n >= 2".to_string()),
@@ -117,14 +116,7 @@ pub(super) fn check_size(f: MghFunction, n: usize, m: usize) -> Result<()> {
         F::PenaltyII => m == 2 * n,
         F::VariablyDimensioned => m == n + 2,
         F::LinearFullRank | F::LinearRank1 | F::LinearRank1ZeroColumnsRows | F::Chebyquad => m >= n,
-        F::ExtendedRosenbrock
-        | F::ExtendedPowellSingular
-        | F::Trigonometric
-        | F::BrownAlmostLinear
-        | F::DiscreteBoundaryValue
-        | F::DiscreteIntegralEquation
-        | F::BroydenTridiagonal
-        | F::BroydenBanded => m == n,
+        f if square_any_size(f) => m == n,
         _ => m == m_std,
     };
     if !ok {
