@@ -57,7 +57,8 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
             Box::new(LinearRegression::fit_inputs(xs, ys, linear)?)
         })
     };
-    let selection = if cfg.model.select_inputs && cfg.model.cv_blocks >= 2 && xs.len() >= 2 {
+    // validate() holds cv_blocks >= 2 when the selection is on
+    let selection = if cfg.model.select_inputs && xs.len() >= 2 {
         let lengths: Vec<usize> = trials.iter().map(|t| t.commands.len()).collect();
         let groups = selection::trial_groups(&lengths, cfg.model.cv_blocks);
         selection::select_inputs(&xs, &ys, &groups, &settings, &fit_prior)?
