@@ -4,6 +4,7 @@
 pub mod cost;
 pub mod ddp;
 pub mod eq3;
+pub mod mpc;
 pub mod support;
 
 use std::sync::Arc;
