@@ -1,8 +1,10 @@
 //! Planning the swing-up with the learned LWR model: the Eq. 3 plan
 //! (Gauss-Newton over cubic B-splines, the default planner with its
 //! lambda continuation) with the pure LWR learned from trials 1-2 of a
-//! fixed seed, on one and on two threads; and one model query with its
-//! Jacobian, the planner's inner loop.
+//! fixed seed, on one and on two threads; one model query with its
+//! Jacobian, the planner's inner loop; and one warm-started replan of the
+//! model-predictive controller (`replan_lwr`, one thread) over windows of
+//! 60, 90 and 150 steps, against the 16.7 ms of a 60 Hz frame.
 //!
 //! `cargo bench -p swingup --bench plan_lwr`
 
@@ -13,7 +15,8 @@ use swingup::config::{Config, ModelKind};
 use swingup::learn::run;
 use swingup::models::learned::learn_model;
 use swingup::models::{LearnedModel, PendulumRegression};
-use swingup::planning::eq3::plan;
+use swingup::planning::eq3::{plan, window_cost};
+use swingup::planning::mpc::{ReplanSettings, Window, WindowPlan, replan, shifted};
 
 /// The default configuration with the pure LWR, its model learned from
 /// the first two trials of seed 1, and the demonstration.
@@ -67,6 +70,41 @@ fn plan_with_lwr(c: &mut Criterion) {
                 .sum::<f64>()
         });
     });
+    group.finish();
+
+    // one replan one step into the trial, warm-started from the plan
+    // shifted by one step, from the state the plan predicted there
+    let first = plan(&cfg, &demo, &model, None).expect("plan");
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    let settings = ReplanSettings {
+        max_iterations: cfg.mpc.iterations,
+        ..ReplanSettings::default()
+    };
+    let mut group = c.benchmark_group("replan_lwr");
+    group.sample_size(20);
+    for samples in [60usize, 90, 150] {
+        let window = Window::new(samples, cfg.robot.dt, 25.min(samples / 2), 20.min(samples / 2)).expect("window");
+        let previous = WindowPlan {
+            states: faer::Mat::from_fn(samples + 1, 4, |k, i| first.states[k.min(first.states.len() - 1)][i]),
+            controls: faer::Mat::from_fn(samples, 1, |k, _| first.controls[k.min(first.controls.len() - 1)]),
+        };
+        let warm = shifted(&previous, 1);
+        let x0 = first.states[1];
+        group.bench_with_input(BenchmarkId::new("window", samples), &samples, |b, _| {
+            b.iter(|| {
+                one.install(|| {
+                    let cost = window_cost(&cfg, &demo, 1, samples).expect("cost");
+                    let problem = window
+                        .problem(&model, cost, cfg.planner.lambda, &x0, cfg.planner.initial_state_weight)
+                        .expect("problem");
+                    replan(&window, &problem, &warm, &x0, &settings).expect("replan")
+                })
+            });
+        });
+    }
     group.finish();
 }
 

@@ -66,6 +66,79 @@ pub struct Config {
     /// Without a demonstration: the largest command of the exploration
     /// trial (m/s²).
     pub exploration: f64,
+    /// How the robot executes a plan: open loop (the paper's) or by
+    /// replanning from the measured state ([`Controller::Mpc`], settings in
+    /// [`Config::mpc`]).
+    pub controller: Controller,
+    /// The receding-horizon controller's settings (with `controller = "mpc"`).
+    pub mpc: MpcConfig,
+}
+
+/// How the robot executes a trial's plan.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Controller {
+    /// The paper's: the plan's commands with the hand servoed to the planned
+    /// hand path, the pendulum open loop (or the time-varying LQR of
+    /// [`Config::feedback`]).
+    OpenLoop,
+    /// Model-predictive control, beyond the paper: the trial starts with
+    /// the planner's plan, then Eq. 3 is replanned by Gauss-Newton from the
+    /// measured state every [`MpcConfig::every`] steps over a window of
+    /// [`MpcConfig::window`] steps, warm-started from the previous plan
+    /// (see [`crate::planning::mpc`]), and each observed transition joins
+    /// the model at once when it learns online (the LWR). The LQR catch
+    /// near upright stays. After the swing-up window the reference is
+    /// upright at rest, and replanning goes on until the catch.
+    Mpc,
+}
+
+/// The receding-horizon controller ([`Controller::Mpc`]).
+///
+/// | field | default | range |
+/// |---|---|---|
+/// | `window` | 150 samples (2.5 s) | at least `control_coeffs` |
+/// | `every` | 1 (60 Hz) | at least 1 |
+/// | `iterations` | 1 Gauss-Newton iteration per replan | at least 1 |
+/// | `budget_ms` | 0 (no time limit) | finite, nonnegative |
+/// | `state_coeffs`, `control_coeffs` | 25, 20 | at least 4 |
+/// | `online` | true | |
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields, default)]
+pub struct MpcConfig {
+    /// Steps of the replanned window.
+    pub window: usize,
+    /// Replan every this many control steps.
+    pub every: usize,
+    /// Gauss-Newton iterations per replan (the best iterate is used). One,
+    /// the default, is the real-time iteration scheme of nonlinear MPC
+    /// (Diehl, Bock and Schlöder, SIAM J. Control Optim. 2005): the warm
+    /// start is close, so one step per frame tracks the optimum as it moves.
+    pub iterations: usize,
+    /// Wall time per replan (ms) after which its result is discarded and
+    /// the previous plan kept; 0: no limit (runs reproducible bit for bit).
+    pub budget_ms: f64,
+    /// B-spline coefficients of the window's states.
+    pub state_coeffs: usize,
+    /// B-spline coefficients of the window's commands.
+    pub control_coeffs: usize,
+    /// Insert each observed transition into the model during the trial
+    /// (models that learn online: the LWR).
+    pub online: bool,
+}
+
+impl Default for MpcConfig {
+    fn default() -> Self {
+        Self {
+            window: 150,
+            every: 1,
+            iterations: 1,
+            budget_ms: 0.0,
+            state_coeffs: 25,
+            control_coeffs: 20,
+            online: true,
+        }
+    }
 }
 
 /// Where learning starts.
@@ -105,6 +178,8 @@ impl Default for Config {
             model: ModelConfig::default(),
             start: Start::Demonstration,
             exploration: 6.0,
+            controller: Controller::OpenLoop,
+            mpc: MpcConfig::default(),
         }
     }
 }
@@ -473,6 +548,32 @@ impl Config {
             self.planner.state_coeffs >= 4 && self.planner.control_coeffs >= 4,
             "need at least 4 B-spline coefficients per channel"
         );
+        let m = &self.mpc;
+        ensure_config!(
+            "mpc.window",
+            m.control_coeffs >= 4
+                && m.state_coeffs >= 4
+                && m.window >= m.control_coeffs
+                && m.window + 1 >= m.state_coeffs,
+            "mpc.window ({}) must be at least mpc.control_coeffs ({}) and mpc.state_coeffs - 1 ({}), \
+             and each at least 4",
+            m.window,
+            m.control_coeffs,
+            m.state_coeffs.saturating_sub(1)
+        );
+        ensure_config!(
+            "mpc.every",
+            m.every >= 1 && m.iterations >= 1,
+            "mpc.every and mpc.iterations must be at least 1, got {} and {}",
+            m.every,
+            m.iterations
+        );
+        ensure_config!(
+            "mpc.budget_ms",
+            m.budget_ms.is_finite() && m.budget_ms >= 0.0,
+            "mpc.budget_ms must be finite and nonnegative, got {}",
+            m.budget_ms
+        );
         // metric scales: nonnegative, and at least one input in the distance
         for (key, v) in [
             ("model.input_scales", &self.model.input_scales),
@@ -519,6 +620,9 @@ mod tests {
             (Box::new(|c: &mut Config| c.feedback[0] = f64::NAN), "feedback"),
             (Box::new(|c: &mut Config| c.planner.tol_cost = 0.0), "planner.tol_cost"),
             (Box::new(|c: &mut Config| c.horizon = 12), "planner.state_coeffs"),
+            (Box::new(|c: &mut Config| c.mpc.window = 10), "mpc.window"),
+            (Box::new(|c: &mut Config| c.mpc.every = 0), "mpc.every"),
+            (Box::new(|c: &mut Config| c.mpc.budget_ms = -1.0), "mpc.budget_ms"),
         ] {
             let mut cfg = Config::default();
             set(&mut cfg);

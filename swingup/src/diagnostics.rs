@@ -155,6 +155,7 @@ pub(crate) mod tests {
             model: None,
             diagnostics: None,
             timing: TrialTiming::default(),
+            mpc: None,
         }
     }
 

@@ -37,7 +37,7 @@
 //! 3 trials in each of seeds 1 to 10 (at trial 2 in 9). `--model lwr` runs the paper's.
 
 use std::sync::Arc;
-use std::time::Instant;
+use std::time::{Duration, Instant};
 
 use crate::error::ResultExt as _;
 use rand::SeedableRng;
@@ -45,16 +45,19 @@ use rand_chacha::ChaCha8Rng;
 use rand_distr::{Distribution, Normal};
 use splines::{BSplineBasis, TrajectoryBasis};
 
-use crate::config::{Config, ModelKind, Start};
+use crate::config::{Config, Controller, ModelKind, Start};
 use crate::models::learned::{learn_model, true_model_summary};
 use crate::models::truth::TrueRegression;
 use crate::models::{KnownHand, PendulumRegression};
+use crate::planning::eq3::window_cost;
+use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
 use crate::plant::demo::{Demonstration, near_upright};
 use crate::plant::lqr::Lqr;
 use crate::plant::{Plant, PlantState, from_upright};
-use crate::record::{ModelSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
+use crate::record::{ModelSummary, MpcTrace, PlanSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
+use faer::Mat;
 
 /// Progress reports from [`run`].
 pub trait Progress {
@@ -151,18 +154,18 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                     progress.phase(index, &format!("learning the model from {n_points} samples"));
                     let (model, summary) = learn_model(cfg, &trials)?;
                     progress.phase(index, &planning);
-                    at.run(&model, summary, started.elapsed().as_secs_f64())?
+                    at.run(model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::Parametric => {
                     let started = Instant::now();
                     let (model, summary) = crate::models::parametric::learn_parametric(cfg, &trials)?;
                     progress.phase(index, &planning);
-                    at.run(&model, summary, started.elapsed().as_secs_f64())?
+                    at.run(model, summary, started.elapsed().as_secs_f64())?
                 }
                 ModelKind::True => {
                     let model = KnownHand::new(TrueRegression::new(cfg.robot)?, cfg.robot.dt);
                     progress.phase(index, &planning);
-                    at.run(&model, true_model_summary(&trials), 0.0)?
+                    at.run(model, true_model_summary(&trials), 0.0)?
                 }
             }
         };
@@ -247,6 +250,38 @@ pub fn execute(
     index: usize,
     kind: TrialKind,
 ) -> TrialRecord {
+    let open_loop = |k: usize, observed: &[[f64; 4]], _: &[f64]| -> Result<f64, std::convert::Infallible> {
+        let obs = observed[k];
+        Ok(match (commands.get(k), reference.get(k)) {
+            (Some(&u), Some(r)) => match gains.and_then(|g| g.get(k)) {
+                Some(g) => u - (0..4).map(|i| g[i] * (obs[i] - r[i])).sum::<f64>(),
+                None => u + servo(cfg, r, &obs),
+            },
+            (Some(&u), None) => u,
+            // after the window, never caught: the hand brakes back home
+            _ => servo(cfg, &[0.0; 4], &obs),
+        })
+    };
+    let Ok(trial) = rollout(cfg, robot, lqr, index, kind, open_loop);
+    trial
+}
+
+/// The hand servo's correction towards the hand position and velocity of `r`.
+fn servo(cfg: &Config, r: &[f64; 4], obs: &[f64; 4]) -> f64 {
+    cfg.hand_servo[0] * (r[2] - obs[2]) + cfg.hand_servo[1] * (r[3] - obs[3])
+}
+
+/// Runs one trial on the robot with `policy(k, observed[..=k],
+/// sent[..k])` choosing the command at step $k$ until the observed state
+/// is near upright, the LQR from then on; records it and judges success.
+fn rollout<E>(
+    cfg: &Config,
+    robot: &Plant,
+    lqr: &Lqr,
+    index: usize,
+    kind: TrialKind,
+    mut policy: impl FnMut(usize, &[[f64; 4]], &[f64]) -> Result<f64, E>,
+) -> Result<TrialRecord, E> {
     let mut rng = ChaCha8Rng::seed_from_u64(cfg.seed.wrapping_mul(1_000_003).wrapping_add(index as u64));
     let noise: Vec<Option<Normal<f64>>> = cfg
         .sensor_noise
@@ -269,15 +304,7 @@ pub fn execute(
         let u = if caught_at.is_some() {
             lqr.control(&obs)
         } else {
-            match (commands.get(k), reference.get(k)) {
-                (Some(&u), Some(r)) => match gains.and_then(|g| g.get(k)) {
-                    Some(g) => u - (0..4).map(|i| g[i] * (obs[i] - r[i])).sum::<f64>(),
-                    None => u + cfg.hand_servo[0] * (r[2] - obs[2]) + cfg.hand_servo[1] * (r[3] - obs[3]),
-                },
-                (Some(&u), None) => u,
-                // after the window, never caught: the hand brakes back home
-                _ => -cfg.hand_servo[0] * obs[2] - cfg.hand_servo[1] * obs[3],
-            }
+            policy(k, &observed, &sent)?
         };
         let u = u.clamp(-robot.params.u_limit, robot.params.u_limit);
         st = robot.step(&st, u);
@@ -299,7 +326,7 @@ pub fn execute(
         }
         (false, true) => "caught but not balanced".into(),
     };
-    TrialRecord {
+    Ok(TrialRecord {
         index,
         kind,
         dt: cfg.robot.dt,
@@ -314,7 +341,81 @@ pub fn execute(
         model: None,
         diagnostics: None,
         timing: TrialTiming::default(),
-    }
+        mpc: None,
+    })
+}
+
+/// Runs one trial under model-predictive control ([`Controller::Mpc`]):
+/// step 0 executes `initial` (the trial's plan); then every
+/// [`MpcConfig::every`](crate::config::MpcConfig::every) steps Eq. 3 is
+/// replanned over the window from the measured state with `model`
+/// ([`crate::planning::mpc`]), the task cost's references taken from
+/// `reference` at the window's steps ([`window_cost`]); between replans
+/// the robot executes the plan with the hand servo, as open loop. Each
+/// observed transition joins the model at once when it learns online
+/// ([`PendulumRegression::observe`]).
+#[allow(clippy::too_many_arguments)]
+fn execute_mpc<G: PendulumRegression>(
+    cfg: &Config,
+    robot: &Plant,
+    lqr: &Lqr,
+    model: &mut KnownHand<G>,
+    reference: &Demonstration,
+    initial: &PlanSummary,
+    support: Option<Arc<DataSupport>>,
+    index: usize,
+) -> crate::Result<TrialRecord> {
+    let m = &cfg.mpc;
+    let window = Window::new(m.window, cfg.robot.dt, m.state_coeffs, m.control_coeffs)?;
+    let (ns, nc) = (initial.states.len(), initial.controls.len());
+    crate::error::ensure_data!(ns >= 1 && nc >= 1, "the trial's first plan is empty");
+    // the first plan on the window's samples, its last values repeated
+    let mut plan = WindowPlan {
+        states: Mat::from_fn(m.window + 1, 4, |k, i| initial.states[k.min(ns - 1)][i]),
+        controls: Mat::from_fn(m.window, 1, |k, _| initial.controls[k.min(nc - 1)]),
+    };
+    let settings = ReplanSettings {
+        max_iterations: m.iterations,
+        tol_cost: cfg.planner.tol_cost,
+        budget: (m.budget_ms > 0.0).then(|| Duration::from_secs_f64(m.budget_ms / 1e3)),
+    };
+    let mut trace = MpcTrace::default();
+    let mut planned_at = 0;
+    let policy = |k: usize, observed: &[[f64; 4]], sent: &[f64]| -> crate::Result<f64> {
+        if k > 0 && m.online {
+            let (o, o1) = (observed[k - 1], observed[k]);
+            if model
+                .regression
+                .observe(&[o[0], o[1], o[2], o[3], sent[k - 1]], o1[1] - o[1])?
+            {
+                trace.inserted += 1;
+            }
+        }
+        let obs = observed[k];
+        if k - planned_at >= m.every {
+            let cost = window_cost(cfg, reference, k, m.window)?.with_support(support.clone());
+            let problem = window.problem(
+                &*model,
+                cost,
+                cfg.planner.lambda,
+                &obs,
+                cfg.planner.initial_state_weight,
+            )?;
+            let r = replan(&window, &problem, &shifted(&plan, k - planned_at), &obs, &settings)?;
+            trace.replans += 1;
+            trace.iterations += r.iterations;
+            trace.replan_ms.push(r.seconds * 1e3);
+            trace.kept_previous += usize::from(matches!(r.status, ReplanStatus::KeptPrevious(_)));
+            plan = r.plan;
+            planned_at = k;
+        }
+        let j = k - planned_at;
+        let r: [f64; 4] = std::array::from_fn(|i| plan.states[(j, i)]);
+        Ok(plan.controls[(j, 0)] + servo(cfg, &r, &obs))
+    };
+    let mut t = rollout(cfg, robot, lqr, index, TrialKind::Planned, policy)?;
+    t.mpc = Some(trace);
+    Ok(t)
 }
 
 /// What a planned trial needs besides its model: plans, runs the plan on
@@ -332,26 +433,38 @@ struct PlannedTrial<'a> {
 impl PlannedTrial<'_> {
     fn run<G: PendulumRegression>(
         self,
-        model: &KnownHand<G>,
+        mut model: KnownHand<G>,
         summary: ModelSummary,
         tuning: f64,
     ) -> crate::Result<TrialRecord> {
         let started = Instant::now();
-        let (plan, gains) = plan_and_gains(self.cfg, self.demo, model, self.support)?;
+        let (plan, gains) = plan_and_gains(self.cfg, self.demo, &model, self.support.clone())?;
         let planning = self.support_seconds + started.elapsed().as_secs_f64();
         let started = Instant::now();
-        let mut t = execute(
-            self.cfg,
-            self.robot,
-            self.lqr,
-            &plan.controls,
-            &plan.states,
-            gains.as_deref(),
-            self.index,
-            TrialKind::Planned,
-        );
+        let mut t = match self.cfg.controller {
+            Controller::OpenLoop => execute(
+                self.cfg,
+                self.robot,
+                self.lqr,
+                &plan.controls,
+                &plan.states,
+                gains.as_deref(),
+                self.index,
+                TrialKind::Planned,
+            ),
+            Controller::Mpc => execute_mpc(
+                self.cfg,
+                self.robot,
+                self.lqr,
+                &mut model,
+                self.demo,
+                &plan,
+                self.support,
+                self.index,
+            )?,
+        };
         let rollout = started.elapsed().as_secs_f64();
-        t.diagnostics = Some(crate::diagnostics::diagnose(model, &plan, &t, self.demo.horizon()));
+        t.diagnostics = Some(crate::diagnostics::diagnose(&model, &plan, &t, self.demo.horizon()));
         t.plan = Some(plan);
         t.model = Some(summary);
         t.timing = TrialTiming {
@@ -403,6 +516,73 @@ mod tests {
             ..cfg
         };
         assert!(bad.validate().is_err());
+    }
+
+    /// Under MPC with the true model the robot swings up at trial 2,
+    /// replanning at every step after the first, the model learning
+    /// nothing online (it knows everything).
+    #[test]
+    fn mpc_with_the_true_model_swings_up() {
+        let mut cfg = Config {
+            max_trials: 2,
+            controller: Controller::Mpc,
+            ..Config::default()
+        };
+        cfg.model.kind = ModelKind::True;
+        let record = run(&cfg, vec![], &mut |_: &TrialRecord| {}).expect("run");
+        assert_eq!(record.success_trial, Some(2), "{:?}", record.trials[1].failure);
+        let t = &record.trials[1];
+        let trace = t.mpc.as_ref().expect("an MPC trial records its trace");
+        let steps = t.caught_at.expect("caught");
+        assert_eq!(trace.replans, steps - 1);
+        assert_eq!((trace.kept_previous, trace.inserted), (0, 0));
+        assert_eq!(trace.replan_ms.len(), trace.replans);
+        assert!(trace.replan_quantile(0.5) <= trace.replan_quantile(0.99));
+        assert!(record.trials[0].mpc.is_none());
+    }
+
+    /// With a budget no replan can meet, every replan keeps the previous
+    /// plan: the robot executes the trial's first plan exactly as open
+    /// loop does, up to the catch.
+    #[test]
+    fn mpc_over_budget_executes_the_first_plan_as_open_loop() {
+        let mut cfg = Config {
+            controller: Controller::Mpc,
+            ..Config::default()
+        };
+        cfg.model.kind = ModelKind::True;
+        cfg.mpc.budget_ms = 1e-9;
+        let robot = Plant::new(cfg.robot);
+        let lqr = cfg.robot_catch().expect("lqr");
+        let d = demo(&cfg);
+        let imitation = execute(
+            &cfg,
+            &robot,
+            &lqr,
+            &d.controls,
+            &d.states,
+            None,
+            1,
+            TrialKind::Imitation,
+        );
+        let mut model = KnownHand::new(TrueRegression::new(cfg.robot).expect("model"), cfg.robot.dt);
+        let (plan, _) = plan_and_gains(&cfg, &d, &model, None).expect("plan");
+        let open = execute(
+            &cfg,
+            &robot,
+            &lqr,
+            &plan.controls,
+            &plan.states,
+            None,
+            2,
+            TrialKind::Planned,
+        );
+        let mpc = execute_mpc(&cfg, &robot, &lqr, &mut model, &d, &plan, None, 2).expect("mpc");
+        let trace = mpc.mpc.as_ref().expect("trace");
+        assert!(trace.replans > 0 && trace.kept_previous == trace.replans, "{trace:?}");
+        let until = open.caught_at.unwrap_or(d.horizon()).min(d.horizon());
+        assert_eq!(open.commands[..until], mpc.commands[..until]);
+        assert!(imitation.mpc.is_none());
     }
 
     /// A trial shorter than the planning window is refused.

@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use swingup::config::{BasisKind, Config, ModelKind, Solver};
+use swingup::config::{BasisKind, Config, Controller, ModelKind, Solver};
 use swingup::experiments::{Experiment, ExperimentSettings, run_experiments};
 use swingup::learn::run;
 use swingup::output::run_report;
@@ -93,6 +93,11 @@ struct LearnArgs {
     /// Daubechies-4 wavelets.
     #[arg(long, value_enum)]
     basis: Option<BasisKind>,
+    /// How plans are executed: open loop (the paper's) or model-predictive
+    /// control, replanning Eq. 3 from the measured state (settings under
+    /// `[mpc]` in the configuration).
+    #[arg(long, value_enum)]
+    controller: Option<Controller>,
     /// TOML configuration file (see `swingup config`); command-line options override it.
     #[arg(long)]
     config: Option<PathBuf>,
@@ -264,6 +269,9 @@ fn apply_options(args: &LearnArgs, file: Option<&Config>, cfg: &mut Config) {
     if let Some(basis) = args.basis {
         cfg.planner.basis = basis;
     }
+    if let Some(controller) = args.controller {
+        cfg.controller = controller;
+    }
 }
 
 /// `runs/swingup-NNN`: the latest existing one (`latest`), or the first free one.
@@ -369,6 +377,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         settings.learning_seeds = n;
         settings.wavelet_seeds = settings.wavelet_seeds.min(n);
         settings.powell_seeds = settings.powell_seeds.min(n);
+        settings.mpc_seeds = n;
     }
     if let Some(n) = args.max_trials {
         anyhow::ensure!(n >= 1, "--max-trials must be at least 1");

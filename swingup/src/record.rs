@@ -159,6 +159,40 @@ pub struct TrialRecord {
     /// read back with zeros.
     #[serde(default)]
     pub timing: TrialTiming,
+    /// What the receding-horizon controller did (trials run with
+    /// [`Controller::Mpc`](crate::config::Controller::Mpc)).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub mpc: Option<MpcTrace>,
+}
+
+/// What the receding-horizon controller did during one trial.
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
+pub struct MpcTrace {
+    /// Replans made (the trial's first plan not counted).
+    pub replans: usize,
+    /// Replans whose result was discarded, the previous plan kept (over
+    /// the time budget, or a failed solve).
+    pub kept_previous: usize,
+    /// Gauss-Newton iterations over all replans.
+    pub iterations: usize,
+    /// Wall time of each replan (ms), in order.
+    #[serde(with = "nullable")]
+    pub replan_ms: Vec<f64>,
+    /// Observed transitions inserted into the model during the trial.
+    pub inserted: usize,
+}
+
+impl MpcTrace {
+    /// The `q`-quantile ($0 \le q \le 1$, nearest rank) of the replan
+    /// times (ms); NaN without replans.
+    pub fn replan_quantile(&self, q: f64) -> f64 {
+        let mut t = self.replan_ms.clone();
+        t.sort_by(f64::total_cmp);
+        match t.len() {
+            0 => f64::NAN,
+            n => t[((q.clamp(0.0, 1.0) * n as f64).ceil() as usize).clamp(1, n) - 1],
+        }
+    }
 }
 
 /// Where a trial's wall time went (s).

@@ -110,6 +110,7 @@ fn trial(index: usize, kind: TrialKind, n: usize, peak: f64, caught_at: Option<u
             planning: 1.25 * index as f64,
             rollout: 0.125,
         },
+        mpc: None,
     }
 }
 

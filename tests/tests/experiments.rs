@@ -16,6 +16,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         lambdas: vec![0.0, 1e3],
         // the semiparametric model learns in two trials: a short test
         model: ModelKind::LwrParametric,
+        mpc_seeds: 0,
     };
     let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &|_, _, _| {})?;
     assert_eq!(report.runs.len(), 2);

@@ -9,6 +9,7 @@
 //! | `lambda` | Gauss-Newton with $\lambda \in \{0, 10, \dots, 10^8\}$ | C3, C4, C5 |
 //! | `planners` | {DDP, Eq. 3 Gauss-Newton} x {LWR, parametric, true model} | C6 |
 //! | `beyond` | per-point $\lambda$ from the LWR's support; a $\lambda$ schedule over trials; the semiparametric model; learning from scratch (no demonstration) with the LWR, the semiparametric and the true model | beyond the paper |
+//! | `mpc` | open loop against model-predictive control ([`crate::planning::mpc`]) with the LWR, the semiparametric and the true model | beyond the paper |
 //!
 //! Every run is a [`crate::learn::run`] with a configuration that differs
 //! from the defaults only where the table says.
@@ -22,7 +23,7 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
-use crate::config::{BasisKind, Config, ModelKind, Solver, Start};
+use crate::config::{BasisKind, Config, Controller, ModelKind, Solver, Start};
 use crate::learn::run;
 use crate::models::PendulumRegression;
 use crate::models::learned::learn_model;
@@ -44,6 +45,10 @@ pub enum Experiment {
     /// Per-point lambda from the model's confidence, a lambda schedule over
     /// trials, the semiparametric model, learning without a demonstration.
     Beyond,
+    /// Open loop against model-predictive control, for the LWR, the
+    /// semiparametric and the true model (not in the default grid: run it
+    /// by name).
+    Mpc,
 }
 
 /// The grid's size.
@@ -65,6 +70,14 @@ pub struct ExperimentSettings {
     pub lambdas: Vec<f64>,
     /// The model of the `learning` and `lambda` experiments.
     pub model: ModelKind,
+    /// Seeds per variant of the `mpc` experiment (settings saved before it
+    /// existed read back with 20).
+    #[serde(default = "twenty")]
+    pub mpc_seeds: u64,
+}
+
+fn twenty() -> u64 {
+    20
 }
 
 impl ExperimentSettings {
@@ -81,6 +94,7 @@ impl ExperimentSettings {
             powell_evals: 10_000,
             lambdas: vec![0.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e8],
             model: ModelKind::Lwr,
+            mpc_seeds: 20,
         }
     }
 
@@ -95,6 +109,7 @@ impl ExperimentSettings {
             powell_evals: 3_000,
             lambdas: vec![0.0, 1e3, 1e8],
             model: ModelKind::Lwr,
+            mpc_seeds: 2,
         }
     }
 }
@@ -149,6 +164,10 @@ pub struct RunSummary {
     pub rollouts: Vec<Rollout>,
     /// Wall time (s).
     pub seconds: f64,
+    /// Per trial run under model-predictive control: the median and the
+    /// 99th percentile of its replan times (ms); empty otherwise.
+    #[serde(default)]
+    pub replan_ms: Vec<[f64; 2]>,
     /// The code that made the run (`git describe` of the working
     /// directory, see [`crate::experiments::sensitivity::code_version`]); empty for runs
     /// saved before it was recorded.
@@ -377,6 +396,18 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                     }
                 }
             }
+            Experiment::Mpc => {
+                for seed in 1..=s.mpc_seeds {
+                    for (controller, cname) in [(Controller::OpenLoop, "open-loop"), (Controller::Mpc, "mpc")] {
+                        for (kind, mname) in SCRATCH {
+                            out.push(job("mpc", format!("{cname}/{mname}"), seed, false, &|c| {
+                                c.controller = controller;
+                                c.model.kind = kind;
+                            }));
+                        }
+                    }
+                }
+            }
         }
     }
     out
@@ -536,6 +567,12 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
             .collect(),
         rollouts,
         seconds: start.elapsed().as_secs_f64(),
+        replan_ms: record
+            .trials
+            .iter()
+            .filter_map(|t| t.mpc.as_ref())
+            .map(|m| [m.replan_quantile(0.5), m.replan_quantile(0.99)])
+            .collect(),
         code_version: version.to_string(),
     })
 }
@@ -657,6 +694,7 @@ pub(crate) mod tests {
             scales: vec![],
             rollouts: vec![],
             seconds: 0.0,
+            replan_ms: vec![],
             code_version: "commit test".into(),
         }
     }

@@ -47,6 +47,18 @@ pub trait PendulumRegression: Sync {
         let _ = z;
         None
     }
+
+    /// Adds one observed transition, $g(z) = y$, to the model at once
+    /// (online learning, for the MPC controller), and says whether the
+    /// model learns online; by default it does not (its data change between
+    /// trials only).
+    ///
+    /// # Errors
+    /// A transition the model cannot store (say, not finite).
+    fn observe(&mut self, z: &[f64; 5], y: f64) -> crate::Result<bool> {
+        let _ = (z, y);
+        Ok(false)
+    }
 }
 
 /// A full model $f(s, u)$ of the robot: a [`PendulumRegression`] for the
@@ -220,6 +232,31 @@ mod tests {
     /// Inside the data, at the edge (where the weight of the data falls
     /// against the intercept ridge) and beyond: the Jacobians match central
     /// differences.
+    /// An observed transition joins the LWR at once: one more point, and
+    /// the prediction there moves towards the observed value (a local fit
+    /// through it); a non-finite transition is refused and changes nothing.
+    #[test]
+    fn observed_transitions_join_the_lwr_online() {
+        let mut model = model_of(200, 1.0, Kernel::Tricube);
+        let z = [0.3, 1.0, 0.1, 0.5, 2.0];
+        let before = model.regression.delta_omega(&z, None);
+        let target = before + 0.5;
+        let n = model.regression.lwr().len();
+        for _ in 0..5 {
+            assert!(model.regression.observe(&z, target).expect("insert"));
+        }
+        assert_eq!(model.regression.lwr().len(), n + 5);
+        let after = model.regression.delta_omega(&z, None);
+        assert!(
+            (after - target).abs() < 0.5 * (before - target).abs(),
+            "{before} -> {after}, observed {target}"
+        );
+        assert!(model.regression.observe(&[f64::NAN, 0.0, 0.0, 0.0, 0.0], 0.0).is_err());
+        assert_eq!(model.regression.lwr().len(), n + 5);
+        let mut truth = KnownHand::new(truth::TrueRegression::robot(), 1.0 / 60.0);
+        assert!(!truth.regression.observe(&z, 0.0).expect("no-op"));
+    }
+
     #[test]
     fn jacobians_match_central_differences() {
         for kernel in [Kernel::Gaussian, Kernel::Tricube] {

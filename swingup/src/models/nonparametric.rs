@@ -226,6 +226,20 @@ impl PendulumRegression for LwrRegression {
         prior + resid
     }
 
+    /// Inserts the transition into the LWR (its residual from the prior,
+    /// which stays as fitted); the metric stays as tuned until the next
+    /// trial's fit.
+    fn observe(&mut self, z: &[f64; 5], y: f64) -> crate::Result<bool> {
+        crate::error::ensure_data!(
+            z.iter().all(|v| v.is_finite()) && y.is_finite(),
+            "an observed transition is not finite: {z:?} -> {y}"
+        );
+        let resid = y - self.prior.delta_omega(z, None);
+        let (q, d) = self.project(z);
+        self.lwr.insert(&q[..d], &[resid])?;
+        Ok(true)
+    }
+
     fn support(&self, z: &[f64; 5]) -> Option<f64> {
         let (q, d) = self.project(z);
         Some(self.lwr.predict(&q[..d]).map_or(0.0, |p| p.n_lwr))

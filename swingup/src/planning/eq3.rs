@@ -23,7 +23,6 @@ use crate::record::PlanSummary;
 /// a terminal target upright at rest with the hand home, and the soft bounds
 /// (shared by every planner, so that their costs compare).
 pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<SwingupCost> {
-    let p = &cfg.planner;
     let n = demo.horizon();
     crate::error::ensure_data!(n >= 1, "the demonstration has no controls");
     crate::error::ensure_data!(
@@ -32,17 +31,28 @@ pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<Swingup
         demo.states.len(),
         n + 1
     );
+    window_cost(cfg, demo, 0, n)
+}
+
+/// The stage cost of a window of `samples` steps from step `start` of the
+/// swing-up (receding-horizon planning): the references of
+/// [`swingup_cost`] over those steps, upright at rest with $u^d = 0$ from
+/// the end of the demonstration on; the terminal target is the reference
+/// at the window's end.
+pub fn window_cost(cfg: &Config, demo: &Demonstration, start: usize, samples: usize) -> crate::Result<SwingupCost> {
+    let p = &cfg.planner;
+    let n = demo.horizon();
     let upright = [std::f64::consts::PI, 0.0, 0.0, 0.0];
-    let (state_ref, control_ref) = match cfg.start {
-        Start::Demonstration => {
-            let mut state_ref = Mat::from_fn(n + 1, 4, |k, i| demo.states[k][i]);
-            for (i, v) in upright.into_iter().enumerate() {
-                state_ref[(n, i)] = v;
-            }
-            (state_ref, Mat::from_fn(n, 1, |k, _| demo.controls[k]))
-        }
-        Start::Scratch => (Mat::from_fn(n + 1, 4, |_, i| upright[i]), Mat::zeros(n, 1)),
-    };
+    let tracked = cfg.start == Start::Demonstration;
+    // the demonstration's last state is replaced by upright at rest
+    let state_ref = Mat::from_fn(samples + 1, 4, |k, i| match start + k {
+        j if tracked && j < n => demo.states[j][i],
+        _ => upright[i],
+    });
+    let control_ref = Mat::from_fn(samples, 1, |k, _| match start + k {
+        j if tracked && j < n => demo.controls[j],
+        _ => 0.0,
+    });
     let tracking = TrackingCost::new(
         state_ref,
         control_ref,

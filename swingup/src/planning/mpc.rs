@@ -178,7 +178,7 @@ pub fn shifted(plan: &WindowPlan, steps: usize) -> WindowPlan {
 ///
 /// | field | default |
 /// |---|---|
-/// | `max_iterations` | 5 |
+/// | `max_iterations` | 1 |
 /// | `tol_cost` | 1e-6 |
 /// | `budget` | none |
 #[derive(Debug, Clone, Copy, PartialEq)]
@@ -195,7 +195,7 @@ pub struct ReplanSettings {
 impl Default for ReplanSettings {
     fn default() -> Self {
         Self {
-            max_iterations: 5,
+            max_iterations: 1,
             tol_cost: 1e-6,
             budget: None,
         }

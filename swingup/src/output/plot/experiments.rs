@@ -363,6 +363,7 @@ mod tests {
             scales,
             rollouts: vec![],
             seconds: 0.0,
+            replan_ms: vec![],
             code_version: "commit test".into(),
         }
     }

@@ -377,6 +377,7 @@ mod tests {
             model: None,
             diagnostics: inconsistency.map(|_| diagnostics_of(20, index as f64)),
             timing: TrialTiming::default(),
+            mpc: None,
         }
     }
 
