@@ -156,7 +156,9 @@ struct ExperimentsArgs {
     #[arg(long, conflicts_with = "resume")]
     force: bool,
     /// Also write the claims table into this Markdown file (the README),
-    /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines.
+    /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines
+    /// (the `mpc` experiment's table between `<!-- mpc:start -->` and
+    /// `<!-- mpc:end -->`).
     #[arg(long)]
     update_readme: Option<PathBuf>,
 }
@@ -513,9 +515,18 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     let table = swingup::output::grid_report::claims_table(&report.claims);
     println!("\n{table}");
     if let Some(readme) = &args.update_readme {
-        let block = format!("{}\n\n{table}", swingup::output::grid_report::provenance(&report));
-        run_report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
-        println!("updated the claims table in {}", readme.display());
+        let provenance = swingup::output::grid_report::provenance(&report);
+        // the paper's claims come from its experiments; `mpc` has its own block
+        if which.iter().any(|e| *e != Experiment::Mpc) {
+            let block = format!("{provenance}\n\n{table}");
+            run_report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
+            println!("updated the claims table in {}", readme.display());
+        }
+        if which.contains(&Experiment::Mpc) {
+            let block = format!("{provenance}\n\n{}", swingup::output::grid_report::mpc_table(&report));
+            run_report::update_between(readme, "<!-- mpc:start -->", "<!-- mpc:end -->", &block)?;
+            println!("updated the MPC table in {}", readme.display());
+        }
     }
     println!(
         "wrote {}, {} and {} figure(s) ({}; .svg and .png) ({:.0} s)",

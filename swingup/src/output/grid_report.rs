@@ -100,6 +100,11 @@ pub fn markdown(report: &ExperimentsReport) -> String {
             ));
         }
     }
+    let mpc = mpc_table(report);
+    if !mpc.is_empty() {
+        md.push_str("\n## Model-predictive control (beyond the paper)\n\n");
+        md.push_str(&mpc);
+    }
     md.push_str("\n## Runs\n\n| experiment | variant | seed | success | max angle per trial (deg) | plan statuses |\n|---|---|---|---|---|---|\n");
     for r in &report.runs {
         md.push_str(&format!(
@@ -126,6 +131,52 @@ fn with_seconds(v: &VariantSummary) -> String {
         v.median_robot_seconds
             .map_or(String::new(), |s| format!(", median {s:.1} s of robot data"))
     )
+}
+
+/// The `mpc` experiment's table (also copied into the README): per model,
+/// open loop against MPC, and the replan times of the MPC runs (the median
+/// over trials of each trial's median replan, and the largest 99th
+/// percentile of a trial); empty without `mpc` runs.
+pub fn mpc_table(report: &ExperimentsReport) -> String {
+    let find = |v: &str| report.variants.iter().find(|x| x.experiment == "mpc" && x.variant == v);
+    let mut models: Vec<&str> = report
+        .variants
+        .iter()
+        .filter(|v| v.experiment == "mpc")
+        .filter_map(|v| v.variant.split_once('/').map(|(_, m)| m))
+        .collect();
+    models.sort_unstable();
+    models.dedup();
+    if models.is_empty() {
+        return String::new();
+    }
+    let mut md = String::from(
+        "Open loop (the paper's) against model-predictive control (`--controller mpc`: Eq. 3 replanned from the measured state at every 60 Hz step, one Gauss-Newton iteration per replan, the 150-step window warm-started from the previous plan, each observed transition added to the LWR at once). Seconds of robot data count every trial up to success; runs that never succeed are not in the medians. Replan times are wall times during the grid's runs (two runs in parallel on 2 cores), not a benchmark.\n\n| model | open loop | MPC | MPC replan (ms): median, worst trial's 99th percentile |\n|---|---|---|---|\n",
+    );
+    for model in models {
+        let cell = |v: Option<&VariantSummary>| v.map_or("not run".to_string(), with_seconds);
+        let replans: Vec<[f64; 2]> = report
+            .runs
+            .iter()
+            .filter(|r| r.experiment == "mpc" && r.variant == format!("mpc/{model}"))
+            .flat_map(|r| r.replan_ms.iter().copied())
+            .filter(|t| t.iter().all(|v| v.is_finite()))
+            .collect();
+        let times = if replans.is_empty() {
+            "-".to_string()
+        } else {
+            let mut medians: Vec<f64> = replans.iter().map(|t| t[0]).collect();
+            medians.sort_by(f64::total_cmp);
+            let worst = replans.iter().map(|t| t[1]).fold(f64::NEG_INFINITY, f64::max);
+            format!("{:.1}, {:.1}", medians[medians.len() / 2], worst)
+        };
+        md.push_str(&format!(
+            "| {model} | {} | {} | {times} |\n",
+            cell(find(&format!("open-loop/{model}"))),
+            cell(find(&format!("mpc/{model}")))
+        ));
+    }
+    md
 }
 
 /// The claims table alone (also copied into the README).
