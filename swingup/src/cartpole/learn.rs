@@ -15,7 +15,7 @@
 //!    applies the plan's first force; the observed transition is inserted
 //!    into the model before the next replan.
 //! 3. The run stops at the first successful trial
-//!    ([`succeeded`](crate::cartpole::task::succeeded)) or after `max_trials` MPC trials
+//!    ([`succeeded`]) or after `max_trials` MPC trials
 //!    (15 by default, PILCO's `N = 15`).
 //!
 //! The first replan of a trial has no previous plan: it is solved from
