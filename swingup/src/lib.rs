@@ -23,7 +23,7 @@
 //! | records | [`record`] | what a trial and a run saw, and the training pairs drawn from it |
 //! | models | [`models`] ([`models::nonparametric`], [`models::parametric`], [`models::truth`], [`models::learned`]) | the robot's models of its dynamics, and fitting them to the trials |
 //! | planning | [`planning`] ([`planning::cost`], [`planning::support`], [`planning::eq3`], [`planning::ddp`]) | the task cost, the penalty on leaving the data, Eq. 3 by Gauss-Newton or Powell, and DDP |
-//! | learning | [`learn`], [`diagnostics`] | the trial loop; each plan against what the robot then did |
+//! | learning | [`learn`], [`diagnostics`], [`cartpole`] | the trial loop; each plan against what the robot then did; the cart-pole swing-up learned from scratch by MPC |
 //! | experiments | [`experiments`] ([`experiments::claims`], [`experiments::sensitivity`]) | the grid behind the paper's claims, and how much model error an open-loop swing-up tolerates |
 //! | output | [`output`] ([`output::run_report`], [`output::plot`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk (figures as SVG and PNG), and the rules that keep runs from overwriting or mixing |
 //!
@@ -54,6 +54,7 @@
 //! ```
 #![warn(missing_docs)]
 
+pub mod cartpole;
 pub mod config;
 pub mod diagnostics;
 pub mod error;

@@ -182,7 +182,7 @@ const LAYERS: [(&str, &[&str]); 9] = [
     ("records", &["record"]),
     ("models", &["models"]),
     ("planning", &["planning"]),
-    ("learning", &["learn", "diagnostics"]),
+    ("learning", &["learn", "diagnostics", "cartpole"]),
     ("experiments", &["experiments"]),
     ("output", &["output", "fit_cmd"]),
 ];

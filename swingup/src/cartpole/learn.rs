@@ -1,0 +1,618 @@
+//! Learning the cart-pole swing-up from scratch: one random trial, then
+//! model-predictive control with the LWR model, every transition added to
+//! the model at once.
+//!
+//! A run:
+//! 1. **Trial 1, random** (PILCO's `J = 1` initial rollout): forces drawn
+//!    uniformly in $[-f_{max}, f_{max}]$, one per control period, held.
+//! 2. **Each later trial, MPC**: the model is refitted to all data and its
+//!    metric retuned by leave-one-out ([`CartPoleModel::refit`]); then at
+//!    every control period the controller replans Eq. 3 over a window of
+//!    `window` steps from the measured state with the current model
+//!    ([`crate::planning::mpc::replan`], warm-started from the previous plan
+//!    shifted by one step, within `replan.max_iterations` Gauss-Newton
+//!    iterations, keeping the previous plan when the solve fails) and
+//!    applies the plan's first force; the observed transition is inserted
+//!    into the model before the next replan.
+//! 3. The run stops at the first successful trial
+//!    ([`succeeded`]) or after `max_trials` MPC trials
+//!    (15 by default, PILCO's `N = 15`).
+//!
+//! The first replan of a trial has no previous plan: it is solved from
+//! each of three cold starts (the pole's angle interpolated linearly to
+//! upright turning either way, and the measured state held) with a
+//! continuation in $\lambda$ from 1, and the one of least criterion is kept.
+//!
+//! Every trial starts from $s_0 \sim \mathcal N(0, 0.1^2 I)$ (PILCO's `mu0`,
+//! `S0`) and lasts `episode` seconds; the data counted are the trials'
+//! control periods, random trial included.
+
+use std::time::Instant;
+
+use faer::Mat;
+use rand::{Rng, SeedableRng};
+use rand_chacha::ChaCha8Rng;
+use rand_distr::{Distribution, Normal};
+use serde::{Deserialize, Serialize};
+
+use crate::cartpole::model::{CartPoleModel, CartPoleModelSettings, Transition};
+use crate::cartpole::plant::{CartPole, CartPoleParams};
+use crate::cartpole::task::{SwingupTask, TaskWeights, pilco_cost, succeeded};
+use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
+
+/// Settings of a cart-pole run.
+///
+/// | name | default | source |
+/// |---|---|---|
+/// | `plant` | [`CartPoleParams::default`] | PILCO's `dynamics_cp.m`, `settings_cp.m` |
+/// | `episode` | 4 s | `settings_cp.m`: `T = 4.0` |
+/// | `initial_std` | 0.1 | `settings_cp.m`: `S0 = diag([0.1 0.1 0.1 0.1].^2)` |
+/// | `max_trials` | 15 | `settings_cp.m`: `N = 15` controlled trials after the random one |
+/// | `success_distance` | 0.1 m | ours (no published criterion) |
+/// | `success_hold` | 1 s | ours |
+/// | `window` | 15 steps (1.5 s) | ours |
+/// | `state_coeffs`, `control_coeffs` | 16, 15 (one per sample: coarser force splines cannot balance at 10 Hz, even with the true model) | ours |
+/// | `lambda` | 1e3 | consistency weight, rate units |
+/// | `x0_weight` | 1e4 | penalty holding the measured state |
+/// | `replan` | 10 iterations, no time budget | per replan |
+/// | `cold_iterations` | 30 | per continuation stage of a trial's first replan |
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CartPoleSettings {
+    /// The plant.
+    pub plant: CartPoleParams,
+    /// Episode length \[s\].
+    pub episode: f64,
+    /// Standard deviation of each initial state's component.
+    pub initial_std: f64,
+    /// MPC trials after the random one.
+    pub max_trials: usize,
+    /// Stop at the first successful trial.
+    pub stop_at_success: bool,
+    /// Success: the tip within this distance \[m\] of the target ...
+    pub success_distance: f64,
+    /// ... over the episode's last this many seconds.
+    pub success_hold: f64,
+    /// The task cost's weights.
+    pub weights: TaskWeights,
+    /// The learned model's settings.
+    pub model: CartPoleModelSettings,
+    /// Steps in the planning window.
+    pub window: usize,
+    /// Cubic B-spline coefficients per state channel in the window.
+    pub state_coeffs: usize,
+    /// Cubic B-spline coefficients of the force in the window.
+    pub control_coeffs: usize,
+    /// Eq. 3's consistency weight $\lambda$ (mismatch in rate units).
+    pub lambda: f64,
+    /// Weight of the penalty holding the measured initial state.
+    pub x0_weight: f64,
+    /// Gauss-Newton iterations per replan.
+    pub replan_iterations: usize,
+    /// Relative cost-decrease tolerance of a replan.
+    pub tol_cost: f64,
+    /// Gauss-Newton iterations per continuation stage of a trial's first
+    /// (cold) replan.
+    pub cold_iterations: usize,
+    /// Plan with the true plant instead of the learned model (a reference
+    /// for the planner alone; nothing is learned).
+    pub true_model: bool,
+}
+
+impl Default for CartPoleSettings {
+    fn default() -> Self {
+        Self {
+            plant: CartPoleParams::default(),
+            episode: 4.0,
+            initial_std: 0.1,
+            max_trials: 15,
+            stop_at_success: true,
+            success_distance: 0.1,
+            success_hold: 1.0,
+            weights: TaskWeights::default(),
+            model: CartPoleModelSettings::default(),
+            window: 15,
+            state_coeffs: 16,
+            control_coeffs: 15,
+            lambda: 1e3,
+            x0_weight: 1e4,
+            replan_iterations: 10,
+            tol_cost: 1e-6,
+            cold_iterations: 30,
+            true_model: false,
+        }
+    }
+}
+
+impl CartPoleSettings {
+    /// Checks every field.
+    pub fn validate(&self) -> crate::Result<()> {
+        self.plant.validate()?;
+        self.weights.validate()?;
+        self.model.lwr.validate(crate::cartpole::model::N_INPUTS)?;
+        for (key, v) in [
+            ("episode", self.episode),
+            ("success_distance", self.success_distance),
+            ("lambda", self.lambda),
+            ("x0_weight", self.x0_weight),
+        ] {
+            crate::error::ensure_config!(
+                format!("cartpole.{key}"),
+                v.is_finite() && v > 0.0,
+                "cartpole.{key} must be finite and positive, got {v}"
+            );
+        }
+        for (key, v) in [
+            ("initial_std", self.initial_std),
+            ("success_hold", self.success_hold),
+            ("tol_cost", self.tol_cost),
+        ] {
+            crate::error::ensure_config!(
+                format!("cartpole.{key}"),
+                v.is_finite() && v >= 0.0,
+                "cartpole.{key} must be finite and nonnegative, got {v}"
+            );
+        }
+        crate::error::ensure_config!(
+            "cartpole.episode",
+            self.steps() > self.hold_steps(),
+            "cartpole.episode ({} s) must be longer than cartpole.success_hold ({} s)",
+            self.episode,
+            self.success_hold
+        );
+        crate::error::ensure_config!(
+            "cartpole.replan_iterations",
+            self.replan_iterations >= 1 && self.cold_iterations >= 1,
+            "cartpole.replan_iterations and cartpole.cold_iterations must be at least 1"
+        );
+        Ok(())
+    }
+
+    /// Control periods per episode.
+    pub fn steps(&self) -> usize {
+        (self.episode / self.plant.dt).round() as usize
+    }
+
+    /// Control periods of the success criterion's hold.
+    pub fn hold_steps(&self) -> usize {
+        (self.success_hold / self.plant.dt).round() as usize
+    }
+}
+
+/// What one trial saw.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CartPoleTrial {
+    /// 1 for the random trial, then 2, 3, ...
+    pub trial: usize,
+    /// `random` or `mpc`.
+    pub controller: String,
+    /// Whether the trial met the success criterion.
+    pub success: bool,
+    /// PILCO's saturating cost summed over the episode's states (after
+    /// each control period).
+    pub pilco_cost: f64,
+    /// The tip's distance from the target at the end \[m\].
+    pub final_distance: f64,
+    /// Seconds of system data after this trial, all trials so far.
+    pub data_seconds: f64,
+    /// Median wall time of a replan \[ms\] (NaN for the random trial).
+    pub replan_median_ms: f64,
+    /// 99th percentile of the replan wall time \[ms\].
+    pub replan_p99_ms: f64,
+    /// Mean Gauss-Newton iterations per replan.
+    pub mean_iterations: f64,
+    /// Replans whose solve failed (the previous plan kept).
+    pub kept_previous: usize,
+    /// Wall time of the model's refit and metric tuning before the trial \[s\].
+    pub tune_seconds: f64,
+    /// Wall time of each replan \[ms\], in order (empty for the random trial).
+    pub replan_ms: Vec<f64>,
+    /// The true states, one per control period, the initial one first.
+    pub states: Vec<[f64; 4]>,
+    /// The forces applied (clipped).
+    pub forces: Vec<f64>,
+}
+
+/// A run: its trials and when it succeeded.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct CartPoleRun {
+    /// The seed of every random draw of the run.
+    pub seed: u64,
+    /// The settings.
+    pub settings: CartPoleSettings,
+    /// The trials, the random one first.
+    pub trials: Vec<CartPoleTrial>,
+    /// The first successful trial (1-based, the random one counted), if any.
+    pub success_trial: Option<usize>,
+    /// Seconds of system data up to and including that trial.
+    pub seconds_to_success: Option<f64>,
+}
+
+/// One per seed of [`experiment`].
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct ExperimentRow {
+    /// The seed.
+    pub seed: u64,
+    /// The first successful trial (1-based, random trial counted).
+    pub success_trial: Option<usize>,
+    /// Seconds of system data to success.
+    pub seconds_to_success: Option<f64>,
+    /// Trials run.
+    pub trials: usize,
+    /// Median replan time over the run's MPC trials \[ms\].
+    pub replan_median_ms: f64,
+    /// 99th percentile of the replan time over the run's MPC trials \[ms\].
+    pub replan_p99_ms: f64,
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return f64::NAN;
+    }
+    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[i]
+}
+
+/// The initial state of a trial, $\mathcal N(0, \sigma^2 I)$.
+fn initial_state(rng: &mut ChaCha8Rng, std: f64) -> crate::Result<[f64; 4]> {
+    let normal = Normal::new(0.0, std).map_err(|e| crate::Error::data(format!("initial state: {e}")))?;
+    Ok(std::array::from_fn(|_| normal.sample(rng)))
+}
+
+fn measure(rng: &mut ChaCha8Rng, noise: &Option<Normal<f64>>, s: &[f64; 4]) -> [f64; 4] {
+    match noise {
+        Some(n) => std::array::from_fn(|i| s[i] + n.sample(rng)),
+        None => *s,
+    }
+}
+
+/// A cold start for the window from `x0`: the angle interpolated linearly
+/// to the nearest upright in direction `direction` (+1, -1), or with
+/// `direction` 0 the state held; cart at rest, no force.
+fn cold_start(x0: &[f64; 4], samples: usize, direction: i32, dt: f64) -> WindowPlan {
+    use std::f64::consts::PI;
+    let th0 = x0[3];
+    // uprights are pi + 2 pi k; the nearest one strictly above (below) th0
+    let target = match direction {
+        0 => th0,
+        d if d > 0 => PI + 2.0 * PI * ((th0 - PI) / (2.0 * PI)).floor() + 2.0 * PI,
+        _ => PI + 2.0 * PI * ((th0 - PI) / (2.0 * PI)).ceil() - 2.0 * PI,
+    };
+    let target = if direction > 0 && target - th0 > 2.0 * PI {
+        target - 2.0 * PI
+    } else if direction < 0 && th0 - target > 2.0 * PI {
+        target + 2.0 * PI
+    } else {
+        target
+    };
+    let rate = (target - th0) / (samples as f64 * dt);
+    WindowPlan {
+        states: Mat::from_fn(samples + 1, 4, |k, i| match i {
+            3 => th0 + (target - th0) * k as f64 / samples as f64,
+            2 if direction != 0 => rate,
+            _ if k == 0 => x0[i],
+            _ => 0.0,
+        }),
+        controls: Mat::zeros(samples, 1),
+    }
+}
+
+/// The controller's state within one trial.
+struct Mpc<'a> {
+    settings: &'a CartPoleSettings,
+    window: Window,
+    task: SwingupTask,
+    plan: Option<WindowPlan>,
+}
+
+impl Mpc<'_> {
+    /// Replans from the measured state `x0` with `model`; returns the force
+    /// to apply, the wall time, the iterations and whether the previous
+    /// plan was kept.
+    fn step<M: trajopt::Model>(&mut self, model: &M, x0: &[f64; 4]) -> crate::Result<(f64, f64, usize, bool)> {
+        let s = self.settings;
+        let started = Instant::now();
+        let (plan, iterations, kept) = match self.plan.take() {
+            Some(previous) => {
+                let problem = self
+                    .window
+                    .problem(model, self.task.clone(), s.lambda, x0, s.x0_weight)?;
+                let warm = shifted(&previous, 1);
+                let r = replan(
+                    &self.window,
+                    &problem,
+                    &warm,
+                    x0,
+                    &ReplanSettings {
+                        max_iterations: s.replan_iterations,
+                        tol_cost: s.tol_cost,
+                        budget: None,
+                    },
+                )?;
+                let kept = matches!(r.status, ReplanStatus::KeptPrevious(_));
+                (r.plan, r.iterations, kept)
+            }
+            None => {
+                let (plan, iterations) = self.cold(model, x0)?;
+                (plan, iterations, false)
+            }
+        };
+        let force = plan.controls[(0, 0)];
+        self.plan = Some(plan);
+        Ok((force, started.elapsed().as_secs_f64(), iterations, kept))
+    }
+
+    /// The first replan of a trial: three cold starts, a continuation in
+    /// lambda from 1 for each, the least criterion kept.
+    fn cold<M: trajopt::Model>(&self, model: &M, x0: &[f64; 4]) -> crate::Result<(WindowPlan, usize)> {
+        let s = self.settings;
+        let mut best: Option<(f64, WindowPlan)> = None;
+        let mut iterations = 0;
+        for direction in [1, -1, 0] {
+            let mut plan = cold_start(x0, s.window, direction, s.plant.dt);
+            let mut lambda = 1.0f64.min(s.lambda);
+            let cost = loop {
+                let problem = self.window.problem(model, self.task.clone(), lambda, x0, s.x0_weight)?;
+                let r = replan(
+                    &self.window,
+                    &problem,
+                    &plan,
+                    x0,
+                    &ReplanSettings {
+                        max_iterations: s.cold_iterations,
+                        tol_cost: s.tol_cost,
+                        budget: None,
+                    },
+                )?;
+                iterations += r.iterations;
+                plan = r.plan;
+                if lambda >= s.lambda {
+                    break r.costs.1;
+                }
+                lambda = (lambda * 10.0).min(s.lambda);
+            };
+            if cost.is_finite() && best.as_ref().is_none_or(|(c, _)| cost < *c) {
+                best = Some((cost, plan));
+            }
+        }
+        let plan = best.map_or_else(|| cold_start(x0, s.window, 0, s.plant.dt), |(_, p)| p);
+        Ok((plan, iterations))
+    }
+}
+
+/// Runs the learning loop of the [module docs](self) with `settings`, every
+/// random draw from `seed`.
+pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun> {
+    settings.validate()?;
+    let plant = CartPole::new(settings.plant.clone())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = if settings.plant.sensor_noise > 0.0 {
+        Some(Normal::new(0.0, settings.plant.sensor_noise).map_err(|e| crate::Error::data(format!("noise: {e}")))?)
+    } else {
+        None
+    };
+    let steps = settings.steps();
+    let dt = settings.plant.dt;
+    let max_force = settings.plant.max_force;
+    let mut trials = Vec::new();
+    let mut data: Vec<Transition> = Vec::new();
+    let mut model: Option<CartPoleModel> = None;
+    let task = SwingupTask::new(settings.plant.pole_length, max_force, &settings.weights)?;
+    let window = Window::new(settings.window, dt, settings.state_coeffs, settings.control_coeffs)?;
+    for trial in 1..=settings.max_trials + 1 {
+        let random = trial == 1;
+        let mut tune_seconds = 0.0;
+        if !random {
+            let started = Instant::now();
+            match model.as_mut() {
+                Some(m) => m.refit(true)?,
+                None => model = Some(CartPoleModel::fit(&data, settings.model.clone(), true)?),
+            }
+            tune_seconds = started.elapsed().as_secs_f64();
+        }
+        let mut mpc = Mpc {
+            settings,
+            window: window.clone(),
+            task: task.clone(),
+            plan: None,
+        };
+        let mut s = initial_state(&mut rng, settings.initial_std)?;
+        let mut measured = measure(&mut rng, &noise, &s);
+        let mut states = vec![s];
+        let mut forces = Vec::with_capacity(steps);
+        let (mut times, mut iterations, mut kept) = (Vec::new(), 0usize, 0usize);
+        for _ in 0..steps {
+            let planned = match (random, model.as_ref()) {
+                (true, _) => None,
+                (false, _) if settings.true_model => Some(mpc.step(&plant, &measured)?),
+                (false, Some(m)) => Some(mpc.step(m, &measured)?),
+                (false, None) => None,
+            };
+            let u = match planned {
+                Some((u, seconds, iters, was_kept)) => {
+                    times.push(seconds * 1e3);
+                    iterations += iters;
+                    kept += usize::from(was_kept);
+                    u
+                }
+                None => rng.random_range(-max_force..=max_force),
+            };
+            let f = plant.clip(u);
+            s = plant.step(&s, f);
+            let next = measure(&mut rng, &noise, &s);
+            let t = Transition {
+                state: measured,
+                force: f,
+                next,
+            };
+            data.push(t);
+            if let Some(m) = model.as_mut() {
+                m.insert(t)?;
+            }
+            measured = next;
+            states.push(s);
+            forces.push(f);
+        }
+        let replan_ms = times.clone();
+        times.sort_by(f64::total_cmp);
+        let success = succeeded(&plant, &states, settings.success_distance, settings.hold_steps());
+        let record = CartPoleTrial {
+            trial,
+            controller: if random { "random" } else { "mpc" }.into(),
+            success,
+            pilco_cost: states[1..].iter().map(|x| pilco_cost(&plant, x)).sum(),
+            final_distance: plant.tip_distance(&s),
+            data_seconds: data.len() as f64 * dt,
+            replan_median_ms: percentile(&times, 0.5),
+            replan_p99_ms: percentile(&times, 0.99),
+            mean_iterations: if times.is_empty() {
+                f64::NAN
+            } else {
+                iterations as f64 / times.len() as f64
+            },
+            kept_previous: kept,
+            tune_seconds,
+            replan_ms,
+            states,
+            forces,
+        };
+        trials.push(record);
+        if success && settings.stop_at_success {
+            break;
+        }
+    }
+    let first = trials.iter().find(|t| t.success);
+    Ok(CartPoleRun {
+        seed,
+        settings: settings.clone(),
+        success_trial: first.map(|t| t.trial),
+        seconds_to_success: first.map(|t| t.data_seconds),
+        trials,
+    })
+}
+
+/// Runs [`run`] for each seed (in parallel) and returns one row per seed,
+/// in the order of `seeds`.
+pub fn experiment(settings: &CartPoleSettings, seeds: &[u64]) -> crate::Result<Vec<ExperimentRow>> {
+    use rayon::prelude::*;
+    let runs: Vec<crate::Result<CartPoleRun>> = seeds.par_iter().map(|&seed| run(settings, seed)).collect();
+    runs.into_iter()
+        .map(|r| {
+            let r = r?;
+            let mut times: Vec<f64> = r.trials.iter().flat_map(|t| t.replan_ms.iter().copied()).collect();
+            times.sort_by(f64::total_cmp);
+            Ok(ExperimentRow {
+                seed: r.seed,
+                success_trial: r.success_trial,
+                seconds_to_success: r.seconds_to_success,
+                trials: r.trials.len(),
+                replan_median_ms: percentile(&times, 0.5),
+                replan_p99_ms: percentile(&times, 0.99),
+            })
+        })
+        .collect()
+}
+
+/// The success rate after each trial over `rows`: entry $j$ is the fraction
+/// of runs that had succeeded by trial $j + 1$ (random trial counted).
+pub fn success_rates(rows: &[ExperimentRow], max_trials: usize) -> Vec<f64> {
+    (1..=max_trials)
+        .map(|j| {
+            rows.iter().filter(|r| r.success_trial.is_some_and(|t| t <= j)).count() as f64 / rows.len().max(1) as f64
+        })
+        .collect()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The cold starts turn towards upright either way, or hold.
+    #[test]
+    fn cold_starts_reach_upright() {
+        use std::f64::consts::PI;
+        for th0 in [0.05, -0.05, 3.0, -7.0] {
+            let x0 = [0.0, 0.0, 0.0, th0];
+            let up = cold_start(&x0, 10, 1, 0.1);
+            let down = cold_start(&x0, 10, -1, 0.1);
+            let (a, b) = (up.states[(10, 3)], down.states[(10, 3)]);
+            assert!(a > th0 && a - th0 <= 2.0 * PI + 1e-12 && ((a - PI) / (2.0 * PI)).fract().abs() < 1e-9);
+            assert!(b < th0 && th0 - b <= 2.0 * PI + 1e-12 && ((b - PI) / (2.0 * PI)).fract().abs() < 1e-9);
+            assert_eq!(cold_start(&x0, 10, 0, 0.1).states[(10, 3)], th0);
+        }
+    }
+
+    /// A tiny run goes end to end: a random trial, then MPC trials with the
+    /// learned model, data counted trial by trial.
+    #[test]
+    fn tiny_run_goes_end_to_end() {
+        let settings = CartPoleSettings {
+            episode: 1.5,
+            success_hold: 0.5,
+            max_trials: 2,
+            stop_at_success: false,
+            window: 8,
+            state_coeffs: 8,
+            control_coeffs: 6,
+            replan_iterations: 2,
+            cold_iterations: 3,
+            model: CartPoleModelSettings {
+                tune_evals: 10,
+                ..CartPoleModelSettings::default()
+            },
+            ..CartPoleSettings::default()
+        };
+        let r = run(&settings, 7).expect("run");
+        assert_eq!(r.trials.len(), 3);
+        assert_eq!(r.trials[0].controller, "random");
+        assert!(
+            r.trials[1..]
+                .iter()
+                .all(|t| t.controller == "mpc" && t.replan_median_ms.is_finite())
+        );
+        for (j, t) in r.trials.iter().enumerate() {
+            assert!((t.data_seconds - 1.5 * (j + 1) as f64).abs() < 1e-9);
+            assert_eq!(t.states.len(), 16);
+            assert!(t.forces.iter().all(|f| f.abs() <= 10.0));
+        }
+        // the same seed, the same run
+        assert_eq!(run(&settings, 7).expect("run").trials[2].forces, r.trials[2].forces);
+    }
+
+    /// The 20-seed experiment of issue 22 (minutes in release); the
+    /// example `cartpole` prints the same table with more detail.
+    #[test]
+    #[ignore = "20 seeds, minutes: cargo test --release -p swingup --lib cartpole::learn::tests::twenty_seeds -- --ignored --nocapture"]
+    fn twenty_seeds() {
+        let settings = CartPoleSettings::default();
+        let seeds: Vec<u64> = (1..=20).collect();
+        let rows = experiment(&settings, &seeds).expect("experiment");
+        for r in &rows {
+            println!("{r:?}");
+        }
+        println!("{:?}", success_rates(&rows, settings.max_trials + 1));
+        assert_eq!(rows.len(), 20);
+    }
+
+    /// Bad settings are refused.
+    #[test]
+    fn validate_refuses_bad_settings() {
+        let bad = [
+            CartPoleSettings {
+                episode: 0.5,
+                success_hold: 1.0,
+                ..CartPoleSettings::default()
+            },
+            CartPoleSettings {
+                lambda: 0.0,
+                ..CartPoleSettings::default()
+            },
+            CartPoleSettings {
+                replan_iterations: 0,
+                ..CartPoleSettings::default()
+            },
+        ];
+        for s in bad {
+            assert!(run(&s, 1).is_err());
+        }
+    }
+}
