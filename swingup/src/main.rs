@@ -98,6 +98,12 @@ struct LearnArgs {
     /// `[mpc]` in the configuration).
     #[arg(long, value_enum)]
     controller: Option<Controller>,
+    /// The task: the pendulum swing-up from a demonstration (the paper's),
+    /// or PILCO's cart-pole swing-up learned from scratch with the LWR and
+    /// model-predictive control (`swingup::cartpole`; it takes `--seed`,
+    /// `--max-trials` and `--out`, and writes `cartpole.json`).
+    #[arg(long, value_enum, default_value = "pendulum")]
+    task: Task,
     /// TOML configuration file (see `swingup config`); command-line options override it.
     #[arg(long)]
     config: Option<PathBuf>,
@@ -290,7 +296,88 @@ fn run_dir(latest: bool) -> anyhow::Result<PathBuf> {
     }
 }
 
+/// Which task `learn` runs.
+#[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
+enum Task {
+    /// The pendulum swing-up learned from a demonstration (the paper's).
+    #[default]
+    Pendulum,
+    /// PILCO's cart-pole swing-up, from scratch, with MPC.
+    Cartpole,
+}
+
+/// `learn --task cartpole`: one run of `swingup::cartpole`, each trial shown,
+/// the run written to `cartpole.json` in a fresh run directory.
+fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
+    anyhow::ensure!(
+        args.controller.is_none_or(|c| c == Controller::Mpc),
+        "the cart-pole is learned from scratch with --controller mpc only (there is no demonstration to run open loop)"
+    );
+    anyhow::ensure!(
+        !args.resume
+            && args.config.is_none()
+            && args.model.is_none()
+            && args.planner.is_none()
+            && args.basis.is_none()
+            && args.lambda.is_none(),
+        "--task cartpole takes --seed, --max-trials, --out and --force only (its settings are PILCO's, see swingup::cartpole)"
+    );
+    let out = &match &args.out {
+        Some(out) => out.clone(),
+        None => run_dir(false)?,
+    };
+    let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
+    let file = out.join("cartpole.json");
+    anyhow::ensure!(
+        args.force || !file.exists(),
+        "{} holds a cart-pole run; pass --force to start over there",
+        out.display()
+    );
+    let mut settings = swingup::cartpole::CartPoleSettings::default();
+    if let Some(n) = args.max_trials {
+        settings.max_trials = n;
+    }
+    let seed = args.seed.unwrap_or(1);
+    println!(
+        "cartpole (PILCO's): one random trial, then MPC with the LWR; up to {} MPC trials of {} s; seed {seed}; writing to {}",
+        settings.max_trials,
+        settings.episode,
+        out.display()
+    );
+    let start = std::time::Instant::now();
+    let record = swingup::cartpole::run(&settings, seed)?;
+    for t in &record.trials {
+        println!(
+            "trial {:>2}: {:<6} {}, tip {:.2} m from the target at the end, PILCO cost {:.1}, {:.0} s of data{}",
+            t.trial,
+            t.controller,
+            if t.success { "SUCCESS" } else { "failed" },
+            t.final_distance,
+            t.pilco_cost,
+            t.data_seconds,
+            if t.replan_ms.is_empty() {
+                String::new()
+            } else {
+                format!(
+                    "; replans {:.1} ms median, {:.1} ms p99",
+                    t.replan_median_ms, t.replan_p99_ms
+                )
+            }
+        );
+    }
+    write_atomic(&file, &serde_json::to_string_pretty(&record)?)?;
+    match (record.success_trial, record.seconds_to_success) {
+        (Some(t), Some(s)) => println!("**Result:** success at trial {t} after {s:.1} s of system data."),
+        _ => println!("**Result:** no success within {} trials.", record.trials.len()),
+    }
+    println!("wrote {} ({:.1} s)", file.display(), start.elapsed().as_secs_f64());
+    Ok(())
+}
+
 fn learn(args: &LearnArgs) -> anyhow::Result<()> {
+    if args.task == Task::Cartpole {
+        return learn_cartpole(args);
+    }
     let file = config_file(args)?;
     let out = &match &args.out {
         Some(out) => out.clone(),

@@ -56,6 +56,28 @@ fn the_claims_table_is_the_one_results_gives() {
 }
 
 #[test]
+fn the_mpc_table_is_the_one_results_gives() {
+    let report: ExperimentsReport =
+        serde_json::from_str(&read("results/mpc/experiments.json")).expect("results/mpc/experiments.json parses");
+    let expected = format!(
+        "{}\n\n{}",
+        swingup::output::grid_report::provenance(&report),
+        swingup::output::grid_report::mpc_table(&report)
+    );
+    assert!(expected.contains("| lwr |"), "no MPC rows in results/mpc");
+    assert_eq!(
+        section(&read("README.md"), "README.md", "mpc"),
+        expected,
+        "README.md's MPC table is stale: run `cargo run --release -p swingup -- experiments mpc --out results/mpc --resume --report-only --update-readme README.md`"
+    );
+    assert_eq!(
+        read("results/mpc/experiments.md"),
+        swingup::output::grid_report::markdown(&report),
+        "results/mpc/experiments.md is stale against results/mpc/experiments.json"
+    );
+}
+
+#[test]
 fn the_sensitivity_summary_is_the_one_results_gives() {
     let report: SensitivityReport =
         serde_json::from_str(&read("results/sensitivity.json")).expect("results/sensitivity.json parses");
