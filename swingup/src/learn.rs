@@ -20,7 +20,9 @@
 //!    $u^\top R u$, so that $\lambda = 0$ plans the demonstration itself.
 //!    DDP plans through the model instead (no $\lambda$).
 //! 4. The robot executes the planned commands with its hand servoed to the
-//!    planned hand path (the pendulum open loop, as in the paper); the LQR
+//!    planned hand path (the pendulum open loop, as in the paper), or,
+//!    with `controller = "mpc"`, replans from the measured state at every
+//!    step (see `execute_mpc` and [`crate::planning::mpc`]); the LQR
 //!    takes over when the pendulum comes near upright.
 //! 5. Success: within `success_angle` of upright over the last
 //!    `success_seconds`, the hand inside its workspace throughout.
