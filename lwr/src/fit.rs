@@ -163,15 +163,27 @@ fn weight(kernel: Kernel, d2: f64, h: f64) -> f64 {
 }
 
 /// Signature of [`accumulate_linear`].
-type AccumulateLinear =
-    fn(&[(usize, f64)], &[f64], &[f64], usize, &[f64], f64, Kernel, &mut [f64], &mut [f64]) -> (f64, usize);
+type AccumulateLinear = fn(
+    &[(usize, f64)],
+    &[f64],
+    &[f64],
+    usize,
+    &[f64],
+    f64,
+    Kernel,
+    &mut [f64],
+    &mut [f64],
+    Option<&mut Vec<(usize, f64, f64)>>,
+) -> (f64, usize);
 
 /// The first pass of [`fit_found`] for a local linear fit in `D` inputs
 /// without confidence or Jacobian: adds $k_i z_i z_i^\top$ (lower triangle,
 /// packed by rows) to `a_lower` and $k_i z_i y_i^\top$ to `b` for every
 /// neighbour with positive weight, and returns $\sum_i k_i$ and the number of
-/// such neighbours. The same operations in the same order as the general
-/// loop (bitwise the same sums), with the loop bounds known at compile time.
+/// such neighbours; with `keep`, pushes `(index, k, u)` of each of them for
+/// the Jacobian's pass ([`jacobian_linear`]). The same operations in the
+/// same order as the general loop (bitwise the same sums), with the loop
+/// bounds known at compile time.
 #[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn accumulate_linear<const D: usize>(
@@ -184,6 +196,7 @@ fn accumulate_linear<const D: usize>(
     kernel: Kernel,
     a_lower: &mut [f64],
     b: &mut [f64],
+    mut keep: Option<&mut Vec<(usize, f64, f64)>>,
 ) -> (f64, usize) {
     let q: &[f64; D] = match q.try_into() {
         Ok(q) => q,
@@ -205,6 +218,9 @@ fn accumulate_linear<const D: usize>(
             continue;
         }
         n += 1;
+        if let Some(keep) = keep.as_mut() {
+            keep.push((i, k, d2.sqrt() / h));
+        }
         let x = &inputs[i * D..(i + 1) * D];
         for j in 0..D {
             z[1 + j] = x[j] - q[j];
@@ -240,6 +256,82 @@ fn accumulate_linear<const D: usize>(
     (sum_w, n)
 }
 
+/// The solved local linear fit that [`jacobian_linear`] differentiates:
+/// coefficients $\beta$ ($(1 + D) \times o$, row-major) and $s = P e_0$.
+#[derive(Clone, Copy)]
+struct LinearSums<'a> {
+    beta: &'a [f64],
+    s: &'a [f64],
+}
+
+/// Signature of [`jacobian_linear`].
+type JacobianLinear =
+    fn(&[(usize, f64, f64)], &[f64], &[f64], usize, &[f64], f64, Kernel, &Metric, LinearSums<'_>, &mut [f64]);
+
+/// The Jacobian's pass of [`fit_found`] for a local linear fit in `D`
+/// inputs without confidence, over the weighted neighbours `nb` as
+/// `(index, k, u)`: adds to `jac` ($o \times D$, row-major) the terms of
+/// [`LwrModel::predict_with_jacobian`](crate::LwrModel::predict_with_jacobian)'s
+/// formula with $\partial z_i / \partial q_j = -e_{1+j}$. The same
+/// operations in the same order as the general pass (bitwise the same
+/// Jacobian), with the design rows rebuilt from the inputs instead of stored
+/// and the loop bounds known at compile time.
+#[allow(clippy::too_many_arguments)]
+#[inline(never)]
+fn jacobian_linear<const D: usize>(
+    nb: &[(usize, f64, f64)],
+    inputs: &[f64],
+    outputs: &[f64],
+    o: usize,
+    q: &[f64],
+    h: f64,
+    kernel: Kernel,
+    metric: &Metric,
+    fit: LinearSums<'_>,
+    jac: &mut [f64],
+) {
+    let q: &[f64; D] = match q.try_into() {
+        Ok(q) => q,
+        Err(_) => return,
+    };
+    debug_assert_eq!(fit.s.len(), D + 1);
+    debug_assert_eq!(fit.beta.len(), (D + 1) * o);
+    debug_assert_eq!(jac.len(), o * D);
+    let h2 = h * h;
+    let mut delta = [0.0; D];
+    let mut grad = [0.0; D];
+    for &(i, k, u) in nb {
+        let x = &inputs[i * D..(i + 1) * D];
+        for j in 0..D {
+            delta[j] = x[j] - q[j];
+        }
+        // s^T z_i, summed as the general pass does (from 0, z_0 = 1 first)
+        let mut zs_i = 0.0 + fit.s[0];
+        for (dj, sj) in delta.iter().zip(&fit.s[1..]) {
+            zs_i += dj * sj;
+        }
+        let g = kernel.slope_over_u(u);
+        for (j, gj) in grad.iter_mut().enumerate() {
+            *gj = metric.half_grad(j, &delta);
+        }
+        let y = &outputs[i * o..(i + 1) * o];
+        for (oo, &yo) in y.iter().enumerate() {
+            let mut pred = 0.0 + fit.beta[oo];
+            for (j, dj) in delta.iter().enumerate() {
+                pred += dj * fit.beta[(1 + j) * o + oo];
+            }
+            let res = yo - pred;
+            let row = &mut jac[oo * D..(oo + 1) * D];
+            for j in 0..D {
+                let dk = -g * grad[j] / h2;
+                let sdz = -fit.s[1 + j];
+                let bdz = -fit.beta[(1 + j) * o + oo];
+                row[j] += (dk * zs_i + k * sdz) * res - k * zs_i * bdz;
+            }
+        }
+    }
+}
+
 /// Reusable buffers of a local fit, so that a query allocates only its
 /// small results: one per thread for single queries, one per rayon job in
 /// leave-one-out.
@@ -263,9 +355,40 @@ pub(crate) struct Scratch {
     b2: Vec<f64>,
     /// One column.
     col: Vec<f64>,
+    /// $d^2$ by point index, NaN where not found (reordering only).
+    dense: Vec<f64>,
     /// The factorisation, and its work buffer.
     factor: Factor,
     scaled: Vec<f64>,
+}
+
+/// Puts `found` (`(index, d^2)` pairs with distinct indices below `n`)
+/// in increasing index order: by a sort when they are few, by scattering
+/// them into `dense` ($O(n)$, no comparisons) when they are a large part of
+/// the data, as with a wide bandwidth or inputs scaled to 0. Either way the
+/// same pairs in the same order.
+fn in_index_order(found: &mut Vec<(usize, f64)>, n: usize, dense: &mut Vec<f64>) {
+    // a sort costs about k log2 k comparisons, the scatter about 2 n steps
+    let k = found.len();
+    if k < 2 || k * (usize::BITS - k.leading_zeros()) as usize <= 2 * n {
+        found.sort_unstable_by_key(|&(i, _)| i);
+        return;
+    }
+    dense.clear();
+    // d^2 < r^2 for every found point: NaN marks the others
+    dense.resize(n, f64::NAN);
+    for &(i, d2) in found.iter() {
+        dense[i] = d2;
+    }
+    found.clear();
+    found.extend(
+        dense
+            .iter()
+            .enumerate()
+            .filter(|(_, d2)| !d2.is_nan())
+            .map(|(i, &d2)| (i, d2)),
+    );
+    debug_assert_eq!(found.len(), k);
 }
 
 thread_local! {
@@ -292,7 +415,7 @@ pub(crate) fn local_fit(
         let radius = settings.support_radius();
         scratch.found.clear();
         index.within(db, metric, q, radius, &mut scratch.found);
-        scratch.found.sort_unstable_by_key(|&(i, _)| i);
+        in_index_order(&mut scratch.found, db.len(), &mut scratch.dense);
         fit_found(db, settings, metric, q, want, scratch)
     };
     SCRATCH.with(|s| match s.try_borrow_mut() {
@@ -342,6 +465,7 @@ pub(crate) fn fit_found(
         col,
         factor,
         scaled,
+        dense: _,
     } = scratch;
     nb.clear();
     zs.clear();
@@ -361,7 +485,9 @@ pub(crate) fn fit_found(
     zeroed(b2_lower, if want.confidence { n_lower } else { 0 });
     let mut sum_w = 0.0;
     let mut n_neighbors = 0;
-    let fast = !second_pass && degree == Degree::Linear;
+    // the compile-time-sized first pass: a linear fit without confidence,
+    // keeping the weighted neighbours for the Jacobian's pass if one follows
+    let fast = !want.confidence && degree == Degree::Linear;
     let accumulate: Option<AccumulateLinear> = match d {
         _ if !fast => None,
         1 => Some(accumulate_linear::<1>),
@@ -375,7 +501,8 @@ pub(crate) fn fit_found(
         _ => None,
     };
     if let Some(accumulate) = accumulate {
-        (sum_w, n_neighbors) = accumulate(found, inputs, outputs, o, q, h, kernel, a_lower, b);
+        let keep = want.jacobian.then_some(&mut *nb);
+        (sum_w, n_neighbors) = accumulate(found, inputs, outputs, o, q, h, kernel, a_lower, b, keep);
     }
     for &(i, d2) in found.iter().filter(|_| accumulate.is_none()) {
         let k = weight(kernel, d2, h);
@@ -504,6 +631,26 @@ pub(crate) fn fit_found(
     if want.jacobian {
         fit.jacobian = vec![0.0; o * d];
     }
+    if accumulate.is_some() {
+        // the fast first pass kept (index, k, u) but no design rows
+        let jacobian: JacobianLinear = match d {
+            1 => jacobian_linear::<1>,
+            2 => jacobian_linear::<2>,
+            3 => jacobian_linear::<3>,
+            4 => jacobian_linear::<4>,
+            5 => jacobian_linear::<5>,
+            6 => jacobian_linear::<6>,
+            7 => jacobian_linear::<7>,
+            8 => jacobian_linear::<8>,
+            _ => unreachable!("the fast first pass takes at most 8 inputs"),
+        };
+        let sums = LinearSums {
+            beta: &fit.beta,
+            s: &fit.s,
+        };
+        jacobian(nb, inputs, outputs, o, q, h, kernel, metric, sums, &mut fit.jacobian);
+        return Ok(fit);
+    }
     let h2 = h * h;
     let mut resid = vec![0.0; o];
     let mut delta = vec![0.0; d];
@@ -590,6 +737,90 @@ mod tests {
                     assert_eq!(mean, p.mean, "d {d}, {kernel:?}");
                 }
             }
+        }
+    }
+
+    #[test]
+    fn mean_and_jacobian_fast_path_equals_general_pass() {
+        // predict_mean_with_jacobian takes the compile-time-sized passes for
+        // d <= 8, predict_with_jacobian (which wants confidence) the general
+        // ones: bitwise the same mean and Jacobian, with a diagonal metric
+        // that ignores an input, a full metric, and the ridges
+        let mut rand = crate::strategies::uniform(5u64);
+        let mut compared = 0;
+        for d in 1..=9 {
+            for (case, kernel) in [Kernel::Gaussian, Kernel::Tricube, Kernel::Bisquare]
+                .into_iter()
+                .enumerate()
+            {
+                let mut settings = LwrSettings {
+                    kernel,
+                    bandwidth: 0.5 * d as f64,
+                    ridge: 1e-3,
+                    ..Default::default()
+                };
+                match case {
+                    0 if d > 1 => {
+                        settings.scales = (0..d)
+                            .map(|j| if j == 1 { 0.0 } else { 1.0 + 0.3 * j as f64 })
+                            .collect();
+                        settings.slope_ridge = 0.1;
+                        settings.intercept_ridge = 0.01;
+                    }
+                    1 => {
+                        settings.metric = (0..d * d)
+                            .map(|t| if t % (d + 1) == 0 { 1.0 } else { 0.2 * rand() })
+                            .collect()
+                    }
+                    _ => {}
+                }
+                let mut m = crate::LwrModel::new(d, 2, settings).expect("valid");
+                for _ in 0..200 {
+                    let x: Vec<f64> = (0..d).map(|_| rand()).collect();
+                    let y = [x.iter().map(|v| v.sin()).sum::<f64>(), x[0] * x[d - 1] + 0.1 * rand()];
+                    m.insert(&x, &y).expect("finite");
+                }
+                for _ in 0..10 {
+                    let q: Vec<f64> = (0..d).map(|_| 0.8 * rand()).collect();
+                    let (Ok((mean, jac)), Ok((p, want))) =
+                        (m.predict_mean_with_jacobian(&q), m.predict_with_jacobian(&q))
+                    else {
+                        continue;
+                    };
+                    assert_eq!(mean, p.mean, "d {d}, {kernel:?}");
+                    assert_eq!(mean, m.predict_mean(&q).expect("fitted"), "d {d}, {kernel:?}");
+                    for (oo, j) in (0..2).flat_map(|oo| (0..d).map(move |j| (oo, j))) {
+                        assert_eq!(
+                            jac[(oo, j)].to_bits(),
+                            want[(oo, j)].to_bits(),
+                            "d {d}, {kernel:?}, ({oo}, {j})"
+                        );
+                    }
+                    compared += 1;
+                }
+            }
+        }
+        assert!(compared > 200, "only {compared} queries had a fit");
+    }
+
+    #[test]
+    fn index_order_by_scatter_equals_the_sort() {
+        // every size from few points (the sort) to all of them (the scatter)
+        let mut rand = crate::strategies::uniform(11u64);
+        let n = 300;
+        let mut dense = Vec::new();
+        for k in [0, 1, 2, 10, 40, 80, 150, 299, 300] {
+            let mut idx: Vec<usize> = (0..n).collect();
+            // a random permutation's first k
+            for t in (1..n).rev() {
+                let u = ((rand() + 1.0) / 2.0 * (t + 1) as f64) as usize;
+                idx.swap(t, u.min(t));
+            }
+            let mut found: Vec<(usize, f64)> = idx[..k].iter().map(|&i| (i, rand().abs())).collect();
+            let mut want = found.clone();
+            want.sort_unstable_by_key(|&(i, _)| i);
+            in_index_order(&mut found, n, &mut dense);
+            assert_eq!(found, want, "k {k}");
         }
     }
 

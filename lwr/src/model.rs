@@ -349,6 +349,38 @@ impl LwrModel {
         Ok((self.prediction(&fit), jac))
     }
 
+    /// The mean $\hat y(q)$ and its exact Jacobian $\partial \hat y / \partial q$
+    /// ($o \times d$) without the confidence sums: bitwise the mean of
+    /// [`predict_mean`](Self::predict_mean) and the Jacobian of
+    /// [`predict_with_jacobian`](Self::predict_with_jacobian) (see its
+    /// formula), at the cost of a second pass over the neighbours only. The
+    /// query a planner linearising a learned model makes.
+    ///
+    /// ```
+    /// # use lwr::{LwrModel, LwrSettings};
+    /// let mut m = LwrModel::new(2, 1, LwrSettings { bandwidth: 0.3, ..Default::default() })?;
+    /// for i in 0..15 {
+    ///     for j in 0..15 {
+    ///         let x = [i as f64 / 14.0, j as f64 / 14.0];
+    ///         m.insert(&x, &[2.0 * x[0] - x[1]])?;
+    ///     }
+    /// }
+    /// let (mean, jac) = m.predict_mean_with_jacobian(&[0.4, 0.6])?;
+    /// assert!((mean[0] - 0.2).abs() < 1e-10);
+    /// assert!((jac[(0, 0)] - 2.0).abs() < 1e-8 && (jac[(0, 1)] + 1.0).abs() < 1e-8);
+    /// # Ok::<(), lwr::LwrError>(())
+    /// ```
+    pub fn predict_mean_with_jacobian(&self, q: &[f64]) -> Result<(Vec<f64>, Mat<f64>)> {
+        let want = Want {
+            confidence: false,
+            jacobian: true,
+        };
+        let fit = self.fit_with(q, want)?;
+        let (d, o) = (self.db.n_inputs(), self.db.n_outputs());
+        let jac = Mat::from_fn(o, d, |oo, j| fit.jacobian[oo * d + j]);
+        Ok((fit.beta[..o].to_vec(), jac))
+    }
+
     /// Predictions at many queries in parallel (rayon), in order; each one
     /// is a `Result` of its own.
     ///

@@ -205,10 +205,10 @@ impl CartPoleModel {
         let mut out: [f64; 4] = std::array::from_fn(|i| linear(&self.prior[i], z));
         let want_j = jacobian.is_some();
         let (resid, jr) = if want_j {
-            match self.lwr.predict_with_jacobian(z) {
-                Ok((p, j)) => {
+            match self.lwr.predict_mean_with_jacobian(z) {
+                Ok((mean, j)) => {
                     let jr: [f64; 4 * N_INPUTS] = std::array::from_fn(|e| j[(e / N_INPUTS, e % N_INPUTS)]);
-                    (p.mean, Some(jr))
+                    (mean, Some(jr))
                 }
                 Err(_) => (vec![f64::NAN; 4], None),
             }

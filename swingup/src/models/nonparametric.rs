@@ -201,13 +201,13 @@ impl PendulumRegression for LwrRegression {
         let q = &q[..d];
         let (resid, j_resid) = match jacobian.is_some() {
             // the Jacobian costs a second pass over the neighbours: only when asked
-            true => match self.lwr.predict_with_jacobian(q) {
-                Ok((p, j)) => {
+            true => match self.lwr.predict_mean_with_jacobian(q) {
+                Ok((mean, j)) => {
                     let mut full = [0.0; 5];
                     for (c, &jj) in self.inputs.iter().enumerate() {
                         full[jj] = j[(0, c)];
                     }
-                    (p.mean[0], full)
+                    (mean[0], full)
                 }
                 Err(_) => (f64::NAN, [0.0; 5]),
             },
