@@ -208,7 +208,7 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         perturbations.len(),
         args.seeds
     );
-    // the version before anything is written (which would make it dirty)
+    // the commit the binary was built from (see `code_version`)
     let version = code_version();
     let cfg = Config::default();
     let rows = open_loop_tolerance(&cfg, &perturbations, args.seeds)?;
