@@ -162,19 +162,21 @@ fn weight(kernel: Kernel, d2: f64, h: f64) -> f64 {
     }
 }
 
+/// What the compile-time-sized passes read: the data, the number of
+/// outputs, the query and the kernel with its bandwidth.
+#[derive(Clone, Copy)]
+struct Local<'a> {
+    inputs: &'a [f64],
+    outputs: &'a [f64],
+    o: usize,
+    q: &'a [f64],
+    h: f64,
+    kernel: Kernel,
+}
+
 /// Signature of [`accumulate_linear`].
-type AccumulateLinear = fn(
-    &[(usize, f64)],
-    &[f64],
-    &[f64],
-    usize,
-    &[f64],
-    f64,
-    Kernel,
-    &mut [f64],
-    &mut [f64],
-    Option<&mut Vec<(usize, f64, f64)>>,
-) -> (f64, usize);
+type AccumulateLinear =
+    fn(Local<'_>, &[(usize, f64)], &mut [f64], &mut [f64], Option<&mut Vec<(usize, f64, f64)>>) -> (f64, usize);
 
 /// The first pass of [`fit_found`] for a local linear fit in `D` inputs
 /// without confidence or Jacobian: adds $k_i z_i z_i^\top$ (lower triangle,
@@ -184,20 +186,22 @@ type AccumulateLinear = fn(
 /// the Jacobian's pass ([`jacobian_linear`]). The same operations in the
 /// same order as the general loop (bitwise the same sums), with the loop
 /// bounds known at compile time.
-#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn accumulate_linear<const D: usize>(
+    local: Local<'_>,
     found: &[(usize, f64)],
-    inputs: &[f64],
-    outputs: &[f64],
-    o: usize,
-    q: &[f64],
-    h: f64,
-    kernel: Kernel,
     a_lower: &mut [f64],
     b: &mut [f64],
     mut keep: Option<&mut Vec<(usize, f64, f64)>>,
 ) -> (f64, usize) {
+    let Local {
+        inputs,
+        outputs,
+        o,
+        q,
+        h,
+        kernel,
+    } = local;
     let q: &[f64; D] = match q.try_into() {
         Ok(q) => q,
         Err(_) => return (0.0, 0),
@@ -265,8 +269,7 @@ struct LinearSums<'a> {
 }
 
 /// Signature of [`jacobian_linear`].
-type JacobianLinear =
-    fn(&[(usize, f64, f64)], &[f64], &[f64], usize, &[f64], f64, Kernel, &Metric, LinearSums<'_>, &mut [f64]);
+type JacobianLinear = fn(Local<'_>, &[(usize, f64, f64)], &Metric, LinearSums<'_>, &mut [f64]);
 
 /// The Jacobian's pass of [`fit_found`] for a local linear fit in `D`
 /// inputs without confidence, over the weighted neighbours `nb` as
@@ -276,20 +279,22 @@ type JacobianLinear =
 /// operations in the same order as the general pass (bitwise the same
 /// Jacobian), with the design rows rebuilt from the inputs instead of stored
 /// and the loop bounds known at compile time.
-#[allow(clippy::too_many_arguments)]
 #[inline(never)]
 fn jacobian_linear<const D: usize>(
+    local: Local<'_>,
     nb: &[(usize, f64, f64)],
-    inputs: &[f64],
-    outputs: &[f64],
-    o: usize,
-    q: &[f64],
-    h: f64,
-    kernel: Kernel,
     metric: &Metric,
     fit: LinearSums<'_>,
     jac: &mut [f64],
 ) {
+    let Local {
+        inputs,
+        outputs,
+        o,
+        q,
+        h,
+        kernel,
+    } = local;
     let q: &[f64; D] = match q.try_into() {
         Ok(q) => q,
         Err(_) => return,
@@ -488,23 +493,32 @@ pub(crate) fn fit_found(
     // the compile-time-sized first pass: a linear fit without confidence,
     // keeping the weighted neighbours for the Jacobian's pass if one follows
     let fast = !want.confidence && degree == Degree::Linear;
-    let accumulate: Option<AccumulateLinear> = match d {
+    let local = Local {
+        inputs,
+        outputs,
+        o,
+        q,
+        h,
+        kernel,
+    };
+    // the compile-time-sized passes, both or neither
+    let sized: Option<(AccumulateLinear, JacobianLinear)> = match d {
         _ if !fast => None,
-        1 => Some(accumulate_linear::<1>),
-        2 => Some(accumulate_linear::<2>),
-        3 => Some(accumulate_linear::<3>),
-        4 => Some(accumulate_linear::<4>),
-        5 => Some(accumulate_linear::<5>),
-        6 => Some(accumulate_linear::<6>),
-        7 => Some(accumulate_linear::<7>),
-        8 => Some(accumulate_linear::<8>),
+        1 => Some((accumulate_linear::<1>, jacobian_linear::<1>)),
+        2 => Some((accumulate_linear::<2>, jacobian_linear::<2>)),
+        3 => Some((accumulate_linear::<3>, jacobian_linear::<3>)),
+        4 => Some((accumulate_linear::<4>, jacobian_linear::<4>)),
+        5 => Some((accumulate_linear::<5>, jacobian_linear::<5>)),
+        6 => Some((accumulate_linear::<6>, jacobian_linear::<6>)),
+        7 => Some((accumulate_linear::<7>, jacobian_linear::<7>)),
+        8 => Some((accumulate_linear::<8>, jacobian_linear::<8>)),
         _ => None,
     };
-    if let Some(accumulate) = accumulate {
+    if let Some((accumulate, _)) = sized {
         let keep = want.jacobian.then_some(&mut *nb);
-        (sum_w, n_neighbors) = accumulate(found, inputs, outputs, o, q, h, kernel, a_lower, b, keep);
+        (sum_w, n_neighbors) = accumulate(local, found, a_lower, b, keep);
     }
-    for &(i, d2) in found.iter().filter(|_| accumulate.is_none()) {
+    for &(i, d2) in found.iter().filter(|_| sized.is_none()) {
         let k = weight(kernel, d2, h);
         if k <= 0.0 {
             continue;
@@ -631,24 +645,13 @@ pub(crate) fn fit_found(
     if want.jacobian {
         fit.jacobian = vec![0.0; o * d];
     }
-    if accumulate.is_some() {
+    if let Some((_, jacobian)) = sized {
         // the fast first pass kept (index, k, u) but no design rows
-        let jacobian: JacobianLinear = match d {
-            1 => jacobian_linear::<1>,
-            2 => jacobian_linear::<2>,
-            3 => jacobian_linear::<3>,
-            4 => jacobian_linear::<4>,
-            5 => jacobian_linear::<5>,
-            6 => jacobian_linear::<6>,
-            7 => jacobian_linear::<7>,
-            8 => jacobian_linear::<8>,
-            _ => unreachable!("the fast first pass takes at most 8 inputs"),
-        };
         let sums = LinearSums {
             beta: &fit.beta,
             s: &fit.s,
         };
-        jacobian(nb, inputs, outputs, o, q, h, kernel, metric, sums, &mut fit.jacobian);
+        jacobian(local, nb, metric, sums, &mut fit.jacobian);
         return Ok(fit);
     }
     let h2 = h * h;
