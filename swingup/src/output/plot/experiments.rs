@@ -364,6 +364,7 @@ mod tests {
             rollouts: vec![],
             seconds: 0.0,
             replan_ms: vec![],
+            trial_success: vec![],
             code_version: "commit test".into(),
         }
     }
@@ -380,6 +381,7 @@ mod tests {
             seconds: 0.0,
             threads: 1,
             ran: Some(0),
+            task_times: vec![],
         }
     }
 
