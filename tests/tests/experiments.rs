@@ -146,6 +146,7 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         rollouts: vec![],
         seconds: 1.0,
         replan_ms: vec![],
+        first_plan_ms: vec![],
         trial_success: vec![false, true],
         code_version: "commit earlier".into(),
     };
@@ -174,6 +175,7 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
     // one replan time pair per MPC trial (the random trial has none)
     assert_eq!(run.replan_ms.len(), run.trials - 1);
     assert!(run.replan_ms.iter().all(|[m, p]| m.is_finite() && m <= p));
+    assert_eq!(run.first_plan_ms.len(), run.trials - 1);
     assert!(!run.code_version.is_empty());
     // the cart-pole is timed by this invocation, the pendulum run by none
     let cart = report.task_time("cartpole").ok_or("no cart-pole wall time")?;

@@ -364,6 +364,7 @@ mod tests {
             rollouts: vec![],
             seconds: 0.0,
             replan_ms: vec![],
+            first_plan_ms: vec![],
             trial_success: vec![],
             code_version: "commit test".into(),
         }
