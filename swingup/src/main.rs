@@ -134,7 +134,8 @@ struct ExperimentsArgs {
     /// Seeds per variant (overrides the grid's; caps the wavelet and Powell variants' seeds).
     #[arg(long)]
     seeds: Option<u64>,
-    /// Trial cap per run (overrides the grid's).
+    /// Trial cap per pendulum run (overrides the grid's; the cart-pole
+    /// keeps PILCO's 15 trials after the random one).
     #[arg(long)]
     max_trials: Option<usize>,
     /// The model of the learning and lambda experiments (the paper's: lwr).
@@ -157,14 +158,21 @@ struct ExperimentsArgs {
     /// `runs-K-of-N.jsonl`.
     #[arg(long)]
     shard: Option<swingup::experiments::Shard>,
+    /// Run only the variants whose name starts with this (repeatable; e.g.
+    /// `experiments mpc --variant cartpole` runs the cart-pole part of
+    /// `mpc` alone). With --resume the report still covers every saved run
+    /// of the experiments, so one part can be added to a grid without
+    /// running the others again.
+    #[arg(long = "variant", value_name = "PREFIX")]
+    variants: Vec<String>,
     /// Start the grid over in an `--out` whose runs file holds finished
     /// runs (they are lost); without it such a directory is refused.
     #[arg(long, conflicts_with = "resume")]
     force: bool,
     /// Also write the claims table into this Markdown file (the README),
     /// between its `<!-- claims:start -->` and `<!-- claims:end -->` lines
-    /// (the `mpc` experiment's table between `<!-- mpc:start -->` and
-    /// `<!-- mpc:end -->`).
+    /// (the `mpc` experiment's tables, pendulum and cart-pole, between
+    /// `<!-- mpc:start -->` and `<!-- mpc:end -->`).
     #[arg(long)]
     update_readme: Option<PathBuf>,
 }
@@ -485,6 +493,16 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     } else {
         args.which.clone()
     };
+    if !args.variants.is_empty() {
+        let names = swingup::experiments::variant_names(&which, &settings);
+        for v in &args.variants {
+            anyhow::ensure!(
+                names.iter().any(|n| n.starts_with(v.as_str())),
+                "--variant {v:?} names no variant of {which:?}; they are: {}",
+                names.join(", ")
+            );
+        }
+    }
     let out = &args.out;
     std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
     let log_name = match args.shard {
@@ -494,10 +512,14 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     // one program at a time per runs file (shards of one grid may share the directory)
     let _lock = swingup::output::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
     println!(
-        "experiments {:?}: {} seeds, up to {} trials per run, on {} threads; writing to {}",
+        "experiments {:?}{}: {}; on {} threads; writing to {}",
         which,
-        settings.seeds,
-        settings.max_trials,
+        if args.variants.is_empty() {
+            String::new()
+        } else {
+            format!(" (variants {})", args.variants.join(", "))
+        },
+        grid_size(&which, &settings),
         rayon::current_num_threads(),
         out.display()
     );
@@ -554,6 +576,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         previous,
         !args.report_only,
         args.shard,
+        &args.variants,
         &|done, total, r| {
             if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
                 use std::io::Write;
@@ -578,16 +601,21 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     )?;
     bar.finish_and_clear();
     let mut report = report;
-    // a report rewritten from saved runs keeps the grid's measured wall time
+    // a report rewritten from saved runs keeps the grid's measured wall
+    // time, and each task whose runs it did not change keeps its own
     if let Some(previous) = std::fs::read_to_string(out.join("experiments.json"))
         .ok()
         .and_then(|text| serde_json::from_str::<swingup::experiments::ExperimentsReport>(&text).ok())
-        && report.keep_wall_time_of(&previous)
     {
-        println!(
-            "kept the wall time measured when these runs were made ({:.0} s)",
-            report.seconds
-        );
+        if report.keep_wall_time_of(&previous) {
+            println!(
+                "kept the wall time measured when these runs were made ({:.0} s)",
+                report.seconds
+            );
+        }
+        for task in report.keep_task_times_of(&previous) {
+            println!("kept the wall time measured when the {task} runs were made");
+        }
     }
     let json = serde_json::to_string_pretty(&report)?;
     write_atomic(&out.join("experiments.json"), &json)?;
@@ -610,9 +638,9 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
             println!("updated the claims table in {}", readme.display());
         }
         if which.contains(&Experiment::Mpc) {
-            let block = format!("{provenance}\n\n{}", swingup::output::grid_report::mpc_table(&report));
+            let block = swingup::output::grid_report::mpc_readme_block(&report);
             run_report::update_between(readme, "<!-- mpc:start -->", "<!-- mpc:end -->", &block)?;
-            println!("updated the MPC table in {}", readme.display());
+            println!("updated the MPC tables in {}", readme.display());
         }
     }
     println!(
@@ -624,6 +652,31 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         report.seconds
     );
     Ok(())
+}
+
+/// The seeds and trial caps of the experiments `which` on the grid `s`,
+/// for the header line.
+fn grid_size(which: &[Experiment], s: &ExperimentSettings) -> String {
+    which
+        .iter()
+        .map(|e| match e {
+            Experiment::Learning => format!(
+                "learning: {} seeds ({} with wavelets, {} with Powell), up to {} trials per run",
+                s.learning_seeds, s.wavelet_seeds, s.powell_seeds, s.max_trials
+            ),
+            Experiment::Lambda | Experiment::Planners | Experiment::Beyond => format!(
+                "{}: {} seeds per variant, up to {} trials per run",
+                value_name(*e),
+                s.seeds,
+                s.max_trials
+            ),
+            Experiment::Mpc => format!(
+                "mpc: {} seeds per variant, up to {} trials per pendulum run, a random trial and up to {} MPC trials per cart-pole run",
+                s.mpc_seeds, s.max_trials, s.cartpole.max_trials
+            ),
+        })
+        .collect::<Vec<_>>()
+        .join("; ")
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {

@@ -186,12 +186,21 @@ impl MpcTrace {
     /// The `q`-quantile ($0 \le q \le 1$, nearest rank) of the replan
     /// times (ms); NaN without replans.
     pub fn replan_quantile(&self, q: f64) -> f64 {
-        let mut t = self.replan_ms.clone();
-        t.sort_by(f64::total_cmp);
-        match t.len() {
-            0 => f64::NAN,
-            n => t[((q.clamp(0.0, 1.0) * n as f64).ceil() as usize).clamp(1, n) - 1],
-        }
+        quantile(&self.replan_ms, q)
+    }
+}
+
+/// The `q`-quantile ($0 \le q \le 1$) of `values` by nearest rank: the
+/// smallest value with at least a fraction `q` of the values at or below
+/// it (the $\lceil q n \rceil$-th smallest, the smallest for $q = 0$); NaN
+/// for no values. The one definition of a quantile of the replan times,
+/// for both tasks.
+pub fn quantile(values: &[f64], q: f64) -> f64 {
+    let mut t = values.to_vec();
+    t.sort_by(f64::total_cmp);
+    match t.len() {
+        0 => f64::NAN,
+        n => t[((q.clamp(0.0, 1.0) * n as f64).ceil() as usize).clamp(1, n) - 1],
     }
 }
 
@@ -331,4 +340,29 @@ pub fn training_data(trials: &[TrialRecord]) -> (Vec<[f64; 5]>, Vec<[f64; 1]>) {
         }
     }
     (xs, ys)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// Nearest rank: the median of 1..=4 is 2, of 1..=5 is 3; the 99th
+    /// percentile of 40 values is the largest, of 200 the 198th; no values
+    /// give NaN, the order of the input does not matter.
+    #[test]
+    fn quantile_is_the_nearest_rank() {
+        assert_eq!(quantile(&[4.0, 1.0, 3.0, 2.0], 0.5), 2.0);
+        assert_eq!(quantile(&[5.0, 4.0, 1.0, 3.0, 2.0], 0.5), 3.0);
+        assert_eq!(quantile(&[5.0, 4.0, 1.0, 3.0, 2.0], 0.0), 1.0);
+        let forty: Vec<f64> = (1..=40).rev().map(f64::from).collect();
+        assert_eq!(quantile(&forty, 0.99), 40.0);
+        let two_hundred: Vec<f64> = (1..=200).map(f64::from).collect();
+        assert_eq!(quantile(&two_hundred, 0.99), 198.0);
+        assert!(quantile(&[], 0.5).is_nan());
+        let trace = MpcTrace {
+            replan_ms: vec![3.0, 1.0, 2.0],
+            ..MpcTrace::default()
+        };
+        assert_eq!(trace.replan_quantile(0.5), 2.0);
+    }
 }

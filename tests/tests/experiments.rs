@@ -1,8 +1,10 @@
 //! `swingup experiments` on a tiny grid: the lambda sweep's two ends and
 //! the claims table built from them.
 
+use swingup::cartpole::CartPoleSettings;
+use swingup::cartpole::model::CartPoleModelSettings;
 use swingup::config::ModelKind;
-use swingup::experiments::{Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
+use swingup::experiments::{CARTPOLE_VARIANT, Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
 
 #[test]
 fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::error::Error>> {
@@ -17,8 +19,9 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         // the semiparametric model learns in two trials: a short test
         model: ModelKind::LwrParametric,
         mpc_seeds: 0,
+        cartpole: Default::default(),
     };
-    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &|_, _, _| {})?;
+    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &[], &|_, _, _| {})?;
     assert_eq!(report.runs.len(), 2);
     let by = |v: &str| report.variants.iter().find(|x| x.variant == v);
     let zero = by("lambda=0e0").ok_or("no lambda = 0 variant")?;
@@ -40,6 +43,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         back.runs.clone(),
         true,
         None,
+        &[],
         &|_, _, _| panic!("a finished run ran again"),
     )?;
     assert_eq!(again.variants, report.variants);
@@ -50,6 +54,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         back.runs[..1].to_vec(),
         false,
         None,
+        &[],
         &|_, _, _| panic!("nothing may run"),
     )?;
     assert_eq!(fewer.runs.len(), 1);
@@ -63,6 +68,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
             back.runs[..1].to_vec(),
             true,
             Some(shard),
+            &[],
             &|_, _, r| assert_eq!(r.variant, "lambda=1e3", "shard {k} ran {}", r.variant),
         )?;
         assert_eq!(part.runs.len(), 1, "shard {k}");
@@ -95,5 +101,136 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     std::fs::remove_dir_all(&dir)?;
     let md = swingup::output::grid_report::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
+    Ok(())
+}
+
+/// The `mpc` experiment's cart-pole part run alone (`--variant cartpole`)
+/// on a tiny cart-pole: only the cart-pole run runs, beside a saved
+/// pendulum run that the report keeps; its record (per-trial success,
+/// replan quantiles, commit) round-trips through a runs file; resuming
+/// with other cart-pole settings is refused, naming the setting.
+#[test]
+fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Result<(), Box<dyn std::error::Error>> {
+    let settings = ExperimentSettings {
+        mpc_seeds: 1,
+        max_trials: 2,
+        cartpole: CartPoleSettings {
+            episode: 1.5,
+            success_hold: 0.5,
+            max_trials: 1,
+            window: 8,
+            state_coeffs: 8,
+            control_coeffs: 6,
+            replan_iterations: 2,
+            cold_iterations: 3,
+            model: CartPoleModelSettings {
+                tune_evals: 10,
+                ..CartPoleModelSettings::default()
+            },
+            ..CartPoleSettings::default()
+        },
+        ..ExperimentSettings::quick()
+    };
+    // a pendulum run of the same grid, saved earlier by other code
+    let saved = swingup::experiments::RunSummary {
+        experiment: "mpc".into(),
+        variant: "open-loop/true".into(),
+        seed: 1,
+        success_trial: Some(2),
+        trials: 2,
+        robot_seconds: 11.0,
+        max_angles: vec![1.5, 3.2],
+        plan_statuses: vec![],
+        failures: vec![String::new(); 2],
+        scales: vec![],
+        rollouts: vec![],
+        seconds: 1.0,
+        replan_ms: vec![],
+        first_plan_ms: vec![],
+        trial_success: vec![false, true],
+        code_version: "commit earlier".into(),
+    };
+    let report = run_experiments(
+        &[Experiment::Mpc],
+        &settings,
+        vec![saved.clone()],
+        true,
+        None,
+        &["cartpole".to_string()],
+        &|_, _, r| assert_eq!(r.variant, CARTPOLE_VARIANT, "ran {}", r.variant),
+    )?;
+    assert_eq!(report.runs.len(), 2, "the saved pendulum run and the new cart-pole run");
+    assert_eq!(report.ran, Some(1));
+    let run = report
+        .runs
+        .iter()
+        .find(|r| r.variant == CARTPOLE_VARIANT)
+        .ok_or("no cart-pole run")?;
+    assert_eq!(run.seed, 1);
+    assert_eq!(run.trial_success.len(), run.trials);
+    assert_eq!(
+        run.success_trial,
+        run.trial_success.iter().position(|s| *s).map(|i| i + 1)
+    );
+    // one replan time pair per MPC trial (the random trial has none)
+    assert_eq!(run.replan_ms.len(), run.trials - 1);
+    assert!(run.replan_ms.iter().all(|[m, p]| m.is_finite() && m <= p));
+    assert_eq!(run.first_plan_ms.len(), run.trials - 1);
+    assert!(!run.code_version.is_empty());
+    // the cart-pole is timed by this invocation, the pendulum run by none
+    let cart = report.task_time("cartpole").ok_or("no cart-pole wall time")?;
+    assert_eq!((cart.ran, cart.invocation_ran), (Some(1), Some(1)));
+    assert!(report.task_time("pendulum").is_none());
+    let block = swingup::output::grid_report::mpc_readme_block(&report);
+    assert!(block.contains("| after trial | 1 | 2 |"), "{block}");
+    assert!(
+        block.contains("| PILCO | 17.5 s |") && block.contains("| GP-MPC | 9 s |"),
+        "{block}"
+    );
+    // saved as a runs file and read back, the record is the same
+    let dir = std::env::temp_dir().join(format!("swingup-cartpole-runs-{}", std::process::id()));
+    std::fs::create_dir_all(&dir)?;
+    let lines: Vec<String> = report
+        .runs
+        .iter()
+        .map(serde_json::to_string)
+        .collect::<Result<_, _>>()?;
+    std::fs::write(dir.join("runs.jsonl"), format!("{}\n", lines.join("\n")))?;
+    let (back, warnings) = swingup::output::grid::read_saved_runs(&dir)?;
+    assert!(warnings.is_empty(), "{warnings:?}");
+    assert_eq!(back, report.runs);
+    // resumed with its runs, nothing runs again
+    let again = run_experiments(
+        &[Experiment::Mpc],
+        &settings,
+        back,
+        true,
+        None,
+        &["cartpole".to_string()],
+        &|_, _, r| panic!("{} ran again", r.variant),
+    )?;
+    assert_eq!(again.variants, report.variants);
+    // the settings are recorded; resuming with another cart-pole is refused
+    swingup::output::grid::check_grid_settings(&dir, &settings, false)?;
+    assert_eq!(swingup::output::grid::check_grid_settings(&dir, &settings, true)?, None);
+    let mut other = settings.clone();
+    other.cartpole.max_trials = 2;
+    let e = swingup::output::grid::check_grid_settings(&dir, &other, true)
+        .expect_err("other cart-pole settings")
+        .to_string();
+    assert!(e.contains("cartpole.max_trials differs"), "{e}");
+    // settings saved before the cart-pole was part of the grid read back
+    // as its defaults: a grid of the defaults resumes, another does not
+    let mut legacy: serde_json::Value = serde_json::to_value(ExperimentSettings::full())?;
+    legacy.as_object_mut().ok_or("settings object")?.remove("cartpole");
+    std::fs::write(dir.join("settings.json"), serde_json::to_string(&legacy)?)?;
+    assert_eq!(
+        swingup::output::grid::check_grid_settings(&dir, &ExperimentSettings::full(), true)?,
+        None
+    );
+    let mut changed = ExperimentSettings::full();
+    changed.cartpole.episode = 3.0;
+    assert!(swingup::output::grid::check_grid_settings(&dir, &changed, true).is_err());
+    std::fs::remove_dir_all(&dir)?;
     Ok(())
 }

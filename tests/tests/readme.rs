@@ -59,16 +59,16 @@ fn the_claims_table_is_the_one_results_gives() {
 fn the_mpc_table_is_the_one_results_gives() {
     let report: ExperimentsReport =
         serde_json::from_str(&read("results/mpc/experiments.json")).expect("results/mpc/experiments.json parses");
-    let expected = format!(
-        "{}\n\n{}",
-        swingup::output::grid_report::provenance(&report),
-        swingup::output::grid_report::mpc_table(&report)
-    );
+    let expected = swingup::output::grid_report::mpc_readme_block(&report);
     assert!(expected.contains("| lwr |"), "no MPC rows in results/mpc");
+    assert!(
+        expected.contains("| LWR + MPC (ours) |") && expected.contains("| PILCO | 17.5 s |"),
+        "no cart-pole table in results/mpc"
+    );
     assert_eq!(
         section(&read("README.md"), "README.md", "mpc"),
         expected,
-        "README.md's MPC table is stale: run `cargo run --release -p swingup -- experiments mpc --out results/mpc --resume --report-only --update-readme README.md`"
+        "README.md's MPC tables are stale: run `cargo run --release -p swingup -- experiments mpc --out results/mpc --resume --report-only --update-readme README.md`"
     );
     assert_eq!(
         read("results/mpc/experiments.md"),

@@ -39,6 +39,7 @@ use crate::cartpole::model::{CartPoleModel, CartPoleModelSettings, Transition};
 use crate::cartpole::plant::{CartPole, CartPoleParams};
 use crate::cartpole::task::{SwingupTask, TaskWeights, pilco_cost, succeeded};
 use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
+use crate::record::quantile;
 
 /// Settings of a cart-pole run.
 ///
@@ -194,7 +195,7 @@ pub struct CartPoleTrial {
     pub final_distance: f64,
     /// Seconds of system data after this trial, all trials so far.
     pub data_seconds: f64,
-    /// Median wall time of a replan \[ms\] (NaN for the random trial).
+    /// Median wall time of a replan \[ms\] ([`quantile`], NaN for the random trial).
     pub replan_median_ms: f64,
     /// 99th percentile of the replan wall time \[ms\].
     pub replan_p99_ms: f64,
@@ -225,31 +226,6 @@ pub struct CartPoleRun {
     pub success_trial: Option<usize>,
     /// Seconds of system data up to and including that trial.
     pub seconds_to_success: Option<f64>,
-}
-
-/// One per seed of [`experiment`].
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ExperimentRow {
-    /// The seed.
-    pub seed: u64,
-    /// The first successful trial (1-based, random trial counted).
-    pub success_trial: Option<usize>,
-    /// Seconds of system data to success.
-    pub seconds_to_success: Option<f64>,
-    /// Trials run.
-    pub trials: usize,
-    /// Median replan time over the run's MPC trials \[ms\].
-    pub replan_median_ms: f64,
-    /// 99th percentile of the replan time over the run's MPC trials \[ms\].
-    pub replan_p99_ms: f64,
-}
-
-fn percentile(sorted: &[f64], q: f64) -> f64 {
-    if sorted.is_empty() {
-        return f64::NAN;
-    }
-    let i = ((sorted.len() - 1) as f64 * q).round() as usize;
-    sorted[i]
 }
 
 /// The initial state of a trial, $\mathcal N(0, \sigma^2 I)$.
@@ -452,8 +428,6 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
             states.push(s);
             forces.push(f);
         }
-        let replan_ms = times.clone();
-        times.sort_by(f64::total_cmp);
         let success = succeeded(&plant, &states, settings.success_distance, settings.hold_steps());
         let record = CartPoleTrial {
             trial,
@@ -462,8 +436,8 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
             pilco_cost: states[1..].iter().map(|x| pilco_cost(&plant, x)).sum(),
             final_distance: plant.tip_distance(&s),
             data_seconds: data.len() as f64 * dt,
-            replan_median_ms: percentile(&times, 0.5),
-            replan_p99_ms: percentile(&times, 0.99),
+            replan_median_ms: quantile(&times, 0.5),
+            replan_p99_ms: quantile(&times, 0.99),
             mean_iterations: if times.is_empty() {
                 f64::NAN
             } else {
@@ -471,7 +445,7 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
             },
             kept_previous: kept,
             tune_seconds,
-            replan_ms,
+            replan_ms: times,
             states,
             forces,
         };
@@ -488,38 +462,6 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
         seconds_to_success: first.map(|t| t.data_seconds),
         trials,
     })
-}
-
-/// Runs [`run`] for each seed (in parallel) and returns one row per seed,
-/// in the order of `seeds`.
-pub fn experiment(settings: &CartPoleSettings, seeds: &[u64]) -> crate::Result<Vec<ExperimentRow>> {
-    use rayon::prelude::*;
-    let runs: Vec<crate::Result<CartPoleRun>> = seeds.par_iter().map(|&seed| run(settings, seed)).collect();
-    runs.into_iter()
-        .map(|r| {
-            let r = r?;
-            let mut times: Vec<f64> = r.trials.iter().flat_map(|t| t.replan_ms.iter().copied()).collect();
-            times.sort_by(f64::total_cmp);
-            Ok(ExperimentRow {
-                seed: r.seed,
-                success_trial: r.success_trial,
-                seconds_to_success: r.seconds_to_success,
-                trials: r.trials.len(),
-                replan_median_ms: percentile(&times, 0.5),
-                replan_p99_ms: percentile(&times, 0.99),
-            })
-        })
-        .collect()
-}
-
-/// The success rate after each trial over `rows`: entry $j$ is the fraction
-/// of runs that had succeeded by trial $j + 1$ (random trial counted).
-pub fn success_rates(rows: &[ExperimentRow], max_trials: usize) -> Vec<f64> {
-    (1..=max_trials)
-        .map(|j| {
-            rows.iter().filter(|r| r.success_trial.is_some_and(|t| t <= j)).count() as f64 / rows.len().max(1) as f64
-        })
-        .collect()
 }
 
 #[cfg(test)]
@@ -576,21 +518,6 @@ mod tests {
         }
         // the same seed, the same run
         assert_eq!(run(&settings, 7).expect("run").trials[2].forces, r.trials[2].forces);
-    }
-
-    /// The 20-seed experiment of issue 22 (minutes in release); the
-    /// example `cartpole` prints the same table with more detail.
-    #[test]
-    #[ignore = "20 seeds, minutes: cargo test --release -p swingup --lib cartpole::learn::tests::twenty_seeds -- --ignored --nocapture"]
-    fn twenty_seeds() {
-        let settings = CartPoleSettings::default();
-        let seeds: Vec<u64> = (1..=20).collect();
-        let rows = experiment(&settings, &seeds).expect("experiment");
-        for r in &rows {
-            println!("{r:?}");
-        }
-        println!("{:?}", success_rates(&rows, settings.max_trials + 1));
-        assert_eq!(rows.len(), 20);
     }
 
     /// Bad settings are refused.

@@ -42,4 +42,4 @@ pub mod model;
 pub mod plant;
 pub mod task;
 
-pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, ExperimentRow, experiment, run, success_rates};
+pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, run};

@@ -9,10 +9,12 @@
 //! | `lambda` | Gauss-Newton with $\lambda \in \{0, 10, \dots, 10^8\}$ | C3, C4, C5 |
 //! | `planners` | {DDP, Eq. 3 Gauss-Newton} x {LWR, parametric, true model} | C6 |
 //! | `beyond` | per-point $\lambda$ from the LWR's support; a $\lambda$ schedule over trials; the semiparametric model; learning from scratch (no demonstration) with the LWR, the semiparametric and the true model | beyond the paper |
-//! | `mpc` | open loop against model-predictive control ([`crate::planning::mpc`]) with the LWR, the semiparametric and the true model | beyond the paper |
+//! | `mpc` | open loop against model-predictive control ([`crate::planning::mpc`]) with the LWR, the semiparametric and the true model; PILCO's cart-pole learned from scratch with the LWR and MPC ([`crate::cartpole`], variant [`CARTPOLE_VARIANT`]) | beyond the paper |
 //!
-//! Every run is a [`crate::learn::run`] with a configuration that differs
-//! from the defaults only where the table says.
+//! Every pendulum run is a [`crate::learn::run`] with a configuration that
+//! differs from the defaults only where the table says; every cart-pole
+//! run is a [`crate::cartpole::run`] with the grid's
+//! [`ExperimentSettings::cartpole`].
 
 pub mod sensitivity;
 
@@ -23,11 +25,12 @@ use std::time::Instant;
 use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
+use crate::cartpole::CartPoleSettings;
 use crate::config::{BasisKind, Config, Controller, ModelKind, Solver, Start};
 use crate::learn::run;
 use crate::models::PendulumRegression;
 use crate::models::learned::learn_model;
-use crate::record::{RunRecord, TrialRecord};
+use crate::record::{RunRecord, TrialRecord, quantile};
 
 pub mod claims;
 use claims::claims;
@@ -46,8 +49,8 @@ pub enum Experiment {
     /// trials, the semiparametric model, learning without a demonstration.
     Beyond,
     /// Open loop against model-predictive control, for the LWR, the
-    /// semiparametric and the true model (not in the default grid: run it
-    /// by name).
+    /// semiparametric and the true model, and the cart-pole learned from
+    /// scratch with MPC (not in the default grid: run it by name).
     Mpc,
 }
 
@@ -74,6 +77,11 @@ pub struct ExperimentSettings {
     /// existed read back with 20).
     #[serde(default = "twenty")]
     pub mpc_seeds: u64,
+    /// The cart-pole runs of the `mpc` experiment (seeds 1 to `mpc_seeds`;
+    /// settings saved before it existed read back with the defaults,
+    /// PILCO's).
+    #[serde(default)]
+    pub cartpole: CartPoleSettings,
 }
 
 fn twenty() -> u64 {
@@ -81,8 +89,9 @@ fn twenty() -> u64 {
 }
 
 impl ExperimentSettings {
-    /// The full grid: 20 seeds for each learning variant (C2), 6 for every
-    /// other variant, 8 trials (the run time of the committed grid is in
+    /// The full grid: 20 seeds for each learning variant (C2) and each
+    /// `mpc` variant, 6 for every other variant, 8 trials (the cart-pole:
+    /// a random trial and up to 15 MPC trials, PILCO's) (the run time of the committed grid is in
     /// `results/experiments.md`).
     pub fn full() -> Self {
         Self {
@@ -95,10 +104,12 @@ impl ExperimentSettings {
             lambdas: vec![0.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e8],
             model: ModelKind::Lwr,
             mpc_seeds: 20,
+            cartpole: CartPoleSettings::default(),
         }
     }
 
-    /// A reduced grid for a quick check: 2 seeds, 4 trials, three lambdas.
+    /// A reduced grid for a quick check: 2 seeds, 4 trials (the cart-pole: a
+    /// random trial and up to 3 MPC trials), three lambdas.
     pub fn quick() -> Self {
         Self {
             seeds: 2,
@@ -110,6 +121,10 @@ impl ExperimentSettings {
             lambdas: vec![0.0, 1e3, 1e8],
             model: ModelKind::Lwr,
             mpc_seeds: 2,
+            cartpole: CartPoleSettings {
+                max_trials: 3,
+                ..CartPoleSettings::default()
+            },
         }
     }
 }
@@ -165,9 +180,18 @@ pub struct RunSummary {
     /// Wall time (s).
     pub seconds: f64,
     /// Per trial run under model-predictive control: the median and the
-    /// 99th percentile of its replan times (ms); empty otherwise.
+    /// 99th percentile of its replan times (ms, [`quantile`]); empty otherwise.
     #[serde(default)]
     pub replan_ms: Vec<[f64; 2]>,
+    /// Per cart-pole MPC trial: the wall time of its first plan (ms), a
+    /// cold start not counted in `replan_ms`; empty for the pendulum,
+    /// whose first plan is timed with the trial's planning.
+    #[serde(default)]
+    pub first_plan_ms: Vec<f64>,
+    /// Whether each trial succeeded, in order (empty for runs saved before
+    /// it was recorded).
+    #[serde(default)]
+    pub trial_success: Vec<bool>,
     /// The code that made the run (`git describe` of the working
     /// directory, see [`crate::experiments::sensitivity::code_version`]); empty for runs
     /// saved before it was recorded.
@@ -232,6 +256,58 @@ pub struct ExperimentsReport {
     /// that wrote them, whatever part of the grid it ran.
     #[serde(default)]
     pub ran: Option<usize>,
+    /// The wall time of each task's runs ([`task_of`]): of the invocation
+    /// that made them, kept across reports written from saved runs while
+    /// the task's runs stay the same (empty in
+    /// reports written before it was recorded: see
+    /// [`ExperimentsReport::task_times_or_legacy`]).
+    #[serde(default)]
+    pub task_times: Vec<TaskTime>,
+}
+
+/// The wall time of the invocation that made (some of) one task's runs.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct TaskTime {
+    /// The task ([`task_of`]).
+    pub task: String,
+    /// Runs of the task that invocation made; `None`: not recorded (a
+    /// report written before this was, whatever part of the grid its
+    /// invocation ran).
+    pub ran: Option<usize>,
+    /// Runs that invocation made in all (of this task and others).
+    pub invocation_ran: Option<usize>,
+    /// Its wall time (s).
+    pub seconds: f64,
+    /// Its worker threads.
+    pub threads: usize,
+}
+
+/// The variant of the `mpc` experiment's cart-pole runs: PILCO's
+/// cart-pole learned from scratch with the pure LWR and MPC.
+pub const CARTPOLE_VARIANT: &str = "cartpole/mpc/lwr";
+
+/// Whether a run is a cart-pole run ([`CARTPOLE_VARIANT`] and any later
+/// cart-pole variant).
+pub fn is_cartpole(r: &RunSummary) -> bool {
+    r.variant.starts_with("cartpole/")
+}
+
+/// The task of a run, `pendulum` or `cartpole`: the parts of a grid whose
+/// provenance (which code made the runs, in how much wall time) is
+/// reported, and timed, apart.
+pub fn task_of(r: &RunSummary) -> &'static str {
+    if is_cartpole(r) { "cartpole" } else { "pendulum" }
+}
+
+/// The (experiment, variant, seed, code version) of each run of `part`, sorted.
+fn task_keys(runs: &[RunSummary], part: &str) -> Vec<(String, String, u64, String)> {
+    let mut k: Vec<_> = runs
+        .iter()
+        .filter(|r| task_of(r) == part)
+        .map(|r| (r.experiment.clone(), r.variant.clone(), r.seed, r.code_version.clone()))
+        .collect();
+    k.sort();
+    k
 }
 
 impl ExperimentsReport {
@@ -259,6 +335,57 @@ impl ExperimentsReport {
         }
         same
     }
+
+    /// The task times of this report, or for a report written before they
+    /// were recorded, the ones its whole-report wall time implies: each
+    /// task it holds timed by the invocation that wrote it (with its
+    /// share of the task's runs when recorded, `ran`).
+    pub fn task_times_or_legacy(&self) -> Vec<TaskTime> {
+        if !self.task_times.is_empty() || self.ran == Some(0) {
+            return self.task_times.clone();
+        }
+        let mut parts: Vec<&str> = self.runs.iter().map(task_of).collect();
+        parts.sort_unstable();
+        parts.dedup();
+        parts
+            .into_iter()
+            .map(|part| TaskTime {
+                task: part.to_string(),
+                // a legacy report that ran every one of its runs ran each task's
+                ran: self
+                    .ran
+                    .filter(|&n| n == self.runs.len())
+                    .map(|_| self.runs.iter().filter(|r| task_of(r) == part).count()),
+                invocation_ran: self.ran,
+                seconds: self.seconds,
+                threads: self.threads,
+            })
+            .collect()
+    }
+
+    /// Carries over from `previous` (the report this one replaces) the
+    /// wall time of every task this report's invocation ran nothing of,
+    /// when that task's runs (experiment, variant, seed and code version)
+    /// are exactly the ones `previous` held. A task run again, or whose
+    /// runs changed, keeps no old wall time. Returns the tasks carried over.
+    pub fn keep_task_times_of(&mut self, previous: &ExperimentsReport) -> Vec<String> {
+        let mut kept = Vec::new();
+        for old in previous.task_times_or_legacy() {
+            let mine = self.task_times.iter().any(|p| p.task == old.task);
+            let here = self.runs.iter().any(|r| task_of(r) == old.task);
+            if !mine && here && task_keys(&self.runs, &old.task) == task_keys(&previous.runs, &old.task) {
+                kept.push(old.task.clone());
+                self.task_times.push(old);
+            }
+        }
+        self.task_times.sort_by(|a, b| a.task.cmp(&b.task));
+        kept
+    }
+
+    /// The wall time of `task`'s runs, if measured.
+    pub fn task_time(&self, task: &str) -> Option<&TaskTime> {
+        self.task_times.iter().find(|p| p.task == task)
+    }
 }
 
 /// The learning-from-scratch variants of `beyond`: model and name.
@@ -283,8 +410,28 @@ pub(crate) const MAIN_VARIANT: &str = "gauss-newton/bspline";
 struct Job {
     experiment: &'static str,
     variant: String,
-    cfg: Config,
-    rollouts: bool,
+    seed: u64,
+    task: JobTask,
+}
+
+/// What a job runs.
+enum JobTask {
+    /// A [`crate::learn::run`] (its configuration holds the seed), with the
+    /// model rollouts of C8 or without.
+    Pendulum { cfg: Box<Config>, rollouts: bool },
+    /// A [`crate::cartpole::run`].
+    Cartpole(Box<CartPoleSettings>),
+}
+
+impl Job {
+    /// The pendulum run's configuration (`None` for a cart-pole job).
+    #[cfg(test)]
+    fn cfg(&self) -> Option<&Config> {
+        match &self.task {
+            JobTask::Pendulum { cfg, .. } => Some(cfg),
+            JobTask::Cartpole(_) => None,
+        }
+    }
 }
 
 /// A change to a run's configuration that makes a variant.
@@ -307,8 +454,11 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
         Job {
             experiment,
             variant,
-            cfg,
-            rollouts,
+            seed,
+            task: JobTask::Pendulum {
+                cfg: Box::new(cfg),
+                rollouts,
+            },
         }
     };
     // one variant over seeds 1..=seeds; only the main learning variant
@@ -406,6 +556,12 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                             }));
                         }
                     }
+                    out.push(Job {
+                        experiment: "mpc",
+                        variant: CARTPOLE_VARIANT.into(),
+                        seed,
+                        task: JobTask::Cartpole(Box::new(s.cartpole.clone())),
+                    });
                 }
             }
         }
@@ -450,19 +606,34 @@ impl std::str::FromStr for Shard {
     }
 }
 
+/// The variants of the experiments `which` on the grid `settings`, in the
+/// grid's order, each once.
+pub fn variant_names(which: &[Experiment], settings: &ExperimentSettings) -> Vec<String> {
+    let mut names: Vec<String> = Vec::new();
+    for j in jobs(which, settings) {
+        if !names.contains(&j.variant) {
+            names.push(j.variant);
+        }
+    }
+    names
+}
+
 /// Runs the experiments `which` on the grid `settings`, calling `progress`
 /// after each run with (runs done, runs in all, the run) so that the caller
 /// can save it at once. Runs in `previous` (an interrupted grid's, saved
 /// that way) are kept and not run again; with `run_missing` false nothing
 /// runs and the report covers `previous` alone (each variant says how many
 /// runs it has). With a `shard`, only that part of the grid runs (the
-/// report covers it and `previous`).
+/// report covers it and `previous`). With `variants` (prefixes of variant
+/// names, e.g. `cartpole`), only the missing runs of the variants named so
+/// run; the report still covers every run of `previous` in the grid.
 pub fn run_experiments(
     which: &[Experiment],
     settings: &ExperimentSettings,
     previous: Vec<RunSummary>,
     run_missing: bool,
     shard: Option<Shard>,
+    variants: &[String],
     progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
 ) -> crate::Result<ExperimentsReport> {
     let start = Instant::now();
@@ -473,22 +644,24 @@ pub fn run_experiments(
         .filter(|(i, _)| shard.is_none_or(|s| s.contains(*i)))
         .map(|(_, j)| j)
         .collect();
-    let total = all.len();
     let key = |e: &str, v: &str, seed: u64| (e.to_string(), v.to_string(), seed);
-    let wanted: Vec<_> = all.iter().map(|j| key(j.experiment, &j.variant, j.cfg.seed)).collect();
+    let wanted: Vec<_> = all.iter().map(|j| key(j.experiment, &j.variant, j.seed)).collect();
     let previous: Vec<RunSummary> = previous
         .into_iter()
         .filter(|r| wanted.contains(&key(&r.experiment, &r.variant, r.seed)))
         .collect();
+    let selected = |j: &Job| variants.is_empty() || variants.iter().any(|v| j.variant.starts_with(v.as_str()));
     let jobs: Vec<&Job> = all
         .iter()
         .filter(|_| run_missing)
+        .filter(|j| selected(j))
         .filter(|j| {
             !previous
                 .iter()
-                .any(|r| key(&r.experiment, &r.variant, r.seed) == key(j.experiment, &j.variant, j.cfg.seed))
+                .any(|r| key(&r.experiment, &r.variant, r.seed) == key(j.experiment, &j.variant, j.seed))
         })
         .collect();
+    let total = previous.len() + jobs.len();
     let done = AtomicUsize::new(previous.len());
     let errors = Mutex::new(Vec::new());
     let mut runs: Vec<RunSummary> = jobs
@@ -501,10 +674,7 @@ pub fn run_experiments(
             }
             Err(e) => {
                 if let Ok(mut v) = errors.lock() {
-                    v.push(format!(
-                        "{} {} seed {}: {e:#}",
-                        job.experiment, job.variant, job.cfg.seed
-                    ));
+                    v.push(format!("{} {} seed {}: {e:#}", job.experiment, job.variant, job.seed));
                 }
                 None
             }
@@ -515,6 +685,22 @@ pub fn run_experiments(
         return Err(crate::Error::RunsFailed(errors));
     }
     let ran = runs.len();
+    let seconds = start.elapsed().as_secs_f64();
+    let threads = rayon::current_num_threads();
+    let mut task_times: Vec<TaskTime> = Vec::new();
+    for r in &runs {
+        match task_times.iter_mut().find(|p| p.task == task_of(r)) {
+            Some(p) => p.ran = p.ran.map(|n| n + 1),
+            None => task_times.push(TaskTime {
+                task: task_of(r).to_string(),
+                ran: Some(1),
+                invocation_ran: Some(ran),
+                seconds,
+                threads,
+            }),
+        }
+    }
+    task_times.sort_by(|a, b| a.task.cmp(&b.task));
     runs.extend(previous);
     runs.sort_by(|a, b| (&a.experiment, &a.variant, a.seed).cmp(&(&b.experiment, &b.variant, b.seed)));
     let variants = summarise(&runs);
@@ -525,17 +711,22 @@ pub fn run_experiments(
         runs,
         variants,
         claims,
-        seconds: start.elapsed().as_secs_f64(),
-        threads: rayon::current_num_threads(),
+        seconds,
+        threads,
         ran: Some(ran),
+        task_times,
     })
 }
 
 fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
+    let (cfg, rollouts_wanted) = match &job.task {
+        JobTask::Pendulum { cfg, rollouts } => (cfg, *rollouts),
+        JobTask::Cartpole(settings) => return run_cartpole(job, settings, version),
+    };
     let start = Instant::now();
-    let record = run(&job.cfg, vec![], &mut |_: &TrialRecord| {})?;
-    let rollouts = if job.rollouts {
-        rollouts(&job.cfg, &record)?
+    let record = run(cfg, vec![], &mut |_: &TrialRecord| {})?;
+    let rollouts = if rollouts_wanted {
+        rollouts(cfg, &record)?
     } else {
         vec![]
     };
@@ -543,7 +734,7 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
     Ok(RunSummary {
         experiment: job.experiment.into(),
         variant: job.variant.clone(),
-        seed: job.cfg.seed,
+        seed: job.seed,
         success_trial: record.success_trial,
         trials: record.trials.len(),
         robot_seconds: record.robot_seconds,
@@ -573,6 +764,55 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
             .filter_map(|t| t.mpc.as_ref())
             .map(|m| [m.replan_quantile(0.5), m.replan_quantile(0.99)])
             .collect(),
+        first_plan_ms: vec![],
+        trial_success: record.trials.iter().map(|t| t.success).collect(),
+        code_version: version.to_string(),
+    })
+}
+
+/// A cart-pole run as a grid's run: its trials' successes, the seconds of
+/// system data to success (all trials' when it never succeeds, the random
+/// one counted), the replan time quantiles of each MPC trial (the warm
+/// replans; the cold first plan's time apart), and per failed trial how
+/// far the tip ended from the target.
+fn run_cartpole(job: &Job, settings: &CartPoleSettings, version: &str) -> crate::Result<RunSummary> {
+    let start = Instant::now();
+    let r = crate::cartpole::run(settings, job.seed)?;
+    let all_data = r.trials.last().map_or(0.0, |t| t.data_seconds);
+    let mpc_trials = || r.trials.iter().filter(|t| !t.replan_ms.is_empty());
+    Ok(RunSummary {
+        experiment: job.experiment.into(),
+        variant: job.variant.clone(),
+        seed: job.seed,
+        success_trial: r.success_trial,
+        trials: r.trials.len(),
+        robot_seconds: r.seconds_to_success.unwrap_or(all_data),
+        max_angles: vec![],
+        plan_statuses: vec![],
+        failures: r
+            .trials
+            .iter()
+            .map(|t| {
+                if t.success {
+                    String::new()
+                } else {
+                    format!(
+                        "{}: tip {:.2} m from the target at the end",
+                        t.controller, t.final_distance
+                    )
+                }
+            })
+            .collect(),
+        scales: vec![],
+        rollouts: vec![],
+        seconds: start.elapsed().as_secs_f64(),
+        // as the pendulum's MPC trace, the trial's first (cold) plan is
+        // not a replan: its time is recorded apart
+        replan_ms: mpc_trials()
+            .map(|t| [quantile(&t.replan_ms[1..], 0.5), quantile(&t.replan_ms[1..], 0.99)])
+            .collect(),
+        first_plan_ms: mpc_trials().map(|t| t.replan_ms[0]).collect(),
+        trial_success: r.trials.iter().map(|t| t.success).collect(),
         code_version: version.to_string(),
     })
 }
@@ -625,7 +865,7 @@ fn median(v: &mut [f64]) -> Option<f64> {
     })
 }
 
-fn summarise(runs: &[RunSummary]) -> Vec<VariantSummary> {
+pub(crate) fn summarise(runs: &[RunSummary]) -> Vec<VariantSummary> {
     let mut keys: Vec<(String, String)> = runs.iter().map(|r| (r.experiment.clone(), r.variant.clone())).collect();
     keys.dedup();
     keys.into_iter()
@@ -695,6 +935,8 @@ pub(crate) mod tests {
             rollouts: vec![],
             seconds: 0.0,
             replan_ms: vec![],
+            first_plan_ms: vec![],
+            trial_success: vec![],
             code_version: "commit test".into(),
         }
     }
@@ -713,22 +955,49 @@ pub(crate) mod tests {
         }
     }
 
+    /// The mpc grid holds one cart-pole job per seed, with the grid's
+    /// cart-pole settings, beside the six pendulum variants.
+    #[test]
+    fn mpc_has_one_cartpole_run_per_seed() {
+        let settings = ExperimentSettings::quick();
+        let all = jobs(&[Experiment::Mpc], &settings);
+        let cart: Vec<&Job> = all.iter().filter(|j| j.variant == CARTPOLE_VARIANT).collect();
+        assert_eq!(cart.len(), settings.mpc_seeds as usize);
+        assert!(
+            cart.iter()
+                .all(|j| matches!(&j.task, JobTask::Cartpole(c) if **c == settings.cartpole))
+        );
+        assert_eq!(all.len(), 7 * settings.mpc_seeds as usize);
+        assert_eq!(
+            cart.iter().map(|j| j.seed).collect::<Vec<_>>(),
+            (1..=settings.mpc_seeds).collect::<Vec<_>>()
+        );
+        let names = variant_names(&[Experiment::Mpc], &settings);
+        assert_eq!(names.len(), 7);
+        assert!(names.iter().any(|n| n == CARTPOLE_VARIANT));
+    }
+
     #[test]
     fn beyond_learns_from_scratch_for_each_model() {
         let settings = ExperimentSettings::quick();
         let all = jobs(&[Experiment::Beyond], &settings);
-        let scratch: Vec<&Job> = all.iter().filter(|j| j.cfg.start == Start::Scratch).collect();
+        let scratch: Vec<&Job> = all
+            .iter()
+            .filter(|j| j.cfg().is_some_and(|c| c.start == Start::Scratch))
+            .collect();
         assert_eq!(scratch.len(), 3 * settings.seeds as usize);
         for (kind, name) in SCRATCH {
             let v = format!("{SCRATCH_PREFIX}{name}");
             assert!(
-                scratch.iter().any(|j| j.variant == v && j.cfg.model.kind == kind),
+                scratch
+                    .iter()
+                    .any(|j| j.variant == v && j.cfg().is_some_and(|c| c.model.kind == kind)),
                 "{v}"
             );
         }
         assert!(
             all.iter()
-                .filter(|j| j.cfg.start != Start::Scratch)
+                .filter(|j| j.cfg().is_some_and(|c| c.start != Start::Scratch))
                 .all(|j| !j.variant.starts_with(SCRATCH_PREFIX))
         );
     }

@@ -9,7 +9,8 @@ pub const SETTINGS_FILE: &str = "settings.json";
 
 /// Checks that a grid resumed in `dir` uses the settings its saved runs
 /// were made with ([`SETTINGS_FILE`]), and records them for a fresh grid
-/// (`resume` false). Returns a warning when a resumed directory has no
+/// (`resume` false). Settings saved before a field existed count as that
+/// field's default. Returns a warning when a resumed directory has no
 /// settings file (a grid saved before it existed: its runs cannot be checked).
 ///
 /// # Errors
@@ -36,17 +37,14 @@ pub fn check_grid_settings(
             dir.display()
         )));
     };
-    let saved: serde_json::Value =
+    // read back through the settings type, so that a setting added since
+    // (with its default) is compared as that default, not as missing
+    let saved: ExperimentSettings =
         serde_json::from_str(&text).map_err(|e| crate::Error::parse(&path, Some(e.line()), e))?;
+    let saved = serde_json::to_value(saved)?;
     let now = serde_json::to_value(settings)?;
-    let differ: Vec<String> = match (saved.as_object(), now.as_object()) {
-        (Some(a), Some(b)) => b
-            .iter()
-            .filter(|(k, v)| a.get(*k) != Some(*v))
-            .map(|(k, _)| k.clone())
-            .collect(),
-        _ => vec!["(all)".into()],
-    };
+    let mut differ = Vec::new();
+    differing_keys("", &saved, &now, &mut differ);
     crate::error::ensure_refused!(
         differ.is_empty(),
         "the runs saved in {} were made with other settings ({} differ{}); resume with the same options, \
@@ -56,6 +54,36 @@ pub fn check_grid_settings(
         if differ.len() == 1 { "s" } else { "" }
     );
     Ok(None)
+}
+
+/// The dotted keys (`cartpole.max_trials`) whose values differ between
+/// `a` and `b`, into `out`; `prefix` names the objects' own key ("" at the
+/// top, where two non-objects differ as `(all)`).
+fn differing_keys(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
+    match (a.as_object(), b.as_object()) {
+        (Some(a), Some(b)) => {
+            let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
+            keys.sort();
+            keys.dedup();
+            for k in keys {
+                let name = if prefix.is_empty() {
+                    k.clone()
+                } else {
+                    format!("{prefix}.{k}")
+                };
+                match (a.get(k), b.get(k)) {
+                    (Some(x), Some(y)) => differing_keys(&name, x, y, out),
+                    _ => out.push(name),
+                }
+            }
+        }
+        _ if a != b => out.push(if prefix.is_empty() {
+            "(all)".into()
+        } else {
+            prefix.into()
+        }),
+        _ => {}
+    }
 }
 
 /// The runs saved in every `runs*.jsonl` file of `dir` (a grid's file, or

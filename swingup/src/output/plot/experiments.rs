@@ -364,6 +364,8 @@ mod tests {
             rollouts: vec![],
             seconds: 0.0,
             replan_ms: vec![],
+            first_plan_ms: vec![],
+            trial_success: vec![],
             code_version: "commit test".into(),
         }
     }
@@ -380,6 +382,7 @@ mod tests {
             seconds: 0.0,
             threads: 1,
             ran: Some(0),
+            task_times: vec![],
         }
     }
 
