@@ -628,11 +628,16 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         plot.write(out, stem)?;
     }
     let table = swingup::output::grid_report::claims_table(&report.claims);
-    println!("\n{table}");
+    // the paper's claims come from its experiments; `mpc` has its own tables
+    let paper = which.iter().any(|e| *e != Experiment::Mpc);
+    if paper {
+        println!("\n{table}");
+    } else {
+        println!("\n{}", swingup::output::grid_report::mpc_readme_block(&report));
+    }
     if let Some(readme) = &args.update_readme {
         let provenance = swingup::output::grid_report::provenance(&report);
-        // the paper's claims come from its experiments; `mpc` has its own block
-        if which.iter().any(|e| *e != Experiment::Mpc) {
+        if paper {
             let block = format!("{provenance}\n\n{table}");
             run_report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
             println!("updated the claims table in {}", readme.display());
