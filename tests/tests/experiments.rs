@@ -2,7 +2,6 @@
 //! the claims table built from them.
 
 use swingup::cartpole::CartPoleSettings;
-use swingup::cartpole::model::CartPoleModelSettings;
 use swingup::config::ModelKind;
 use swingup::experiments::{CARTPOLE_VARIANT, Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
 
@@ -114,21 +113,7 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
     let settings = ExperimentSettings {
         mpc_seeds: 1,
         max_trials: 2,
-        cartpole: CartPoleSettings {
-            episode: 1.5,
-            success_hold: 0.5,
-            max_trials: 1,
-            window: 8,
-            state_coeffs: 8,
-            control_coeffs: 6,
-            replan_iterations: 2,
-            cold_iterations: 3,
-            model: CartPoleModelSettings {
-                tune_evals: 10,
-                ..CartPoleModelSettings::default()
-            },
-            ..CartPoleSettings::default()
-        },
+        cartpole: CartPoleSettings::quick(),
         ..ExperimentSettings::quick()
     };
     // a pendulum run of the same grid, saved earlier by other code

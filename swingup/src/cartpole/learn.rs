@@ -125,6 +125,27 @@ impl Default for CartPoleSettings {
 }
 
 impl CartPoleSettings {
+    /// A tiny cart-pole for tests and smoke runs: 1.5 s episodes, a 0.5 s
+    /// hold, one learning trial, an 8-step window with few coefficients
+    /// and iterations, and a short metric tuning. Not a benchmark setting.
+    pub fn quick() -> Self {
+        Self {
+            episode: 1.5,
+            success_hold: 0.5,
+            max_trials: 1,
+            window: 8,
+            state_coeffs: 8,
+            control_coeffs: 6,
+            replan_iterations: 2,
+            cold_iterations: 3,
+            model: CartPoleModelSettings {
+                tune_evals: 10,
+                ..CartPoleModelSettings::default()
+            },
+            ..Self::default()
+        }
+    }
+
     /// Checks every field.
     pub fn validate(&self) -> crate::Result<()> {
         self.plant.validate()?;
@@ -488,20 +509,9 @@ mod tests {
     #[test]
     fn tiny_run_goes_end_to_end() {
         let settings = CartPoleSettings {
-            episode: 1.5,
-            success_hold: 0.5,
             max_trials: 2,
             stop_at_success: false,
-            window: 8,
-            state_coeffs: 8,
-            control_coeffs: 6,
-            replan_iterations: 2,
-            cold_iterations: 3,
-            model: CartPoleModelSettings {
-                tune_evals: 10,
-                ..CartPoleModelSettings::default()
-            },
-            ..CartPoleSettings::default()
+            ..CartPoleSettings::quick()
         };
         let r = run(&settings, 7).expect("run");
         assert_eq!(r.trials.len(), 3);
