@@ -1,7 +1,9 @@
 //! Planning the swing-up with the learned LWR model: the Eq. 3 plan
 //! (Gauss-Newton over cubic B-splines, the default planner with its
 //! lambda continuation) with the pure LWR learned from trials 1-2 of a
-//! fixed seed, on one and on two threads; one model query with its
+//! fixed seed, on one and on two threads, cold (from the demonstration,
+//! with the lambda continuation) and warm (from trial 2's plan, the
+//! previous trial's, as `planner.warm_start` plans); one model query with its
 //! Jacobian, the planner's inner loop; and one warm-started replan of the
 //! model-predictive controller (`replan_lwr`, one thread) over windows of
 //! 60, 90 and 150 steps, against the 16.7 ms of a 60 Hz frame.
@@ -15,12 +17,14 @@ use swingup::config::{Config, ModelKind};
 use swingup::learn::run;
 use swingup::models::learned::learn_model;
 use swingup::models::{LearnedModel, PendulumRegression};
-use swingup::planning::eq3::{plan, window_cost};
+use swingup::planning::eq3::{plan, plan_from, window_cost};
 use swingup::planning::mpc::{ReplanSettings, Window, WindowPlan, replan, shifted};
+use swingup::record::PlanSummary;
 
 /// The default configuration with the pure LWR, its model learned from
-/// the first two trials of seed 1, and the demonstration.
-fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration) {
+/// the first two trials of seed 1, the demonstration, and trial 2's plan
+/// (made with the model of trial 1).
+fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration, PlanSummary) {
     let mut cfg = Config {
         seed: 1,
         max_trials: 2,
@@ -31,15 +35,17 @@ fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration) {
     let (model, summary) = learn_model(&cfg, &record.trials[..2]).expect("model");
     let demo = cfg.demonstration().expect("demo");
     let p = plan(&cfg, &demo, &model, None).expect("plan");
+    let previous = record.trials[1].plan.clone().expect("trial 2 is planned");
+    let w = plan_from(&cfg, &demo, &model, None, Some(&previous)).expect("warm plan");
     eprintln!(
-        "plan_lwr: model of {} points (bandwidth {:.3}, scales {:?}); the plan takes {} iterations ({})",
-        summary.n_points, summary.bandwidth, summary.scales, p.iterations, p.status
+        "plan_lwr: model of {} points (bandwidth {:.3}, scales {:?}); the plan takes {} iterations ({}), warm {} ({})",
+        summary.n_points, summary.bandwidth, summary.scales, p.iterations, p.status, w.iterations, w.status
     );
-    (cfg, model, demo)
+    (cfg, model, demo, previous)
 }
 
 fn plan_with_lwr(c: &mut Criterion) {
-    let (cfg, model, demo) = setup();
+    let (cfg, model, demo, previous) = setup();
     let mut group = c.benchmark_group("plan_lwr");
     group.sample_size(10);
     for threads in [1usize, 2] {
@@ -51,6 +57,13 @@ fn plan_with_lwr(c: &mut Criterion) {
             b.iter(|| pool.install(|| plan(&cfg, &demo, &model, None).expect("plan")));
         });
     }
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    group.bench_function("warm/1", |b| {
+        b.iter(|| one.install(|| plan_from(&cfg, &demo, &model, None, Some(&previous)).expect("plan")));
+    });
     group.finish();
 
     // one query with its Jacobian at points of the demonstration
@@ -75,10 +88,6 @@ fn plan_with_lwr(c: &mut Criterion) {
     // one replan one step into the trial, warm-started from the plan
     // shifted by one step, from the state the plan predicted there
     let first = plan(&cfg, &demo, &model, None).expect("plan");
-    let one = rayon::ThreadPoolBuilder::new()
-        .num_threads(1)
-        .build()
-        .expect("thread pool");
     let settings = ReplanSettings {
         max_iterations: cfg.mpc.iterations,
         ..ReplanSettings::default()

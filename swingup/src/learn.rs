@@ -144,6 +144,7 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 support,
                 support_seconds,
                 index,
+                previous: trials.iter().rev().find_map(|t| t.plan.as_ref()),
             };
             let (n_points, solver) = (
                 trials.iter().map(|t| t.commands.len()).sum::<usize>(),
@@ -430,6 +431,8 @@ struct PlannedTrial<'a> {
     support: Option<Arc<DataSupport>>,
     support_seconds: f64,
     index: usize,
+    /// The last planned trial's plan (the warm start).
+    previous: Option<&'a PlanSummary>,
 }
 
 impl PlannedTrial<'_> {
@@ -440,7 +443,7 @@ impl PlannedTrial<'_> {
         tuning: f64,
     ) -> crate::Result<TrialRecord> {
         let started = Instant::now();
-        let (plan, gains) = plan_and_gains(self.cfg, self.demo, &model, self.support.clone())?;
+        let (plan, gains) = plan_and_gains(self.cfg, self.demo, &model, self.support.clone(), self.previous)?;
         let planning = self.support_seconds + started.elapsed().as_secs_f64();
         let started = Instant::now();
         let mut t = match self.cfg.controller {
@@ -568,7 +571,7 @@ mod tests {
             TrialKind::Imitation,
         );
         let mut model = KnownHand::new(TrueRegression::new(cfg.robot).expect("model"), cfg.robot.dt);
-        let (plan, _) = plan_and_gains(&cfg, &d, &model, None).expect("plan");
+        let (plan, _) = plan_and_gains(&cfg, &d, &model, None, None).expect("plan");
         let open = execute(
             &cfg,
             &robot,

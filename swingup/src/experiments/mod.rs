@@ -527,6 +527,13 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                         }),
                     ),
                     (
+                        "lwr, warm start".into(),
+                        Box::new(|c| {
+                            c.model.kind = ModelKind::Lwr;
+                            c.planner.warm_start = true;
+                        }),
+                    ),
+                    (
                         "lwr-parametric".into(),
                         Box::new(|c| c.model.kind = ModelKind::LwrParametric),
                     ),

@@ -13,6 +13,7 @@ use trajopt::powell::{Powell, PowellSettings};
 use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, TrackingCost};
 
 use crate::config::{BasisKind, Config, Solver, Start};
+use crate::error::ResultExt;
 use crate::planning::cost::SwingupCost;
 use crate::planning::support::DataSupport;
 use crate::plant::demo::Demonstration;
@@ -203,8 +204,28 @@ pub fn plan<M: trajopt::Model>(
     model: M,
     support: Option<Arc<DataSupport>>,
 ) -> crate::Result<PlanSummary> {
+    plan_from(cfg, demo, model, support, None)
+}
+
+/// [`plan`], warm-started from `start` when given: the plan starts from
+/// `start`'s trajectory fitted by the bases and is solved at the final
+/// $\lambda$ directly, without the continuation (see
+/// [`PlannerConfig::warm_start`](crate::config::PlannerConfig::warm_start)).
+/// `start` must span the demonstration's horizon.
+pub fn plan_from<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: M,
+    support: Option<Arc<DataSupport>>,
+    start: Option<&PlanSummary>,
+) -> crate::Result<PlanSummary> {
     let p = &cfg.planner;
     let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
+    let theta0 = match start {
+        Some(s) => fit_coefficients(cfg, demo, &problem, &s.states, &s.controls)
+            .context("warm-starting from the previous plan")?,
+        None => theta0,
+    };
     let solver = GaussNewton::new(GaussNewtonSettings {
         max_iterations: p.max_iters,
         tol_cost: p.tol_cost,
@@ -214,7 +235,7 @@ pub fn plan<M: trajopt::Model>(
         max_cost_evals: Some(p.powell_evals),
         ..PowellSettings::default()
     })?;
-    let mut lambda = if p.lambda_start > 0.0 && p.lambda_start < p.lambda {
+    let mut lambda = if start.is_none() && p.lambda_start > 0.0 && p.lambda_start < p.lambda {
         p.lambda_start
     } else {
         p.lambda
@@ -352,5 +373,52 @@ mod tests {
             tight.iterations
         );
         assert!(loose.cost <= tight.cost * 1.05, "{} against {}", loose.cost, tight.cost);
+    }
+
+    /// A warm start from a plan starts exactly there (the bases reproduce
+    /// their own samples), skips the continuation and never ends above it;
+    /// `plan_with` uses the previous plan only with `warm_start` on and a
+    /// plan over the same horizon, and otherwise plans from the
+    /// demonstration bit for bit as without one.
+    #[test]
+    fn warm_start_begins_at_the_previous_plan() {
+        let mut cfg = Config::default();
+        cfg.planner.tol_cost = 1e-10;
+        let d = demo(&cfg);
+        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let cold = plan(&cfg, &d, &model, None).expect("plan");
+        let warm = plan_from(&cfg, &d, &model, None, Some(&cold)).expect("warm plan");
+        let rel = (warm.initial_cost - cold.cost).abs() / cold.cost;
+        assert!(
+            rel < 1e-9,
+            "warm start at {} against the plan's {}",
+            warm.initial_cost,
+            cold.cost
+        );
+        assert!(
+            warm.cost <= warm.initial_cost,
+            "{} above {}",
+            warm.cost,
+            warm.initial_cost
+        );
+        assert!(
+            warm.iterations * 4 < cold.iterations,
+            "{} against {}",
+            warm.iterations,
+            cold.iterations
+        );
+
+        let with = |on: bool, previous: Option<&PlanSummary>| {
+            let mut c = cfg.clone();
+            c.planner.warm_start = on;
+            crate::planning::plan_with(&c, &d, &model, None, previous).expect("plan")
+        };
+        let mut short = cold.clone();
+        short.controls.pop();
+        for ignored in [with(false, Some(&cold)), with(true, None), with(true, Some(&short))] {
+            assert_eq!(ignored.controls, cold.controls);
+            assert_eq!(ignored.iterations, cold.iterations);
+        }
+        assert_eq!(with(true, Some(&cold)).iterations, warm.iterations);
     }
 }

@@ -17,14 +17,17 @@ use crate::record::PlanSummary;
 
 /// Plans with the configured planner, and with
 /// [`Config::feedback`] the time-varying LQR gains along the plan (from
-/// the same model).
+/// the same model). `previous`, the last trial's plan, is the warm start of
+/// the Eq. 3 planners with
+/// [`PlannerConfig::warm_start`](crate::config::PlannerConfig::warm_start).
 pub fn plan_and_gains<G: PendulumRegression>(
     cfg: &Config,
     demo: &Demonstration,
     model: &KnownHand<G>,
     support: Option<Arc<DataSupport>>,
+    previous: Option<&PlanSummary>,
 ) -> crate::Result<(PlanSummary, Option<Vec<[f64; 4]>>)> {
-    let plan = plan_with(cfg, demo, model, support)?;
+    let plan = plan_with(cfg, demo, model, support, previous)?;
     let gains = match cfg.feedback {
         [q0, q1, q2, q3, r]
             if [q0, q1, q2, q3].iter().any(|&q| q > 0.0) && plan.states.len() == plan.controls.len() + 1 =>
@@ -37,15 +40,21 @@ pub fn plan_and_gains<G: PendulumRegression>(
 }
 
 /// Plans with the configured planner ([`PlannerConfig::solver`](crate::config::PlannerConfig::solver)); the
-/// Eq. 3 planners with the penalty on leaving `support` (DDP without).
+/// Eq. 3 planners with the penalty on leaving `support` (DDP without),
+/// warm-started from `previous` when
+/// [`PlannerConfig::warm_start`](crate::config::PlannerConfig::warm_start)
+/// is on and it spans the demonstration's horizon.
 pub fn plan_with<G: PendulumRegression>(
     cfg: &Config,
     demo: &Demonstration,
     model: &KnownHand<G>,
     support: Option<Arc<DataSupport>>,
+    previous: Option<&PlanSummary>,
 ) -> crate::Result<PlanSummary> {
+    let n = demo.horizon();
+    let warm = previous.filter(|p| cfg.planner.warm_start && p.states.len() == n + 1 && p.controls.len() == n);
     match cfg.planner.solver {
-        Solver::GaussNewton | Solver::Powell => eq3::plan(cfg, demo, model, support),
+        Solver::GaussNewton | Solver::Powell => eq3::plan_from(cfg, demo, model, support, warm),
         Solver::Ddp => ddp::plan_ddp(cfg, demo, model),
     }
 }
