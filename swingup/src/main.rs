@@ -42,8 +42,9 @@ enum Command {
     Fit(swingup::fit_cmd::FitArgs),
     /// How accurate must a model be for an open-loop swing-up? Plans with
     /// the exact dynamics of the robot with one parameter off by a factor,
-    /// runs each plan on the real robot over seeds; writes
-    /// sensitivity.json and sensitivity.md.
+    /// runs each plan on the real robot over seeds; measures the pure LWR
+    /// against that budget, and how it plans once it has a successful
+    /// swing-up's data; writes sensitivity.json and sensitivity.md.
     Sensitivity(SensitivityArgs),
 }
 
@@ -58,6 +59,12 @@ struct SensitivityArgs {
     /// Trials of each of those runs (models after 1, 2, ... trials).
     #[arg(long, default_value_t = 3)]
     model_trials: usize,
+    /// Runs (seeds) of the pure LWR given a successful swing-up's data.
+    #[arg(long, default_value_t = 20)]
+    success_seeds: u64,
+    /// LWR trials of each of those runs after the successful one.
+    #[arg(long, default_value_t = 3)]
+    success_trials: usize,
     /// Output directory.
     #[arg(long, default_value = "runs/sensitivity")]
     out: PathBuf,
@@ -209,6 +216,7 @@ fn run_command() -> anyhow::Result<()> {
 fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     use swingup::experiments::sensitivity::{
         SensitivityReport, code_version, default_perturbations, learned_model_error, open_loop_tolerance,
+        with_successful_data,
     };
     let perturbations = default_perturbations();
     println!(
@@ -225,11 +233,17 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         args.model_seeds, args.model_trials
     );
     let model_error = learned_model_error(&cfg, args.model_seeds, args.model_trials)?;
+    println!(
+        "learning with the pure LWR after a successful swing-up over {} seeds, up to {} trials each",
+        args.success_seeds, args.success_trials
+    );
+    let successful_data = with_successful_data(&cfg, args.success_seeds, args.success_trials)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let report = SensitivityReport {
         version,
         tolerance: rows,
         learned_model_error: model_error,
+        successful_data,
     };
     let md = report.markdown();
     write_atomic(

@@ -16,7 +16,13 @@
 //! (the swing-up that works), against the error a gravity off by 1 %
 //! would make along the same plan.
 //!
-//! `swingup sensitivity` runs both and writes `sensitivity.json` and
+//! The third ([`with_successful_data`]) asks whether exploring the final
+//! swing would be enough: the pure LWR is given the data of a swing-up
+//! that works (the exact model's plan run on the robot, with its sensor
+//! noise) besides the imitation's, and plans the next trial, from the
+//! demonstration as the paper does and from the successful plan itself.
+//!
+//! `swingup sensitivity` runs all three and writes `sensitivity.json` and
 //! `sensitivity.md`.
 
 use std::fmt::Write as _;
@@ -25,6 +31,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::config::{Config, ModelKind};
+use crate::diagnostics::median;
 use crate::learn::{execute, run};
 use crate::models::KnownHand;
 use crate::models::PendulumRegression;
@@ -197,18 +204,220 @@ pub struct SensitivityReport {
     pub tolerance: Vec<SensitivityRow>,
     /// The pure LWR's error along the exact plan ([`learned_model_error`]).
     pub learned_model_error: ModelErrorReport,
+    /// The pure LWR planning with a successful swing-up's data
+    /// ([`with_successful_data`]; empty in reports saved before it existed).
+    #[serde(default)]
+    pub successful_data: Vec<SuccessfulDataRow>,
 }
 
 impl SensitivityReport {
     /// The full report ([`markdown`]).
     pub fn markdown(&self) -> String {
-        markdown(&self.tolerance, Some(&self.learned_model_error), &self.version)
+        let mut md = markdown(&self.tolerance, Some(&self.learned_model_error), &self.version);
+        md.push_str(&successful_data_markdown(&self.successful_data));
+        md
     }
 
-    /// The README's block ([`readme_summary`]).
+    /// The README's block ([`readme_summary`] and the successful-data rows).
     pub fn readme_summary(&self) -> String {
-        readme_summary(&self.tolerance, &self.learned_model_error, &self.version)
+        let mut md = readme_summary(&self.tolerance, &self.learned_model_error, &self.version);
+        if !self.successful_data.is_empty() {
+            let last = md.rfind("\n(`swingup sensitivity").unwrap_or(md.len());
+            md.insert_str(last, &successful_data_summary(&self.successful_data));
+        }
+        md
     }
+}
+
+/// Where the plan that follows a successful swing-up's data starts.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum NextPlanStart {
+    /// From the demonstration, with the lambda continuation (the paper's
+    /// planner, as every learning run plans).
+    Demonstration,
+    /// From the successful plan itself, at the final lambda
+    /// ([`PlannerConfig::warm_start`](crate::config::PlannerConfig::warm_start)).
+    SuccessfulPlan,
+}
+
+/// The pure LWR given the data of a swing-up that works: per start of the
+/// next plan, how often the next trial and the trials after it succeed.
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct SuccessfulDataRow {
+    /// Where the next plan starts.
+    pub start: NextPlanStart,
+    /// Runs (seeds) whose exact-model trial succeeded and so took part.
+    pub runs: usize,
+    /// Trials planned with the LWR after the successful one, at most.
+    pub trials: usize,
+    /// Runs whose first LWR trial succeeded.
+    pub next_successes: usize,
+    /// Runs that succeeded within `trials` LWR trials.
+    pub successes: usize,
+    /// Per run, the first LWR trial's largest angle (rad).
+    pub next_max_angles: Vec<f64>,
+    /// Per run, the largest $|\theta^{plan}_k - \theta^{success}_k|$ of the
+    /// first LWR plan against the successful trial's observed angles (rad):
+    /// how far the plan moves from the path whose data the model has.
+    pub plan_departures: Vec<f64>,
+}
+
+/// Runs, for seeds `1..=seeds` in parallel, the exact model's learning run
+/// (the imitation, then the exact plan on the robot, which swings up), then
+/// continues it with the pure LWR (`cfg` with `model.kind = lwr`) for up to
+/// `trials` more trials, once per [`NextPlanStart`]. The successful trial
+/// is passed to the loop as a failed one, so that learning goes on with
+/// its data; seeds whose exact-model trial failed are left out.
+///
+/// # Errors
+/// An invalid configuration, `seeds` or `trials` of 0, or a failed run.
+pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::Result<Vec<SuccessfulDataRow>> {
+    cfg.validate()?;
+    crate::error::ensure_data!(seeds >= 1 && trials >= 1, "need at least one seed and one trial");
+    let starts = [NextPlanStart::Demonstration, NextPlanStart::SuccessfulPlan];
+    // per seed: None (exact trial failed) or per start (success trial, max angle, departure)
+    type Outcome = Option<Vec<(Option<usize>, f64, f64)>>;
+    let per_seed: Vec<Outcome> = (1..=seeds)
+        .into_par_iter()
+        .map(|seed| -> crate::Result<Outcome> {
+            let mut exact = Config {
+                seed,
+                max_trials: 2,
+                ..cfg.clone()
+            };
+            exact.model.kind = ModelKind::True;
+            let record = run(&exact, vec![], &mut |_: &crate::record::TrialRecord| {})?;
+            if record.success_trial != Some(2) {
+                return Ok(None);
+            }
+            let good = record.trials[1].observed.clone();
+            let mut previous = record.trials;
+            for t in &mut previous {
+                t.success = false;
+            }
+            starts
+                .iter()
+                .map(|start| {
+                    let mut c = Config {
+                        seed,
+                        max_trials: 2 + trials,
+                        ..cfg.clone()
+                    };
+                    c.model.kind = ModelKind::Lwr;
+                    c.planner.warm_start = *start == NextPlanStart::SuccessfulPlan;
+                    let r = run(&c, previous.clone(), &mut |_: &crate::record::TrialRecord| {})?;
+                    let next = &r.trials[2];
+                    let departure = next.plan.as_ref().map_or(f64::NAN, |p| {
+                        p.states
+                            .iter()
+                            .zip(&good)
+                            .map(|(a, b)| (a[0] - b[0]).abs())
+                            .fold(0.0, f64::max)
+                    });
+                    Ok((r.success_trial.map(|t| t - 2), next.max_angle, departure))
+                })
+                .collect::<crate::Result<Vec<_>>>()
+                .map(Some)
+        })
+        .collect::<crate::Result<_>>()?;
+    Ok(starts
+        .iter()
+        .enumerate()
+        .map(|(i, &start)| {
+            let these: Vec<&(Option<usize>, f64, f64)> = per_seed.iter().flatten().map(|v| &v[i]).collect();
+            SuccessfulDataRow {
+                start,
+                runs: these.len(),
+                trials,
+                next_successes: these.iter().filter(|o| o.0 == Some(1)).count(),
+                successes: these.iter().filter(|o| o.0.is_some()).count(),
+                next_max_angles: these.iter().map(|o| o.1).collect(),
+                plan_departures: these.iter().map(|o| o.2).collect(),
+            }
+        })
+        .collect())
+}
+
+impl NextPlanStart {
+    fn describe(self) -> &'static str {
+        match self {
+            Self::Demonstration => "the demonstration (the paper's)",
+            Self::SuccessfulPlan => "the successful plan (warm start)",
+        }
+    }
+}
+
+/// The section of `sensitivity.md` on [`with_successful_data`] (empty
+/// without rows).
+pub fn successful_data_markdown(rows: &[SuccessfulDataRow]) -> String {
+    let mut md = String::new();
+    let Some(first) = rows.first() else {
+        return md;
+    };
+    let _ = writeln!(
+        md,
+        "## The pure LWR with a successful swing-up's data
+"
+    );
+    let _ = writeln!(
+        md,
+        "Would exploring the final swing be enough? Each run imitates, then runs the exact \
+         model's plan on the robot (a swing-up that works, with the robot's sensor noise), \
+         then learns on with the pure LWR (default settings) from both trials' data for up to \
+         {} more trials. The next plan starts from the demonstration (as every learning run \
+         plans) or from the successful plan. Departure: the largest angle between the first \
+         LWR plan and the successful trial.\n",
+        first.trials
+    );
+    let _ = writeln!(
+        md,
+        "| next plan starts from | runs | next trial succeeds | succeeds within {} trials | next trial's max angle (deg), median | plan's departure from the successful path (rad), median, min-max |",
+        first.trials
+    );
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---|");
+    for r in rows {
+        let (lo, hi) = r
+            .plan_departures
+            .iter()
+            .filter(|d| d.is_finite())
+            .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(*d), b.max(*d)));
+        let _ = writeln!(
+            md,
+            "| {} | {} | {}/{} | {}/{} | {:.0} | {:.2}, {lo:.2}-{hi:.2} |",
+            r.start.describe(),
+            r.runs,
+            r.next_successes,
+            r.runs,
+            r.successes,
+            r.runs,
+            median(&r.next_max_angles).to_degrees(),
+            median(&r.plan_departures),
+        );
+    }
+    md.push('\n');
+    md
+}
+
+/// The README's rows of [`with_successful_data`].
+fn successful_data_summary(rows: &[SuccessfulDataRow]) -> String {
+    let mut md = String::from(
+        "\n| pure LWR given a successful swing-up's data, next plan from | next trial succeeds | succeeds within | plan's median departure from the successful path |\n|---|---|---|---|\n",
+    );
+    for r in rows {
+        let _ = writeln!(
+            md,
+            "| {} | {}/{} | {}/{} in {} trials | {:.2} rad |",
+            r.start.describe(),
+            r.next_successes,
+            r.runs,
+            r.successes,
+            r.runs,
+            r.trials,
+            median(&r.plan_departures)
+        );
+    }
+    md
 }
 
 /// Runs learning with the pure LWR (`cfg` with `model.kind = lwr`) for
@@ -517,5 +726,28 @@ mod tests {
             .expect_err("negative")
             .to_string();
         assert!(e.contains("gravity"), "{e}");
+    }
+
+    /// With a successful swing-up's data the runs go on with the LWR from
+    /// trial 3; the warm start begins on the successful path (its plan is
+    /// that trial's plan), so it departs from it far less than a plan from
+    /// the demonstration; the markdown and the README rows show both.
+    #[test]
+    fn successful_data_runs_go_on_with_the_lwr() {
+        let cfg = Config::default();
+        let rows = with_successful_data(&cfg, 1, 1).expect("runs");
+        assert_eq!(rows.len(), 2);
+        assert!(rows.iter().all(|r| r.runs == 1 && r.trials == 1), "{rows:?}");
+        assert!(
+            rows.iter()
+                .all(|r| r.next_max_angles.len() == 1 && r.plan_departures[0].is_finite())
+        );
+        assert!(rows.iter().all(|r| r.successes == r.next_successes));
+        let (cold, warm) = (rows[0].plan_departures[0], rows[1].plan_departures[0]);
+        assert!(warm < 0.5 * cold, "warm {warm}, cold {cold}");
+        let md = successful_data_markdown(&rows);
+        assert!(md.contains("| the demonstration (the paper's) | 1 |"), "{md}");
+        assert!(successful_data_summary(&rows).contains("| the successful plan (warm start) |"));
+        assert!(with_successful_data(&cfg, 0, 1).is_err());
     }
 }
