@@ -223,7 +223,10 @@ impl SensitivityReport {
         let mut md = readme_summary(&self.tolerance, &self.learned_model_error, &self.version);
         if !self.successful_data.is_empty() {
             let last = md.rfind("\n(`swingup sensitivity").unwrap_or(md.len());
-            md.insert_str(last, &successful_data_summary(&self.successful_data));
+            md.insert_str(
+                last,
+                &successful_data_summary(&self.successful_data, self.learned_model_error.gravity_rms),
+            );
         }
         md
     }
@@ -261,6 +264,12 @@ pub struct SuccessfulDataRow {
     /// first LWR plan against the successful trial's observed angles (rad):
     /// how far the plan moves from the path whose data the model has.
     pub plan_departures: Vec<f64>,
+    /// Per run, the root mean square of the error of the LWR learned from
+    /// the imitation and the successful trial along the successful plan
+    /// (rad/s per sample, as [`ModelErrorRow`]): the model where it has
+    /// the data (the same for either start).
+    #[serde(default)]
+    pub path_errors: Vec<f64>,
 }
 
 /// Runs, for seeds `1..=seeds` in parallel, the exact model's learning run
@@ -276,8 +285,9 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
     cfg.validate()?;
     crate::error::ensure_data!(seeds >= 1 && trials >= 1, "need at least one seed and one trial");
     let starts = [NextPlanStart::Demonstration, NextPlanStart::SuccessfulPlan];
-    // per seed: None (exact trial failed) or per start (success trial, max angle, departure)
-    type Outcome = Option<Vec<(Option<usize>, f64, f64)>>;
+    let truth = TrueRegression::new(cfg.robot)?;
+    // per seed: None (exact trial failed) or per start (success trial, max angle, departure, path error)
+    type Outcome = Option<Vec<(Option<usize>, f64, f64, f64)>>;
     let per_seed: Vec<Outcome> = (1..=seeds)
         .into_par_iter()
         .map(|seed| -> crate::Result<Outcome> {
@@ -296,6 +306,21 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
             for t in &mut previous {
                 t.success = false;
             }
+            let mut lwr = Config { seed, ..cfg.clone() };
+            lwr.model.kind = ModelKind::Lwr;
+            let (model, _) = learn_model(&lwr, &previous)?;
+            let path_error = previous[1].plan.as_ref().map_or(f64::NAN, |p| {
+                let errors: Vec<f64> = p
+                    .states
+                    .iter()
+                    .zip(&p.controls)
+                    .map(|(s, u)| {
+                        let z = [s[0], s[1], s[2], s[3], *u];
+                        model.regression.delta_omega(&z, None) - truth.delta_omega(&z, None)
+                    })
+                    .collect();
+                crate::diagnostics::rms(&errors)
+            });
             starts
                 .iter()
                 .map(|start| {
@@ -315,7 +340,7 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
                             .map(|(a, b)| (a[0] - b[0]).abs())
                             .fold(0.0, f64::max)
                     });
-                    Ok((r.success_trial.map(|t| t - 2), next.max_angle, departure))
+                    Ok((r.success_trial.map(|t| t - 2), next.max_angle, departure, path_error))
                 })
                 .collect::<crate::Result<Vec<_>>>()
                 .map(Some)
@@ -325,7 +350,7 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
         .iter()
         .enumerate()
         .map(|(i, &start)| {
-            let these: Vec<&(Option<usize>, f64, f64)> = per_seed.iter().flatten().map(|v| &v[i]).collect();
+            let these: Vec<&(Option<usize>, f64, f64, f64)> = per_seed.iter().flatten().map(|v| &v[i]).collect();
             SuccessfulDataRow {
                 start,
                 runs: these.len(),
@@ -334,6 +359,7 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
                 successes: these.iter().filter(|o| o.0.is_some()).count(),
                 next_max_angles: these.iter().map(|o| o.1).collect(),
                 plan_departures: these.iter().map(|o| o.2).collect(),
+                path_errors: these.iter().map(|o| o.3).collect(),
             }
         })
         .collect())
@@ -367,15 +393,17 @@ pub fn successful_data_markdown(rows: &[SuccessfulDataRow]) -> String {
          then learns on with the pure LWR (default settings) from both trials' data for up to \
          {} more trials. The next plan starts from the demonstration (as every learning run \
          plans) or from the successful plan. Departure: the largest angle between the first \
-         LWR plan and the successful trial.\n",
+         LWR plan and the successful trial. Model error: the root mean square error of the LWR \
+         learned from both trials along the successful plan, where it has the data (rad/s per \
+         sample, as above).\n",
         first.trials
     );
     let _ = writeln!(
         md,
-        "| next plan starts from | runs | next trial succeeds | succeeds within {} trials | next trial's max angle (deg), median | plan's departure from the successful path (rad), median, min-max |",
+        "| next plan starts from | runs | next trial succeeds | succeeds within {} trials | next trial's max angle (deg), median | plan's departure from the successful path (rad), median, min-max | model error along it, median |",
         first.trials
     );
-    let _ = writeln!(md, "|---|---:|---:|---:|---:|---|");
+    let _ = writeln!(md, "|---|---:|---:|---:|---:|---|---:|");
     for r in rows {
         let (lo, hi) = r
             .plan_departures
@@ -384,7 +412,7 @@ pub fn successful_data_markdown(rows: &[SuccessfulDataRow]) -> String {
             .fold((f64::INFINITY, f64::NEG_INFINITY), |(a, b), d| (a.min(*d), b.max(*d)));
         let _ = writeln!(
             md,
-            "| {} | {} | {}/{} | {}/{} | {:.0} | {:.2}, {lo:.2}-{hi:.2} |",
+            "| {} | {} | {}/{} | {}/{} | {:.0} | {:.2}, {lo:.2}-{hi:.2} | {} |",
             r.start.describe(),
             r.runs,
             r.next_successes,
@@ -393,28 +421,31 @@ pub fn successful_data_markdown(rows: &[SuccessfulDataRow]) -> String {
             r.runs,
             median(&r.next_max_angles).to_degrees(),
             median(&r.plan_departures),
+            crate::format::num(median(&r.path_errors)),
         );
     }
     md.push('\n');
     md
 }
 
-/// The README's rows of [`with_successful_data`].
-fn successful_data_summary(rows: &[SuccessfulDataRow]) -> String {
+/// The README's rows of [`with_successful_data`], the model's error along
+/// the successful path in units of `gravity_rms` (a 1 % gravity error's).
+fn successful_data_summary(rows: &[SuccessfulDataRow], gravity_rms: f64) -> String {
     let mut md = String::from(
-        "\n| pure LWR given a successful swing-up's data, next plan from | next trial succeeds | succeeds within | plan's median departure from the successful path |\n|---|---|---|---|\n",
+        "\n| pure LWR given a successful swing-up's data, next plan from | next trial succeeds | succeeds within | plan's median departure from the successful path | median model error along that path |\n|---|---|---|---|---|\n",
     );
     for r in rows {
         let _ = writeln!(
             md,
-            "| {} | {}/{} | {}/{} in {} trials | {:.2} rad |",
+            "| {} | {}/{} | {}/{} in {} trials | {:.2} rad | {:.0}x a 1 % gravity error |",
             r.start.describe(),
             r.next_successes,
             r.runs,
             r.successes,
             r.runs,
             r.trials,
-            median(&r.plan_departures)
+            median(&r.plan_departures),
+            median(&r.path_errors) / gravity_rms
         );
     }
     md
@@ -747,7 +778,11 @@ mod tests {
         assert!(warm < 0.5 * cold, "warm {warm}, cold {cold}");
         let md = successful_data_markdown(&rows);
         assert!(md.contains("| the demonstration (the paper's) | 1 |"), "{md}");
-        assert!(successful_data_summary(&rows).contains("| the successful plan (warm start) |"));
+        assert!(rows.iter().all(|r| r.path_errors.len() == 1 && r.path_errors[0] > 0.0));
+        assert_eq!(rows[0].path_errors, rows[1].path_errors);
+        let short = successful_data_summary(&rows, rows[0].path_errors[0] / 10.0);
+        assert!(short.contains("| the successful plan (warm start) |"), "{short}");
+        assert!(short.contains("| 10x a 1 % gravity error |"), "{short}");
         assert!(with_successful_data(&cfg, 0, 1).is_err());
     }
 }
