@@ -16,7 +16,8 @@
 //!    mismatch in rate units), over cubic B-spline (or wavelet)
 //!    coefficients initialised by fitting the demonstration (Eqs. 6-7),
 //!    with $\lambda$ raised tenfold per stage from `lambda_start` (a
-//!    continuation). We penalise $u - u^d$ rather than the paper's
+//!    continuation; with `planner.warm_start`, each plan after the first
+//!    instead re-solves the previous trial's plan at the final $\lambda$). We penalise $u - u^d$ rather than the paper's
 //!    $u^\top R u$, so that $\lambda = 0$ plans the demonstration itself.
 //!    DDP plans through the model instead (no $\lambda$).
 //! 4. The robot executes the planned commands with its hand servoed to the
