@@ -220,14 +220,14 @@ impl SensitivityReport {
 
     /// The README's block ([`readme_summary`] and the successful-data rows).
     pub fn readme_summary(&self) -> String {
-        let mut md = readme_summary(&self.tolerance, &self.learned_model_error, &self.version);
+        let mut md = readme_tables(&self.tolerance, &self.learned_model_error);
         if !self.successful_data.is_empty() {
-            let last = md.rfind("\n(`swingup sensitivity").unwrap_or(md.len());
-            md.insert_str(
-                last,
-                &successful_data_summary(&self.successful_data, self.learned_model_error.gravity_rms),
-            );
+            md.push_str(&successful_data_summary(
+                &self.successful_data,
+                self.learned_model_error.gravity_rms,
+            ));
         }
+        md.push_str(&readme_stamp(&self.version));
         md
     }
 }
@@ -618,6 +618,16 @@ pub fn markdown(rows: &[SensitivityRow], model_error: Option<&ModelErrorReport>,
 /// the imitation's data after each number of trials, in units of the error
 /// a 1 % gravity mistake makes. Stamped with `version`.
 pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, version: &str) -> String {
+    readme_tables(rows, model_error) + &readme_stamp(version)
+}
+
+/// The line under the README's tables naming the command and `version`.
+fn readme_stamp(version: &str) -> String {
+    format!("\n(`swingup sensitivity --out results --update-readme swingup/README.md` at {version}.)\n")
+}
+
+/// [`readme_summary`]'s tables, without the stamp.
+fn readme_tables(rows: &[SensitivityRow], model_error: &ModelErrorReport) -> String {
     let mut md = String::new();
     let _ = writeln!(
         md,
@@ -670,10 +680,6 @@ pub fn readme_summary(rows: &[SensitivityRow], model_error: &ModelErrorReport, v
             r.rms_beyond / model_error.gravity_rms
         );
     }
-    let _ = writeln!(
-        md,
-        "\n(`swingup sensitivity --out results --update-readme swingup/README.md` at {version}.)"
-    );
     md
 }
 
