@@ -6,14 +6,18 @@
 //! previous trial's, as `planner.warm_start` plans); one model query with its
 //! Jacobian, the planner's inner loop; and one warm-started replan of the
 //! model-predictive controller (`replan_lwr`, one thread) over windows of
-//! 60, 90 and 150 steps, against the 16.7 ms of a 60 Hz frame.
+//! 60, 90 and 150 steps, against the 16.7 ms of a 60 Hz frame. And the
+//! cold plan by each derivative-free planner on one thread
+//! (`plan_lwr_derivative_free`: Gauss-Newton for reference, the
+//! derivative-free mode by element and by group differences, Powell at its
+//! configured budget), each one's status, evaluations and criterion printed first.
 //!
 //! `cargo bench -p swingup --bench plan_lwr`
 
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use swingup::config::{Config, ModelKind};
+use swingup::config::{Config, Differences, ModelKind, Solver};
 use swingup::learn::run;
 use swingup::models::learned::learn_model;
 use swingup::models::{LearnedModel, PendulumRegression};
@@ -64,6 +68,29 @@ fn plan_with_lwr(c: &mut Criterion) {
     group.bench_function("warm/1", |b| {
         b.iter(|| one.install(|| plan_from(&cfg, &demo, &model, None, Some(&previous)).expect("plan")));
     });
+    group.finish();
+
+    // the same cold plan by each derivative-free planner, on one thread
+    let mut group = c.benchmark_group("plan_lwr_derivative_free");
+    group.sample_size(10);
+    for (name, solver, differences) in [
+        ("gauss-newton", Solver::GaussNewton, Differences::Elements),
+        ("elements", Solver::DerivativeFree, Differences::Elements),
+        ("groups", Solver::DerivativeFree, Differences::Groups),
+        ("powell", Solver::Powell, Differences::Elements),
+    ] {
+        let mut c = cfg.clone();
+        c.planner.solver = solver;
+        c.planner.differences = differences;
+        let p = plan(&c, &demo, &model, None).expect("plan");
+        eprintln!(
+            "plan_lwr_derivative_free/{name}: {} after {} iterations, {} criterion evaluations, criterion {:.6e}",
+            p.status, p.iterations, p.evaluations, p.cost
+        );
+        group.bench_function(name, |b| {
+            b.iter(|| one.install(|| plan(&c, &demo, &model, None).expect("plan")));
+        });
+    }
     group.finish();
 
     // one query with its Jacobian at points of the demonstration

@@ -192,9 +192,30 @@ pub enum Solver {
     GaussNewton,
     /// Eq. 3 by Powell's derivative-free method, as in the paper (`trajopt`).
     Powell,
+    /// Eq. 3 by derivative-free least squares (`trajopt::derivative_free`):
+    /// Levenberg-Marquardt on a Jacobian differenced from the criterion's
+    /// residuals in Curtis-Powell-Reid column groups; the model's Jacobian
+    /// is never asked for.
+    DerivativeFree,
     /// Differential dynamic programming through the model (`ddp`); no
     /// consistency weight: every rollout is exactly consistent.
     Ddp,
+}
+
+/// How the derivative-free planner ([`Solver::DerivativeFree`]) differences
+/// Eq. 3's Jacobian; neither asks the model for its Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum Differences {
+    /// Per step: forward differences of the model in each of its inputs,
+    /// every step at once ($n + m + 1$ model evaluations per step, about 6
+    /// criterion evaluations per Jacobian; `trajopt::derivative_free::Differenced`).
+    #[default]
+    Elements,
+    /// Per coefficient group: Curtis-Powell-Reid groups of the criterion's
+    /// residuals (about 30 criterion evaluations per Jacobian;
+    /// `trajopt::DerivativeFree`).
+    Groups,
 }
 
 /// Which basis represents the planned trajectories (Eq. 3 planners).
@@ -292,7 +313,16 @@ pub struct PlannerConfig {
     /// Largest planned hand excursion (m), inside the robot's workspace
     /// to leave the hand servo room.
     pub x_max: f64,
-    /// Iteration cap of Gauss-Newton (per continuation stage) and DDP.
+    /// How [`Solver::DerivativeFree`] differences the Jacobian.
+    pub differences: Differences,
+    /// With the Powell and derivative-free planners: also solve each plan's
+    /// problem by Gauss-Newton (same model, start and continuation) and
+    /// record its criterion in the plan (`gauss_newton_cost`), to check that
+    /// the derivative-free plan is the same optimum. Off by default (it
+    /// costs a second solve, not counted in the plan's time).
+    pub compare_gauss_newton: bool,
+    /// Iteration cap of Gauss-Newton and the derivative-free mode (per
+    /// continuation stage) and DDP.
     pub max_iters: usize,
     /// Cost-evaluation budget of Powell's method (per continuation stage).
     pub powell_evals: usize,
@@ -344,6 +374,8 @@ impl Default for PlannerConfig {
             u_max: 12.0,
             x_max: 0.7,
             bound_weight: 1e4,
+            differences: Differences::Elements,
+            compare_gauss_newton: false,
             max_iters: 200,
             powell_evals: 200_000,
             tol_cost: 1e-6,

@@ -87,8 +87,9 @@ struct LearnArgs {
     /// Number of trials before giving up (the first one imitates).
     #[arg(long)]
     max_trials: Option<usize>,
-    /// The planner: Eq. 3 by Gauss-Newton or by Powell's method (the
-    /// paper's), or differential dynamic programming through the model.
+    /// The planner: Eq. 3 by Gauss-Newton, by Powell's method (the
+    /// paper's) or by derivative-free least squares, or differential
+    /// dynamic programming through the model.
     #[arg(long, value_enum)]
     planner: Option<Solver>,
     /// The learned model: locally weighted regression (the paper's), least
@@ -488,6 +489,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         settings.learning_seeds = n;
         settings.wavelet_seeds = settings.wavelet_seeds.min(n);
         settings.powell_seeds = settings.powell_seeds.min(n);
+        settings.derivative_free_seeds = n;
         settings.mpc_seeds = n;
     }
     if let Some(n) = args.max_trials {
@@ -680,8 +682,8 @@ fn grid_size(which: &[Experiment], s: &ExperimentSettings) -> String {
         .iter()
         .map(|e| match e {
             Experiment::Learning => format!(
-                "learning: {} seeds ({} with wavelets, {} with Powell), up to {} trials per run",
-                s.learning_seeds, s.wavelet_seeds, s.powell_seeds, s.max_trials
+                "learning: {} seeds ({} with wavelets, {} with Powell, {} derivative-free), up to {} trials per run",
+                s.learning_seeds, s.wavelet_seeds, s.powell_seeds, s.derivative_free_seeds, s.max_trials
             ),
             Experiment::Lambda | Experiment::Planners | Experiment::Beyond => format!(
                 "{}: {} seeds per variant, up to {} trials per run",

@@ -53,6 +53,12 @@ pub struct PlanSummary {
     /// The planned commands.
     #[serde(with = "nullable")]
     pub controls: Vec<f64>,
+    /// With [`PlannerConfig::compare_gauss_newton`](crate::config::PlannerConfig::compare_gauss_newton)
+    /// on a derivative-free or Powell plan: the criterion Gauss-Newton
+    /// reaches on the same problem (model, start, lambda continuation), for
+    /// comparison; its time is not in `seconds`. `None` otherwise.
+    #[serde(default)]
+    pub gauss_newton_cost: Option<f64>,
 }
 
 #[cfg(test)]
@@ -73,6 +79,7 @@ impl PlanSummary {
             seconds: 0.0,
             states,
             controls,
+            gauss_newton_cost: None,
         }
     }
 }

@@ -83,6 +83,7 @@ fn plan(inconsistency: f64, max_mismatch: f64) -> PlanSummary {
         seconds: 0.0123,
         states: swing(20, 3.1, 0.1),
         controls: vec![1.0; 20],
+        gauss_newton_cost: None,
     }
 }
 

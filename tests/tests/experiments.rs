@@ -5,6 +5,62 @@ use swingup::cartpole::CartPoleSettings;
 use swingup::config::ModelKind;
 use swingup::experiments::{CARTPOLE_VARIANT, Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
 
+/// The learning experiment's derivative-free variant records, per plan,
+/// Gauss-Newton's criterion on the same problem, and its plans reach it
+/// (the semiparametric model: smooth, a short test).
+#[test]
+fn derivative_free_plans_are_checked_against_gauss_newton() -> Result<(), Box<dyn std::error::Error>> {
+    let settings = ExperimentSettings {
+        seeds: 1,
+        learning_seeds: 0,
+        wavelet_seeds: 0,
+        powell_seeds: 0,
+        derivative_free_seeds: 1,
+        max_trials: 2,
+        powell_evals: 1000,
+        lambdas: vec![],
+        model: ModelKind::LwrParametric,
+        mpc_seeds: 0,
+        cartpole: Default::default(),
+    };
+    let report = run_experiments(
+        &[Experiment::Learning],
+        &settings,
+        vec![],
+        true,
+        None,
+        &[],
+        &|_, _, _| {},
+    )?;
+    let runs: Vec<_> = report
+        .runs
+        .iter()
+        .filter(|r| r.variant == "derivative-free/bspline")
+        .collect();
+    assert_eq!(runs.len(), 1);
+    let run = runs[0];
+    assert!(!run.plan_statuses.is_empty());
+    assert_eq!(run.plan_costs.len(), run.plan_statuses.len());
+    assert!(run.plan_gauss_newton_costs.iter().all(Option::is_some));
+    let (plans, converged, same, compared) =
+        swingup::experiments::claims::plan_agreement(&report.runs, "learning", "derivative-free/bspline");
+    assert_eq!((plans, compared), (run.plan_statuses.len(), plans));
+    assert_eq!(converged, plans, "{:?}", run.plan_statuses);
+    assert_eq!(
+        same, plans,
+        "{:?} against {:?}",
+        run.plan_costs, run.plan_gauss_newton_costs
+    );
+    let c2 = report.claims.iter().find(|c| c.id == "C2").ok_or("no C2 row")?;
+    assert!(
+        c2.ours.contains("derivative-free least squares: 0/1")
+            || c2.ours.contains("derivative-free least squares: 1/1"),
+        "{}",
+        c2.ours
+    );
+    Ok(())
+}
+
 #[test]
 fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::error::Error>> {
     let settings = ExperimentSettings {
@@ -12,6 +68,7 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         learning_seeds: 0,
         wavelet_seeds: 0,
         powell_seeds: 0,
+        derivative_free_seeds: 0,
         max_trials: 3,
         powell_evals: 1000,
         lambdas: vec![0.0, 1e3],
@@ -126,6 +183,8 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         robot_seconds: 11.0,
         max_angles: vec![1.5, 3.2],
         plan_statuses: vec![],
+        plan_costs: vec![],
+        plan_gauss_newton_costs: vec![],
         failures: vec![String::new(); 2],
         scales: vec![],
         rollouts: vec![],

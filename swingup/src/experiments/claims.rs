@@ -20,6 +20,48 @@ pub fn describe(v: Option<&VariantSummary>) -> String {
     }
 }
 
+/// Relative tolerance within which a derivative-free plan's criterion
+/// counts as Gauss-Newton's on the same problem.
+pub const SAME_OPTIMUM: f64 = 1e-3;
+
+/// How a derivative-free variant's plans compare with Gauss-Newton's on the
+/// same problems: (plans, converged by the solver's own test, converged
+/// and within [`SAME_OPTIMUM`] of Gauss-Newton's criterion or below it,
+/// plans compared).
+pub fn plan_agreement(runs: &[RunSummary], experiment: &str, variant: &str) -> (usize, usize, usize, usize) {
+    let (mut plans, mut converged, mut same, mut compared) = (0, 0, 0, 0);
+    for r in runs
+        .iter()
+        .filter(|r| r.experiment == experiment && r.variant == variant)
+    {
+        for (k, status) in r.plan_statuses.iter().enumerate() {
+            plans += 1;
+            let ok = status.starts_with("Converged");
+            converged += usize::from(ok);
+            if let (Some(&cost), Some(Some(gn))) = (r.plan_costs.get(k), r.plan_gauss_newton_costs.get(k)) {
+                compared += 1;
+                same += usize::from(ok && cost <= gn * (1.0 + SAME_OPTIMUM));
+            }
+        }
+    }
+    (plans, converged, same, compared)
+}
+
+/// [`plan_agreement`] in words.
+fn describe_plans(runs: &[RunSummary], variant: &str) -> String {
+    let (plans, converged, same, compared) = plan_agreement(runs, "learning", variant);
+    if plans == 0 {
+        return String::new();
+    }
+    let mut text = format!(" ({converged}/{plans} plans converged");
+    if compared > 0 {
+        text += &format!(
+            ", {same}/{compared} converged within {SAME_OPTIMUM:e} of Gauss-Newton's criterion on the same problem"
+        );
+    }
+    text + ")"
+}
+
 pub(super) fn claims(
     which: &[Experiment],
     s: &ExperimentSettings,
@@ -75,10 +117,13 @@ pub(super) fn claims(
             "C2",
             "learning with LWR and the Eq. 3 planner succeeds within a few trials (trial 3)",
             format!(
-                "{model} + Eq. 3 (Gauss-Newton, B-splines): {}; wavelets: {}; Powell: {} (cap {} trials)",
+                "{model} + Eq. 3 (Gauss-Newton, B-splines): {}; wavelets: {}; Powell: {}{}; derivative-free least squares: {}{} (cap {} trials)",
                 describe(gn),
                 describe(find("learning", "gauss-newton/wavelet")),
                 describe(find("learning", "powell/bspline")),
+                describe_plans(runs, "powell/bspline"),
+                describe(find("learning", super::DERIVATIVE_FREE_VARIANT)),
+                describe_plans(runs, super::DERIVATIVE_FREE_VARIANT),
                 s.max_trials
             ),
             if r >= 0.8 && gn.and_then(|v| v.median_trials).is_some_and(|m| m <= 5.0) {

@@ -65,6 +65,10 @@ pub struct ExperimentSettings {
     pub wavelet_seeds: u64,
     /// Seeds for the Powell variant (slow: derivative-free over 120 coefficients).
     pub powell_seeds: u64,
+    /// Seeds for the derivative-free least-squares variant (settings saved
+    /// before it existed read back with 0: the variant did not run).
+    #[serde(default)]
+    pub derivative_free_seeds: u64,
     /// Trial cap of every run.
     pub max_trials: usize,
     /// Powell's evaluation budget per plan.
@@ -99,6 +103,7 @@ impl ExperimentSettings {
             learning_seeds: 20,
             wavelet_seeds: 20,
             powell_seeds: 20,
+            derivative_free_seeds: 20,
             max_trials: 8,
             powell_evals: 10_000,
             lambdas: vec![0.0, 1e1, 1e2, 1e3, 1e4, 1e5, 1e6, 1e8],
@@ -116,6 +121,7 @@ impl ExperimentSettings {
             learning_seeds: 2,
             wavelet_seeds: 1,
             powell_seeds: 1,
+            derivative_free_seeds: 1,
             max_trials: 4,
             powell_evals: 3_000,
             lambdas: vec![0.0, 1e3, 1e8],
@@ -171,6 +177,15 @@ pub struct RunSummary {
     pub max_angles: Vec<f64>,
     /// Planner status per planned trial.
     pub plan_statuses: Vec<String>,
+    /// Final Eq. 3 criterion per planned trial (empty for runs saved
+    /// before it was recorded).
+    #[serde(default)]
+    pub plan_costs: Vec<f64>,
+    /// Per planned trial, the criterion Gauss-Newton reaches on the same
+    /// problem, where the run compared it
+    /// ([`PlannerConfig::compare_gauss_newton`](crate::config::PlannerConfig::compare_gauss_newton)).
+    #[serde(default)]
+    pub plan_gauss_newton_costs: Vec<Option<f64>>,
     /// Failure per trial (empty on success); DDP trials add the failure class.
     pub failures: Vec<String>,
     /// Tuned metric per planned trial (relative to each input's spread).
@@ -407,6 +422,9 @@ fn imitates(r: &RunSummary) -> bool {
 /// one whose runs keep their rollouts).
 pub(crate) const MAIN_VARIANT: &str = "gauss-newton/bspline";
 
+/// The learning experiment's derivative-free least-squares variant.
+pub(crate) const DERIVATIVE_FREE_VARIANT: &str = "derivative-free/bspline";
+
 struct Job {
     experiment: &'static str,
     variant: String,
@@ -485,7 +503,19 @@ fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                 over_seeds(&mut out, "learning", "powell/bspline".into(), s.powell_seeds, &|c| {
                     c.planner.solver = Solver::Powell;
                     c.planner.lambda_start = 0.0;
+                    c.planner.compare_gauss_newton = true;
                 });
+                // derivative-free least squares, each plan checked against Gauss-Newton's
+                over_seeds(
+                    &mut out,
+                    "learning",
+                    DERIVATIVE_FREE_VARIANT.into(),
+                    s.derivative_free_seeds,
+                    &|c| {
+                        c.planner.solver = Solver::DerivativeFree;
+                        c.planner.compare_gauss_newton = true;
+                    },
+                );
             }
             Experiment::Lambda => {
                 for &lambda in &s.lambdas {
@@ -747,6 +777,8 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
         robot_seconds: record.robot_seconds,
         max_angles: record.trials.iter().map(|t| t.max_angle).collect(),
         plan_statuses: planned().map(|p| p.status.clone()).collect(),
+        plan_costs: planned().map(|p| p.cost).collect(),
+        plan_gauss_newton_costs: planned().map(|p| p.gauss_newton_cost).collect(),
         failures: record
             .trials
             .iter()
@@ -796,6 +828,8 @@ fn run_cartpole(job: &Job, settings: &CartPoleSettings, version: &str) -> crate:
         robot_seconds: r.seconds_to_success.unwrap_or(all_data),
         max_angles: vec![],
         plan_statuses: vec![],
+        plan_costs: vec![],
+        plan_gauss_newton_costs: vec![],
         failures: r
             .trials
             .iter()
@@ -937,6 +971,8 @@ pub(crate) mod tests {
             robot_seconds: 5.5 * success.unwrap_or(8) as f64,
             max_angles: vec![first_angle],
             plan_statuses: vec![],
+            plan_costs: vec![],
+            plan_gauss_newton_costs: vec![],
             failures: vec![],
             scales: vec![],
             rollouts: vec![],

@@ -253,6 +253,7 @@ pub fn plan_ddp<G: PendulumRegression>(
             .map(|s| std::array::from_fn(|i| s.get(i).copied().unwrap_or(f64::NAN)))
             .collect(),
         controls: result.controls.iter().map(|u| u[0]).collect(),
+        gauss_newton_cost: None,
     })
 }
 

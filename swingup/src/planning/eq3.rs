@@ -9,10 +9,14 @@ use faer::Mat;
 use faer::sparse::SparseRowMat;
 use splines::wavelet::{Boundary, Wavelet, WaveletBasis};
 use splines::{BSplineBasis, FitSettings, TrajectoryBasis};
+use trajopt::derivative_free::Differenced;
 use trajopt::powell::{Powell, PowellSettings};
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, TrackingCost};
+use trajopt::{
+    DerivativeFree, DerivativeFreeSettings, Difference, Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda,
+    TrackingCost,
+};
 
-use crate::config::{BasisKind, Config, Solver, Start};
+use crate::config::{BasisKind, Config, Differences, Solver, Start};
 use crate::error::ResultExt;
 use crate::planning::cost::SwingupCost;
 use crate::planning::support::DataSupport;
@@ -194,7 +198,8 @@ pub fn fit_coefficients<M: trajopt::Model>(
     Ok(problem.pack(&cx, &cu)?)
 }
 
-/// Plans a swing-up with Eq. 3 and `model` by Gauss-Newton or Powell (as
+/// Plans a swing-up with Eq. 3 and `model` by Gauss-Newton, Powell or the
+/// derivative-free least-squares mode (as
 /// [`PlannerConfig::solver`](crate::config::PlannerConfig::solver) says; DDP is [`crate::planning::ddp::plan_ddp`]),
 /// starting from the demonstration fitted by the bases (Eqs. 6-7), with a
 /// continuation in $\lambda$ ([`PlannerConfig::lambda_start`](crate::config::PlannerConfig::lambda_start)).
@@ -219,6 +224,49 @@ pub fn plan_from<M: trajopt::Model>(
     support: Option<Arc<DataSupport>>,
     start: Option<&PlanSummary>,
 ) -> crate::Result<PlanSummary> {
+    let solver = cfg.planner.solver;
+    let reference = if cfg.planner.compare_gauss_newton && matches!(solver, Solver::Powell | Solver::DerivativeFree) {
+        Some(solve(cfg, demo, &model, support.clone(), start, Method::GaussNewton)?.cost)
+    } else {
+        None
+    };
+    let mut plan = match (solver, cfg.planner.differences) {
+        (Solver::Powell, _) => solve(cfg, demo, model, support, start, Method::Powell)?,
+        (Solver::DerivativeFree, Differences::Groups) => solve(cfg, demo, model, support, start, Method::Groups)?,
+        (Solver::DerivativeFree, Differences::Elements) => {
+            // Gauss-Newton on the model's values alone: its Jacobians by
+            // forward differences of each step's inputs, in one batch
+            let model = Differenced::new(model, Difference::Forward, None)?;
+            let mut plan = solve(cfg, demo, &model, support, start, Method::GaussNewton)?;
+            // in criterion evaluations: one model evaluation at every step is one
+            plan.evaluations += model.difference_evals().div_ceil(demo.horizon().max(1));
+            plan.planner = "derivative-free".into();
+            plan
+        }
+        _ => solve(cfg, demo, model, support, start, Method::GaussNewton)?,
+    };
+    plan.gauss_newton_cost = reference;
+    Ok(plan)
+}
+
+/// How [`solve`] minimises Eq. 3.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+enum Method {
+    GaussNewton,
+    Powell,
+    /// Levenberg-Marquardt on a Jacobian by grouped differences of the residuals.
+    Groups,
+}
+
+/// [`plan_from`] with `method`.
+fn solve<M: trajopt::Model>(
+    cfg: &Config,
+    demo: &Demonstration,
+    model: M,
+    support: Option<Arc<DataSupport>>,
+    start: Option<&PlanSummary>,
+    method: Method,
+) -> crate::Result<PlanSummary> {
     let p = &cfg.planner;
     let (mut problem, theta0) = build_problem(cfg, demo, model, support)?;
     let theta0 = match start {
@@ -226,10 +274,15 @@ pub fn plan_from<M: trajopt::Model>(
             .context("warm-starting from the previous plan")?,
         None => theta0,
     };
-    let solver = GaussNewton::new(GaussNewtonSettings {
+    let gauss_newton = GaussNewtonSettings {
         max_iterations: p.max_iters,
         tol_cost: p.tol_cost,
         ..GaussNewtonSettings::default()
+    };
+    let solver = GaussNewton::new(gauss_newton.clone())?;
+    let derivative_free = DerivativeFree::new(DerivativeFreeSettings {
+        gauss_newton,
+        ..DerivativeFreeSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
         max_cost_evals: Some(p.powell_evals),
@@ -257,7 +310,7 @@ pub fn plan_from<M: trajopt::Model>(
         };
         problem.set_lambda(weights)?;
         // (status, cost, x, iterations, evaluations, time) in the solvers' shared vocabulary
-        let (status, cost, x, iters, evals, time) = if p.solver == Solver::Powell {
+        let (status, cost, x, iters, evals, time) = if method == Method::Powell {
             let r = powell.solve(&problem, &theta)?;
             (
                 format!("{:?}", r.status),
@@ -265,6 +318,16 @@ pub fn plan_from<M: trajopt::Model>(
                 r.x,
                 r.iterations,
                 r.cost_evals,
+                r.solve_time,
+            )
+        } else if method == Method::Groups {
+            let r = derivative_free.solve(&problem, &theta)?;
+            (
+                format!("{:?}", r.status),
+                r.cost,
+                r.x,
+                r.iterations,
+                r.residual_evals,
                 r.solve_time,
             )
         } else {
@@ -290,10 +353,10 @@ pub fn plan_from<M: trajopt::Model>(
     let parts = problem.cost_breakdown(&theta)?;
     let (xs, us) = problem.trajectory(&theta)?;
     Ok(PlanSummary {
-        planner: if p.solver == Solver::Powell {
-            "powell"
-        } else {
-            "gauss-newton"
+        planner: match method {
+            Method::Powell => "powell",
+            Method::Groups => "derivative-free",
+            Method::GaussNewton => "gauss-newton",
         }
         .into(),
         status,
@@ -307,6 +370,7 @@ pub fn plan_from<M: trajopt::Model>(
         seconds,
         states: (0..xs.nrows()).map(|k| std::array::from_fn(|i| xs[(k, i)])).collect(),
         controls: (0..us.nrows()).map(|k| us[(k, 0)]).collect(),
+        gauss_newton_cost: None,
     })
 }
 
@@ -373,6 +437,39 @@ mod tests {
             tight.iterations
         );
         assert!(loose.cost <= tight.cost * 1.05, "{} against {}", loose.cost, tight.cost);
+    }
+
+    /// Both derivative-free planners reach Gauss-Newton's plan on the same
+    /// problem (the robot's true dynamics, the continuation in lambda): a
+    /// converged status and a criterion within 1e-3 relative, with the
+    /// evaluations of their differences counted.
+    #[test]
+    fn derivative_free_plans_reach_gauss_newtons() {
+        let mut cfg = Config::default();
+        cfg.planner.tol_cost = 1e-10;
+        let d = demo(&cfg);
+        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let reference = plan(&cfg, &d, &model, None).expect("plan");
+        for differences in [Differences::Elements, Differences::Groups] {
+            let mut c = cfg.clone();
+            c.planner.solver = Solver::DerivativeFree;
+            c.planner.differences = differences;
+            let p = plan(&c, &d, &model, None).expect("plan");
+            assert_eq!(p.planner, "derivative-free");
+            assert!(p.status.starts_with("Converged"), "{differences:?}: {}", p.status);
+            assert!(
+                (p.cost - reference.cost).abs() <= 1e-3 * reference.cost,
+                "{differences:?}: {} against {}",
+                p.cost,
+                reference.cost
+            );
+            // each iteration pays for a differenced Jacobian
+            assert!(
+                p.evaluations > p.iterations * 5,
+                "{differences:?}: {} evaluations",
+                p.evaluations
+            );
+        }
     }
 
     /// A warm start from a plan starts exactly there (the bases reproduce

@@ -54,7 +54,9 @@ pub fn plan_with<G: PendulumRegression>(
     let n = demo.horizon();
     let warm = previous.filter(|p| cfg.planner.warm_start && p.states.len() == n + 1 && p.controls.len() == n);
     match cfg.planner.solver {
-        Solver::GaussNewton | Solver::Powell => eq3::plan_from(cfg, demo, model, support, warm),
+        Solver::GaussNewton | Solver::Powell | Solver::DerivativeFree => {
+            eq3::plan_from(cfg, demo, model, support, warm)
+        }
         Solver::Ddp => ddp::plan_ddp(cfg, demo, model),
     }
 }

@@ -92,10 +92,12 @@
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
+mod elements;
 mod groups;
 
 use std::time::{Duration, Instant};
 
+pub use elements::Differenced;
 pub use groups::{ColumnGroups, GroupedDifferences};
 
 use crate::error::{Result, TrajoptError};

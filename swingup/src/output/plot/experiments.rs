@@ -359,6 +359,8 @@ mod tests {
             robot_seconds: 0.0,
             max_angles: vec![],
             plan_statuses: vec![],
+            plan_costs: vec![],
+            plan_gauss_newton_costs: vec![],
             failures: vec![],
             scales,
             rollouts: vec![],

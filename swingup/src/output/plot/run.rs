@@ -373,6 +373,7 @@ mod tests {
                 seconds: 0.0,
                 states: vec![],
                 controls: vec![],
+                gauss_newton_cost: None,
             }),
             model: None,
             diagnostics: inconsistency.map(|_| diagnostics_of(20, index as f64)),
