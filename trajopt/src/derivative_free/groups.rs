@@ -195,6 +195,33 @@ impl<'a, P: LeastSquaresProblem + ?Sized> GroupedDifferences<'a, P> {
         self.lock().best.clone()
     }
 
+    /// MINPACK's scale-free stationarity measure at `theta` (residuals `r`):
+    /// the largest cosine between $r$ and a column $J_j$ of the differenced
+    /// Jacobian, $\max_j |J_j^\top r| / (\lVert J_j \rVert \lVert r \rVert)$ (0 for
+    /// a zero column or $r = 0$). Costs one differenced Jacobian.
+    ///
+    /// # Errors
+    /// An error from the residuals, or the budget.
+    pub fn stationarity(&self, theta: &[f64]) -> Result<f64> {
+        let r = self.base(theta)?;
+        let mut values = vec![0.0; self.pattern.compute_nnz()];
+        self.jacobian_values(theta, &mut values)?;
+        let r_norm = r.iter().map(|v| v * v).sum::<f64>().sqrt();
+        if r_norm == 0.0 {
+            return Ok(0.0);
+        }
+        let mut worst = 0.0f64;
+        for entries in &self.entries_of {
+            let (dot, sq) = entries.iter().fold((0.0, 0.0), |(d, s), &(i, at)| {
+                (d + values[at] * r[i], s + values[at] * values[at])
+            });
+            if sq > 0.0 {
+                worst = worst.max(dot.abs() / (sq.sqrt() * r_norm));
+            }
+        }
+        Ok(worst)
+    }
+
     /// $\lVert r \rVert^2$ at the first point evaluated.
     pub fn first_cost(&self) -> Option<f64> {
         self.lock().first
