@@ -69,11 +69,15 @@ fn instances() -> Vec<Instance> {
             })
             .and_then(|powell| powell.solve(&problem, &x0))
             .ok();
-            let mut gn: Vec<f64> = [Some(x0.clone()), problem.minimiser(), long.as_ref().map(|r| r.x.clone())]
-                .into_iter()
-                .flatten()
-                .filter_map(|x| gauss_newton_cost(&problem, &x))
-                .collect();
+            let mut gn: Vec<f64> = [
+                Some(x0.clone()),
+                problem.minimiser(),
+                long.as_ref().map(|r| r.x.clone()),
+            ]
+            .into_iter()
+            .flatten()
+            .filter_map(|x| gauss_newton_cost(&problem, &x))
+            .collect();
             gn.extend(long.map(|r| r.cost));
             gn.sort_by(f64::total_cmp);
             let f_ref = match (&paper, gn.first()) {
@@ -101,14 +105,19 @@ fn instances() -> Vec<Instance> {
 enum Place {
     Best,
     ListedLocal,
+    /// A local minimum the paper does not list: Gauss-Newton started there
+    /// lowers $f$ by at most $10^{-6} (1 + |f|)$.
+    OtherLocal,
     Elsewhere,
 }
 
-fn place(inst: &Instance, f: f64) -> Place {
+fn place(inst: &Instance, x: &[f64], f: f64) -> Place {
     if f <= inst.f_ref + 1e-6 * (1.0 + inst.f_ref.abs()) {
         Place::Best
     } else if inst.problem.known_minima().iter().any(|k| k.matches(f, 1e-6)) {
         Place::ListedLocal
+    } else if gauss_newton_cost(&inst.problem, x).is_some_and(|g| g >= f - 1e-6 * (1.0 + f.abs())) {
+        Place::OtherLocal
     } else {
         Place::Elsewhere
     }
@@ -116,7 +125,7 @@ fn place(inst: &Instance, f: f64) -> Place {
 
 fn honesty(list: bool) -> Result<(), TrajoptError> {
     let powell = Powell::new(PowellSettings::default())?;
-    let (mut converged, mut false_conv, mut local, mut total) = (0, 0, 0, 0);
+    let (mut converged, mut false_conv, mut local, mut other, mut total) = (0, 0, 0, 0, 0);
     if list {
         println!("| # | problem | n | start | status | f | f_ref | evals | |");
         println!("|---|---|---|---|---|---|---|---|---|");
@@ -124,11 +133,11 @@ fn honesty(list: bool) -> Result<(), TrajoptError> {
     for inst in instances() {
         let r = powell.solve(&inst.problem, &inst.x0)?;
         total += 1;
-        let at = place(&inst, r.cost);
-        let good = at != Place::Elsewhere;
+        let at = place(&inst, &r.x, r.cost);
         let verdict = match (r.status.is_converged(), at) {
             (true, Place::Best) => "converged at the best minimum known",
             (true, Place::ListedLocal) => "converged at a local minimum the paper lists",
+            (true, Place::OtherLocal) => "converged at a local minimum the paper does not list",
             (true, Place::Elsewhere) => "FALSE CONVERGENCE",
             (false, Place::Elsewhere) => "not converged",
             (false, _) => "at a minimum, not claimed",
@@ -137,10 +146,13 @@ fn honesty(list: bool) -> Result<(), TrajoptError> {
             converged += 1;
             false_conv += usize::from(at == Place::Elsewhere);
             local += usize::from(at == Place::ListedLocal);
+            other += usize::from(at == Place::OtherLocal);
         }
-        if list || (r.status.is_converged() && !good) {
+        if list || (r.status.is_converged() && at != Place::Best) {
+            let polished = gauss_newton_cost(&inst.problem, &r.x).unwrap_or(f64::NAN);
+            let grad = inst.problem.gradient(&r.x)?.iter().fold(0.0_f64, |m, g| m.max(g.abs()));
             println!(
-                "| {} | {} | {} | {}x | {:?} | {:.6e} | {:.6e} | {} | {verdict} |",
+                "| {} | {} | {} | {}x | {:?} | {:.6e} | {:.6e} | {} | {verdict} | GN from there {polished:.6e}, |g| {grad:.1e} |",
                 inst.problem.id(),
                 inst.problem.name(),
                 inst.problem.n(),
@@ -153,8 +165,8 @@ fn honesty(list: bool) -> Result<(), TrajoptError> {
         }
     }
     println!(
-        "default settings: {total} instances, {converged} report convergence: {} at the best minimum known, {local} at a local minimum the paper lists, {false_conv} elsewhere (false)",
-        converged - local - false_conv
+        "default settings: {total} instances, {converged} report convergence: {} at the best minimum known, {local} at a local minimum the paper lists, {other} at another local minimum, {false_conv} elsewhere (false)",
+        converged - local - other - false_conv
     );
     Ok(())
 }
@@ -203,10 +215,11 @@ fn effort(list: bool) -> Result<(), TrajoptError> {
             evals: Cell::new(0),
             reached: Cell::new(None),
         };
-        match powell.solve(&objective, &inst.x0) {
-            Ok(_) | Err(TrajoptError::Model(_)) => {}
+        let end = match powell.solve(&objective, &inst.x0) {
+            Ok(r) => format!("{:?} {:.3e}", r.status, r.cost),
+            Err(TrajoptError::Model(_)) => String::new(),
             Err(e) => return Err(e),
-        }
+        };
         let evals = objective.reached.get();
         if evals.is_some() {
             reached += 1;
@@ -215,7 +228,7 @@ fn effort(list: bool) -> Result<(), TrajoptError> {
         counts.push(evals.unwrap_or(usize::MAX));
         if list {
             println!(
-                "| {} | {} | {n} | {}x | {} | {budget} |",
+                "| {} | {} | {n} | {}x | {} | {budget} | {end} |",
                 inst.problem.id(),
                 inst.problem.name(),
                 inst.scale,
@@ -240,7 +253,11 @@ fn effort(list: bool) -> Result<(), TrajoptError> {
 fn main() -> Result<(), TrajoptError> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let list = args.iter().any(|a| a == "--list");
-    let which: Vec<&str> = args.iter().filter(|a| !a.starts_with("--")).map(String::as_str).collect();
+    let which: Vec<&str> = args
+        .iter()
+        .filter(|a| !a.starts_with("--"))
+        .map(String::as_str)
+        .collect();
     if which.is_empty() || which.contains(&"honesty") {
         honesty(list)?;
     }

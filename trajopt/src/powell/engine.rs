@@ -29,11 +29,19 @@ pub(super) struct Engine {
     tol_f: f64,
     tol_line: f64,
     initial_step: f64,
-    /// The direction set is the coordinate set (no replacement since the
-    /// start or the last restart).
-    fresh: bool,
+    /// A stopping test fired on the last sweep and the direction set was
+    /// reset: the next sweep confirms (or refutes) the convergence.
+    confirming: bool,
+    /// The decrease of the last iteration ($+\infty$ before the first).
+    last_decrease: f64,
+
     pub(super) status: Option<PowellStatus>,
 }
+
+/// Largest ratio of successive decreases the tail estimate of the
+/// stopping test assumes: the decrease still to come is taken as at most
+/// $1 / (1 - 0.99) = 100$ times the last.
+const MAX_RATIO: f64 = 0.99;
 
 enum Which {
     Row(usize),
@@ -92,7 +100,8 @@ impl Engine {
             tol_f: settings.tol_f,
             tol_line: settings.tol_line,
             initial_step: settings.initial_step,
-            fresh: true,
+            confirming: false,
+            last_decrease: f64::INFINITY,
             status: None,
         })
     }
@@ -160,14 +169,24 @@ impl Engine {
             }
         }
         self.iters += 1;
-        if let Some(status) = self.check(f_start) {
-            if !(status.is_converged() && self.restart_on_bound()) {
+        match self.check(f_start) {
+            Some(status) if !status.is_converged() || self.confirming => {
+                // out of budget, or the test held again on the sweep over
+                // the fresh coordinate set
                 self.status = Some(status);
                 return Ok(Some(status));
             }
-        } else {
-            self.replace_direction(f_start, delta, biggest, eval)?;
+            Some(_) => {
+                // not yet a convergence: confirm it on a fresh set
+                self.restart();
+                self.confirming = true;
+            }
+            None => {
+                self.confirming = false;
+                self.replace_direction(f_start, delta, biggest, eval)?;
+            }
         }
+        self.last_decrease = f_start - self.fx;
         let status = if self.evals >= self.max_cost_evals {
             Some(PowellStatus::MaxEvaluations)
         } else if self.iters >= self.max_iterations {
@@ -229,34 +248,19 @@ impl Engine {
             self.dirs[(n - 1) * n..].copy_from_slice(&self.new_dir);
             self.steps[biggest] = self.steps[n - 1];
             self.steps[n - 1] = 1.0;
-            self.fresh = false;
         }
         Ok(())
     }
 
-    /// On a stall with some coordinate on a bound and a direction set that
-    /// has changed since the start (or the last restart): resets the set to
-    /// the coordinate directions and returns true.
-    fn restart_on_bound(&mut self) -> bool {
-        let Some((lower, upper)) = &self.bounds else {
-            return false;
-        };
-        let on_bound = self
-            .x
-            .iter()
-            .zip(lower.iter().zip(upper))
-            .any(|(&x, (&l, &u))| x == l || x == u);
-        if self.fresh || !on_bound {
-            return false;
-        }
+    /// Resets the direction set to the initial (coordinate) directions and
+    /// the first trials to 1.
+    fn restart(&mut self) {
         let n = self.n;
         self.dirs.fill(0.0);
         for i in 0..n {
             self.dirs[i * n + i] = self.initial_step;
         }
         self.steps.fill(1.0);
-        self.fresh = true;
-        true
     }
 
     /// The tests after the direction sweep.
@@ -266,7 +270,16 @@ impl Engine {
             // the sweep may have been cut short: not a convergence
             return Some(PowellStatus::MaxEvaluations);
         }
-        if 2.0 * (f_start - fx) <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
+        // the decrease still to come if the decreases keep shrinking by the
+        // ratio r of the last two (a geometric tail), r at most MAX_RATIO
+        let decrease = f_start - fx;
+        let r = if self.last_decrease > 0.0 {
+            (decrease / self.last_decrease).min(MAX_RATIO)
+        } else {
+            0.0
+        };
+        let tail = decrease / (1.0 - r);
+        if 2.0 * tail <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
             return Some(PowellStatus::ConvergedCost);
         }
         let small_step = self
