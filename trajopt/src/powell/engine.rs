@@ -17,6 +17,9 @@ pub(super) struct Engine {
     /// The first bracketing trial along each direction: the step length
     /// accepted by the last line search along it ($1$ at the start).
     steps: Vec<f64>,
+    /// $\phi''(\alpha)$ along each direction from its last line search
+    /// (NaN: unknown).
+    curvatures: Vec<f64>,
     x_start: Vec<f64>,
     new_dir: Vec<f64>,
     trial: Vec<f64>,
@@ -32,6 +35,9 @@ pub(super) struct Engine {
     /// A stopping test fired on the last sweep and the direction set was
     /// reset: the next sweep confirms (or refutes) the convergence.
     confirming: bool,
+    /// The curvature along the new direction from its line search.
+    new_curvature: f64,
+
     /// The decrease of the last iteration ($+\infty$ before the first).
     last_decrease: f64,
 
@@ -91,6 +97,7 @@ impl Engine {
             fx,
             dirs,
             steps: vec![1.0; n],
+            curvatures: vec![f64::NAN; n],
             bounds: settings.bounds.clone(),
             evals: 1,
             iters: 0,
@@ -101,6 +108,7 @@ impl Engine {
             tol_line: settings.tol_line,
             initial_step: settings.initial_step,
             confirming: false,
+            new_curvature: f64::NAN,
             last_decrease: f64::INFINITY,
             status: None,
         })
@@ -118,10 +126,11 @@ impl Engine {
         F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
     {
         let n = self.n;
-        let (dir, step) = match which {
-            Which::Row(i) => (&self.dirs[i * n..(i + 1) * n], self.steps[i]),
-            Which::New => (&self.new_dir[..], 1.0),
+        let (dir, step, curvature) = match which {
+            Which::Row(i) => (&self.dirs[i * n..(i + 1) * n], self.steps[i], self.curvatures[i]),
+            Which::New => (&self.new_dir[..], 1.0, f64::NAN),
         };
+        let curvature = curvature.is_finite().then_some(curvature);
         let bounds = self.bounds.as_ref();
         let (lo, hi) = feasible_interval(&self.x, dir, bounds);
         let mut line = Line {
@@ -133,7 +142,11 @@ impl Engine {
             evals: &mut self.evals,
             max_cost_evals: self.max_cost_evals,
         };
-        let (alpha, f) = line.minimise(self.fx, lo, hi, step, known, self.tol_line)?;
+        let (alpha, f, c) = line.minimise(self.fx, lo, hi, step, known, curvature, self.tol_line)?;
+        match which {
+            Which::Row(i) => self.curvatures[i] = c,
+            Which::New => self.new_curvature = c,
+        }
         if alpha != 0.0 && f < self.fx {
             if let Which::Row(i) = which {
                 self.steps[i] = alpha;
@@ -248,6 +261,9 @@ impl Engine {
             self.dirs[(n - 1) * n..].copy_from_slice(&self.new_dir);
             self.steps[biggest] = self.steps[n - 1];
             self.steps[n - 1] = 1.0;
+            self.curvatures[biggest] = self.curvatures[n - 1];
+            // phi along alpha d: the curvature along d times alpha^2
+            self.curvatures[n - 1] = self.new_curvature * alpha * alpha;
         }
         Ok(())
     }
@@ -261,6 +277,7 @@ impl Engine {
             self.dirs[i * n + i] = self.initial_step;
         }
         self.steps.fill(1.0);
+        self.curvatures.fill(f64::NAN);
     }
 
     /// The tests after the direction sweep.
