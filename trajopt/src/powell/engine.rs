@@ -37,6 +37,10 @@ pub(super) struct Engine {
     confirming: bool,
     /// The curvature along the new direction from its line search.
     new_curvature: f64,
+    /// `settings.stop_cost` ($-\infty$ for none).
+    stop_cost: f64,
+    /// An evaluation reached `stop_cost`.
+    reached: bool,
 
     /// The decrease of the last iteration ($+\infty$ before the first).
     last_decrease: f64,
@@ -109,6 +113,8 @@ impl Engine {
             initial_step: settings.initial_step,
             confirming: false,
             new_curvature: f64::NAN,
+            stop_cost: settings.stop_cost.unwrap_or(f64::NEG_INFINITY),
+            reached: settings.stop_cost.is_some_and(|stop| fx <= stop),
             last_decrease: f64::INFINITY,
             status: None,
         })
@@ -141,8 +147,11 @@ impl Engine {
             eval,
             evals: &mut self.evals,
             max_cost_evals: self.max_cost_evals,
+            stop_cost: self.stop_cost,
+            hit: None,
         };
-        let (alpha, f, c) = line.minimise(self.fx, lo, hi, step, known, curvature, self.tol_line)?;
+        let (alpha, f, c) = line.minimise_or_hit(self.fx, lo, hi, step, known, curvature, self.tol_line)?;
+        self.reached |= line.hit.is_some();
         match which {
             Which::Row(i) => self.curvatures[i] = c,
             Which::New => self.new_curvature = c,
@@ -174,6 +183,9 @@ impl Engine {
         self.x_start.copy_from_slice(&self.x);
         let (mut biggest, mut delta) = (0, 0.0);
         for i in 0..n {
+            if self.reached {
+                break;
+            }
             let f_before = self.fx;
             self.line_search(Which::Row(i), None, eval)?;
             if f_before - self.fx > delta {
@@ -231,7 +243,7 @@ impl Engine {
         }
         let (_, hi) = feasible_interval(&self.x, &self.new_dir, self.bounds.as_ref());
         let reach = hi.min(1.0);
-        if reach <= 0.0 || self.evals >= self.max_cost_evals {
+        if reach <= 0.0 || self.evals >= self.max_cost_evals || self.reached {
             return Ok(());
         }
         fill_trial(&mut self.trial, &self.x, &self.new_dir, reach, self.bounds.as_ref());
@@ -239,6 +251,14 @@ impl Engine {
         let fe = eval(&self.trial)?;
         let fe = if fe.is_finite() { fe } else { f64::INFINITY };
         let fx = self.fx;
+        if fe <= self.stop_cost {
+            self.reached = true;
+            if fe < fx {
+                self.x.copy_from_slice(&self.trial);
+                self.fx = fe;
+            }
+            return Ok(());
+        }
         if fe >= f_start {
             return Ok(());
         }
@@ -283,6 +303,9 @@ impl Engine {
     /// The tests after the direction sweep.
     fn check(&self, f_start: f64) -> Option<PowellStatus> {
         let fx = self.fx;
+        if self.reached {
+            return Some(PowellStatus::ReachedStopCost);
+        }
         if self.evals >= self.max_cost_evals {
             // the sweep may have been cut short: not a convergence
             return Some(PowellStatus::MaxEvaluations);

@@ -24,6 +24,10 @@ pub(super) struct Line<'a, F> {
     pub(super) eval: &'a mut F,
     pub(super) evals: &'a mut usize,
     pub(super) max_cost_evals: usize,
+    /// Stop at the first value at or below this.
+    pub(super) stop_cost: f64,
+    /// The point that reached `stop_cost`, once one has.
+    pub(super) hit: Option<(f64, f64)>,
 }
 
 /// How a bracketing ended.
@@ -108,7 +112,7 @@ where
     F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
 {
     fn exhausted(&self) -> bool {
-        *self.evals >= self.max_cost_evals
+        *self.evals >= self.max_cost_evals || self.hit.is_some()
     }
 
     /// $\phi(\alpha)$, non-finite mapped to $+\infty$; $+\infty$ without an
@@ -120,6 +124,9 @@ where
         fill_trial(self.trial, self.origin, self.dir, alpha, self.bounds);
         *self.evals += 1;
         let value = (self.eval)(self.trial)?;
+        if value <= self.stop_cost {
+            self.hit = Some((alpha, value));
+        }
         Ok(if value.is_finite() { value } else { f64::INFINITY })
     }
 
@@ -191,6 +198,26 @@ where
         }
         let bracket = self.bracket(f0, lo, hi, step, known)?;
         self.refine(bracket, f0, tol)
+    }
+
+    /// [`minimise`](Self::minimise), but the point that reached the stop
+    /// cost if one did.
+    #[allow(clippy::too_many_arguments)]
+    pub(super) fn minimise_or_hit(
+        &mut self,
+        f0: f64,
+        lo: f64,
+        hi: f64,
+        step: f64,
+        known: Option<(f64, f64)>,
+        curvature: Option<f64>,
+        tol: f64,
+    ) -> std::result::Result<(f64, f64, f64), E> {
+        let found = self.minimise(f0, lo, hi, step, known, curvature, tol)?;
+        Ok(match self.hit {
+            Some((alpha, value)) if value < found.1 => (alpha, value, found.2),
+            _ => found,
+        })
     }
 
     /// Brent's search in a bracket; the best point and the curvature there.
@@ -415,6 +442,8 @@ mod tests {
             eval: &mut eval,
             evals: &mut evals,
             max_cost_evals: 10_000,
+            stop_cost: f64::NEG_INFINITY,
+            hit: None,
         };
         let (alpha, value, _) = line.minimise(f0, lo, hi, 1.0, first, None, 1e-8).expect("line search");
         (alpha, value, evals)
@@ -452,6 +481,40 @@ mod tests {
         let (_, _, with) = run(f, f64::NEG_INFINITY, f64::INFINITY, Some((1.0, f(&[1.0]))));
         let (_, _, without) = run(f, f64::NEG_INFINITY, f64::INFINITY, None);
         assert_eq!(with + 1, without);
+    }
+
+    #[test]
+    fn known_curvature_takes_two_evaluations_on_a_parabola() {
+        // phi(a) = 3 (a - 0.4)^2 + 1: phi'' = 6
+        let f = |x: &[f64]| 3.0 * (x[0] - 0.4).powi(2) + 1.0;
+        let (origin, dir, mut trial, mut evals) = ([0.0], [1.0], vec![0.0], 0);
+        let mut eval = |x: &Vec<f64>| -> Result<f64> { Ok(f(x)) };
+        let mut line = Line {
+            origin: &origin,
+            dir: &dir,
+            bounds: None,
+            trial: &mut trial,
+            eval: &mut eval,
+            evals: &mut evals,
+            max_cost_evals: 100,
+            stop_cost: f64::NEG_INFINITY,
+            hit: None,
+        };
+        let f0 = f(&[0.0]);
+        let (alpha, value, curvature) = line
+            .minimise(f0, f64::NEG_INFINITY, f64::INFINITY, 1.0, None, Some(6.0), 1e-8)
+            .expect("line search");
+        assert!(
+            (alpha - 0.4).abs() < 1e-12 && (value - 1.0).abs() < 1e-12,
+            "{alpha} {value}"
+        );
+        assert!((curvature - 6.0).abs() < 1e-9, "{curvature}");
+        assert_eq!(*line.evals, 2);
+        // a wrong curvature: the vertex misses, and the search still finds 0.4
+        let (alpha, _, _) = line
+            .minimise(f0, f64::NEG_INFINITY, f64::INFINITY, 1.0, None, Some(0.1), 1e-8)
+            .expect("line search");
+        assert!((alpha - 0.4).abs() < 1e-6, "{alpha}");
     }
 
     #[test]

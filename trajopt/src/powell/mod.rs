@@ -155,6 +155,7 @@
 //! | `max_cost_evals` | `None` = $1000 n$ | cost evaluations, start included |
 //! | `initial_step` | 1 | length of the initial coordinate directions |
 //! | `bounds` | `None` | box constraints |
+//! | `stop_cost` | `None` | stop at the first value at or below it |
 //!
 //! # Layout
 //!
@@ -239,6 +240,7 @@ where
 /// | `max_cost_evals` | `None` ($1000 n$) | $\ge 1$ |
 /// | `initial_step` | 1 | finite, $> 0$ |
 /// | `bounds` | `None` | `lower.len() == upper.len()`, no NaN, `lower <= upper` |
+/// | `stop_cost` | `None` | not NaN |
 ///
 /// The budgets are scipy's `minimize(method="Powell")` defaults
 /// (`maxiter = maxfev = 1000 n`); the tolerances are much tighter than
@@ -271,6 +273,10 @@ pub struct PowellSettings {
     /// Box constraints `(lower, upper)`, one entry per coordinate;
     /// infinite entries leave a side unbounded.
     pub bounds: Option<(Vec<f64>, Vec<f64>)>,
+    /// Stop as soon as an evaluation returns a value at or below this
+    /// (NLopt's `stopval`), with [`PowellStatus::ReachedStopCost`]: for
+    /// measuring the evaluations needed to reach a known optimum.
+    pub stop_cost: Option<f64>,
 }
 
 impl Default for PowellSettings {
@@ -283,6 +289,7 @@ impl Default for PowellSettings {
             max_cost_evals: None,
             initial_step: 1.0,
             bounds: None,
+            stop_cost: None,
         }
     }
 }
@@ -302,6 +309,9 @@ impl PowellSettings {
             ("tol_f", self.tol_f),
             ("tol_line", self.tol_line),
         ])?;
+        if self.stop_cost.is_some_and(f64::is_nan) {
+            return Err(invalid("stop_cost", "must not be NaN"));
+        }
         if self.max_iterations == Some(0) {
             return Err(invalid("max_iterations", "must be at least 1"));
         }
@@ -349,6 +359,9 @@ pub enum PowellStatus {
     MaxIterations,
     /// The `max_cost_evals` budget of cost evaluations was used up.
     MaxEvaluations,
+    /// An evaluation reached `stop_cost`; `cost_evals` counts the
+    /// evaluations up to that one.
+    ReachedStopCost,
 }
 
 impl PowellStatus {
@@ -520,6 +533,10 @@ mod tests {
                 bounds: Some((vec![0.0], vec![1.0, 2.0])),
                 ..Default::default()
             },
+            PowellSettings {
+                stop_cost: Some(f64::NAN),
+                ..Default::default()
+            },
         ];
         for settings in bad {
             assert!(Powell::new(settings.clone()).is_err(), "{settings:?}");
@@ -590,6 +607,39 @@ mod tests {
         .expect("settings");
         let result = powell.solve(&rosenbrock, &[-1.2, 1.0]).expect("solve");
         assert_eq!((result.status, result.iterations), (PowellStatus::MaxIterations, 2));
+    }
+
+    #[test]
+    fn stop_cost_stops_at_the_first_value_below_it() {
+        let full = Powell::new(PowellSettings::default())
+            .expect("settings")
+            .solve(&rosenbrock, &[-1.2, 1.0])
+            .expect("solve");
+        for stop in [1.0, 1e-3, 1e-10] {
+            let calls = std::cell::Cell::new(0);
+            let first_below = std::cell::Cell::new(None);
+            let f = |x: &[f64]| -> Result<f64> {
+                let v = rosenbrock(x)?;
+                calls.set(calls.get() + 1);
+                if v <= stop && first_below.get().is_none() {
+                    first_below.set(Some(calls.get()));
+                }
+                Ok(v)
+            };
+            let result = Powell::new(PowellSettings {
+                stop_cost: Some(stop),
+                ..Default::default()
+            })
+            .expect("settings")
+            .solve(&f, &[-1.2, 1.0])
+            .expect("solve");
+            assert_eq!(result.status, PowellStatus::ReachedStopCost);
+            assert!(!result.status.is_converged());
+            assert!(result.cost <= stop, "{stop}: {}", result.cost);
+            assert_eq!(Some(result.cost_evals), first_below.get(), "{stop}");
+            assert_eq!(result.cost_evals, calls.get());
+            assert!(result.cost_evals < full.cost_evals);
+        }
     }
 
     #[test]

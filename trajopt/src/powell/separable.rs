@@ -143,6 +143,15 @@ impl<P: BandForm + ?Sized> SeparableObjective for BandTerms<'_, P> {
 
     fn terms(&self, x: &[f64], which: &[usize], values: &mut [f64]) -> Result<()> {
         let mut r = self.residuals.borrow_mut();
+        if which.len() * DENSE_FRACTION >= self.n_parts {
+            // many parts: one call for all the residuals costs less than
+            // one call per part (each call has a cost of its own)
+            self.problem.residuals(x, &mut r)?;
+            for &k in which {
+                values[k] = r[self.rows[k].clone()].iter().map(|v| v * v).sum();
+            }
+            return Ok(());
+        }
         for &k in which {
             let range = self.problem.residuals_part(
                 Part {
@@ -158,6 +167,10 @@ impl<P: BandForm + ?Sized> SeparableObjective for BandTerms<'_, P> {
         Ok(())
     }
 }
+
+/// [`BandTerms`] evaluates all the residuals at once when at least one
+/// part in this many is asked for.
+const DENSE_FRACTION: usize = 8;
 
 /// The term values at the best point evaluated so far, so that a trial
 /// point costs only the terms of the coordinates where it differs.
