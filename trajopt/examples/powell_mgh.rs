@@ -88,7 +88,7 @@ fn instances() -> Vec<Instance> {
                 (None, None) => continue,
             };
             out.push(Instance {
-                problem: problem.clone(),
+                problem,
                 scale,
                 x0,
                 f_ref,

@@ -238,7 +238,7 @@ where
                 f_near,
             } => (far.min(near), far.max(near), (near, f_near), (far, f_far), (far, f_far)),
         };
-        let (x, w, v) = self.brent(a, b, x, w, v, tol)?;
+        let [x, w, v] = self.brent(a, b, x, w, v, tol)?;
         let curvature = parabola_curvature(x, w, v);
         Ok(if x.1 < f0 {
             (x.0, x.1, curvature)
@@ -340,7 +340,7 @@ where
         (mut w, mut fw): (f64, f64),
         (mut v, mut fv): (f64, f64),
         tol: f64,
-    ) -> std::result::Result<((f64, f64), (f64, f64), (f64, f64)), E> {
+    ) -> std::result::Result<[Point; 3], E> {
         // the bracket width as the last two steps lets the first parabolic
         // steps through the "under half the step before last" test
         let width = if w != x && v != x && v != w { b - a } else { 0.0 };
@@ -402,9 +402,12 @@ where
                 }
             }
         }
-        Ok(((x, fx), (w, fw), (v, fv)))
+        Ok([(x, fx), (w, fw), (v, fv)])
     }
 }
+
+/// A point $(\alpha, \phi(\alpha))$ of a line search.
+type Point = (f64, f64);
 
 /// How closely the two-evaluation step must match the parabola: the value
 /// at the vertex within this fraction of the decrease the parabola
