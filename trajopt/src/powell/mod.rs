@@ -157,9 +157,9 @@
 //! and $\lambda = 1$ (152 parameters) and 1,476,363 at $\lambda = 100$; at
 //! horizon 150 and $\lambda = 100$ (452 parameters) its default budget of
 //! 452,000 evaluations lowers the cost from 500.9 to 491.6, where
-//! Gauss-Newton reaches 2.77 (`cargo run --release -p nprl-trajopt
-//! --example powell_separable -- 50 20000 1`, `-- 50 20000 100`,
-//! `-- 150 1000 100`). Use [`GaussNewton`](crate::GaussNewton) there;
+//! Gauss-Newton reaches 2.77, and 20 times that budget only to 468.9
+//! (`cargo run --release -p nprl-trajopt --example powell_separable --
+//! 50 20000 1`, `-- 50 20000 100`, `-- 150 1000 100`, `-- 150 20000 100`). Use [`GaussNewton`](crate::GaussNewton) there;
 //! Powell stays as the paper's baseline.
 //!
 //! # Partially separable objectives
@@ -184,6 +184,7 @@
 //! | horizon 50, $\lambda = 1$, to the target | 773,677, 3.28 s | 1,224,537, 478,041, 3.03 s |
 //! | horizon 50, $\lambda = 100$, to the target | 1,476,363, 5.94 s | 1,985,730, 611,014, 4.05 s |
 //! | horizon 150, $\lambda = 100$, the default budget | 452,000, 5.11 s | 452,000, 27,264, 0.97 s |
+//! | horizon 150, $\lambda = 100$, 20 times that | 9,040,000 (cost 468.9), 245.6 s | 9,040,000 (cost 485.4), 663,808, 25.0 s |
 //!
 //! (The two solves take different paths: the sums round differently, and
 //! the line searches' tolerance on the step turns that into different
