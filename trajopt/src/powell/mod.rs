@@ -135,7 +135,13 @@
 //! (Gauss-Newton started there does not go lower), none elsewhere; the
 //! other 13 stop at `MaxEvaluations` (Penalty I and II, Meyer, Beale from
 //! $10 x_0$ and $100 x_0$: slow valleys). Not converging is reported as
-//! such.
+//! such. The rule is not proof against every valley: before the line
+//! search reused curvatures, Osborne 1 and Biggs EXP6 from $100 x_0$
+//! stopped with `ConvergedCost` in deep, curved valleys where the
+//! decrease per sweep vanishes (at $f = 8.0 \cdot 10^{-5}$ and $0.081$)
+//! while Gauss-Newton, started there, goes on down (to $5.5 \cdot 10^{-5}$
+//! and $5.7 \cdot 10^{-3}$), and Biggs EXP6 does again with an initial step
+//! of $0.01 \max(|x_{0,j}|, 1)$.
 //!
 //! # Which problems it suits
 //!
