@@ -131,6 +131,7 @@ where
             Some(PowellStatus::MaxEvaluations) => TerminationStatus::Terminated(TerminationReason::SolverExit(
                 "maximum number of cost evaluations".into(),
             )),
+            Some(PowellStatus::ReachedStopCost) => TerminationStatus::Terminated(TerminationReason::TargetCostReached),
             None => TerminationStatus::NotTerminated,
         }
     }

@@ -17,6 +17,9 @@ pub(super) struct Engine {
     /// The first bracketing trial along each direction: the step length
     /// accepted by the last line search along it ($1$ at the start).
     steps: Vec<f64>,
+    /// $\phi''(\alpha)$ along each direction from its last line search
+    /// (NaN: unknown).
+    curvatures: Vec<f64>,
     x_start: Vec<f64>,
     new_dir: Vec<f64>,
     trial: Vec<f64>,
@@ -29,11 +32,26 @@ pub(super) struct Engine {
     tol_f: f64,
     tol_line: f64,
     initial_step: f64,
-    /// The direction set is the coordinate set (no replacement since the
-    /// start or the last restart).
-    fresh: bool,
+    /// A stopping test fired on the last sweep and the direction set was
+    /// reset: the next sweep confirms (or refutes) the convergence.
+    confirming: bool,
+    /// The curvature along the new direction from its line search.
+    new_curvature: f64,
+    /// `settings.stop_cost` ($-\infty$ for none).
+    stop_cost: f64,
+    /// An evaluation reached `stop_cost`.
+    reached: bool,
+
+    /// The decrease of the last iteration ($+\infty$ before the first).
+    last_decrease: f64,
+
     pub(super) status: Option<PowellStatus>,
 }
+
+/// Largest ratio of successive decreases the tail estimate of the
+/// stopping test assumes: the decrease still to come is taken as at most
+/// $1 / (1 - 0.99) = 100$ times the last.
+const MAX_RATIO: f64 = 0.99;
 
 enum Which {
     Row(usize),
@@ -83,6 +101,7 @@ impl Engine {
             fx,
             dirs,
             steps: vec![1.0; n],
+            curvatures: vec![f64::NAN; n],
             bounds: settings.bounds.clone(),
             evals: 1,
             iters: 0,
@@ -92,7 +111,11 @@ impl Engine {
             tol_f: settings.tol_f,
             tol_line: settings.tol_line,
             initial_step: settings.initial_step,
-            fresh: true,
+            confirming: false,
+            new_curvature: f64::NAN,
+            stop_cost: settings.stop_cost.unwrap_or(f64::NEG_INFINITY),
+            reached: settings.stop_cost.is_some_and(|stop| fx <= stop),
+            last_decrease: f64::INFINITY,
             status: None,
         })
     }
@@ -109,10 +132,11 @@ impl Engine {
         F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
     {
         let n = self.n;
-        let (dir, step) = match which {
-            Which::Row(i) => (&self.dirs[i * n..(i + 1) * n], self.steps[i]),
-            Which::New => (&self.new_dir[..], 1.0),
+        let (dir, step, curvature) = match which {
+            Which::Row(i) => (&self.dirs[i * n..(i + 1) * n], self.steps[i], self.curvatures[i]),
+            Which::New => (&self.new_dir[..], 1.0, f64::NAN),
         };
+        let curvature = curvature.is_finite().then_some(curvature);
         let bounds = self.bounds.as_ref();
         let (lo, hi) = feasible_interval(&self.x, dir, bounds);
         let mut line = Line {
@@ -123,8 +147,15 @@ impl Engine {
             eval,
             evals: &mut self.evals,
             max_cost_evals: self.max_cost_evals,
+            stop_cost: self.stop_cost,
+            hit: None,
         };
-        let (alpha, f) = line.minimise(self.fx, lo, hi, step, known, self.tol_line)?;
+        let (alpha, f, c) = line.minimise_or_hit(self.fx, lo, hi, step, known, curvature, self.tol_line)?;
+        self.reached |= line.hit.is_some();
+        match which {
+            Which::Row(i) => self.curvatures[i] = c,
+            Which::New => self.new_curvature = c,
+        }
         if alpha != 0.0 && f < self.fx {
             if let Which::Row(i) = which {
                 self.steps[i] = alpha;
@@ -152,6 +183,9 @@ impl Engine {
         self.x_start.copy_from_slice(&self.x);
         let (mut biggest, mut delta) = (0, 0.0);
         for i in 0..n {
+            if self.reached {
+                break;
+            }
             let f_before = self.fx;
             self.line_search(Which::Row(i), None, eval)?;
             if f_before - self.fx > delta {
@@ -160,14 +194,24 @@ impl Engine {
             }
         }
         self.iters += 1;
-        if let Some(status) = self.check(f_start) {
-            if !(status.is_converged() && self.restart_on_bound()) {
+        match self.check(f_start) {
+            Some(status) if !status.is_converged() || self.confirming => {
+                // out of budget, or the test held again on the sweep over
+                // the fresh coordinate set
                 self.status = Some(status);
                 return Ok(Some(status));
             }
-        } else {
-            self.replace_direction(f_start, delta, biggest, eval)?;
+            Some(_) => {
+                // not yet a convergence: confirm it on a fresh set
+                self.restart();
+                self.confirming = true;
+            }
+            None => {
+                self.confirming = false;
+                self.replace_direction(f_start, delta, biggest, eval)?;
+            }
         }
+        self.last_decrease = f_start - self.fx;
         let status = if self.evals >= self.max_cost_evals {
             Some(PowellStatus::MaxEvaluations)
         } else if self.iters >= self.max_iterations {
@@ -199,7 +243,7 @@ impl Engine {
         }
         let (_, hi) = feasible_interval(&self.x, &self.new_dir, self.bounds.as_ref());
         let reach = hi.min(1.0);
-        if reach <= 0.0 || self.evals >= self.max_cost_evals {
+        if reach <= 0.0 || self.evals >= self.max_cost_evals || self.reached {
             return Ok(());
         }
         fill_trial(&mut self.trial, &self.x, &self.new_dir, reach, self.bounds.as_ref());
@@ -207,6 +251,14 @@ impl Engine {
         let fe = eval(&self.trial)?;
         let fe = if fe.is_finite() { fe } else { f64::INFINITY };
         let fx = self.fx;
+        if fe <= self.stop_cost {
+            self.reached = true;
+            if fe < fx {
+                self.x.copy_from_slice(&self.trial);
+                self.fx = fe;
+            }
+            return Ok(());
+        }
         if fe >= f_start {
             return Ok(());
         }
@@ -229,44 +281,45 @@ impl Engine {
             self.dirs[(n - 1) * n..].copy_from_slice(&self.new_dir);
             self.steps[biggest] = self.steps[n - 1];
             self.steps[n - 1] = 1.0;
-            self.fresh = false;
+            self.curvatures[biggest] = self.curvatures[n - 1];
+            // phi along alpha d: the curvature along d times alpha^2
+            self.curvatures[n - 1] = self.new_curvature * alpha * alpha;
         }
         Ok(())
     }
 
-    /// On a stall with some coordinate on a bound and a direction set that
-    /// has changed since the start (or the last restart): resets the set to
-    /// the coordinate directions and returns true.
-    fn restart_on_bound(&mut self) -> bool {
-        let Some((lower, upper)) = &self.bounds else {
-            return false;
-        };
-        let on_bound = self
-            .x
-            .iter()
-            .zip(lower.iter().zip(upper))
-            .any(|(&x, (&l, &u))| x == l || x == u);
-        if self.fresh || !on_bound {
-            return false;
-        }
+    /// Resets the direction set to the initial (coordinate) directions and
+    /// the first trials to 1.
+    fn restart(&mut self) {
         let n = self.n;
         self.dirs.fill(0.0);
         for i in 0..n {
             self.dirs[i * n + i] = self.initial_step;
         }
         self.steps.fill(1.0);
-        self.fresh = true;
-        true
+        self.curvatures.fill(f64::NAN);
     }
 
     /// The tests after the direction sweep.
     fn check(&self, f_start: f64) -> Option<PowellStatus> {
         let fx = self.fx;
+        if self.reached {
+            return Some(PowellStatus::ReachedStopCost);
+        }
         if self.evals >= self.max_cost_evals {
             // the sweep may have been cut short: not a convergence
             return Some(PowellStatus::MaxEvaluations);
         }
-        if 2.0 * (f_start - fx) <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
+        // the decrease still to come if the decreases keep shrinking by the
+        // ratio r of the last two (a geometric tail), r at most MAX_RATIO
+        let decrease = f_start - fx;
+        let r = if self.last_decrease > 0.0 {
+            (decrease / self.last_decrease).min(MAX_RATIO)
+        } else {
+            0.0
+        };
+        let tail = decrease / (1.0 - r);
+        if 2.0 * tail <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
             return Some(PowellStatus::ConvergedCost);
         }
         let small_step = self
