@@ -157,24 +157,32 @@ impl Solver {
             reason: "no run".into(),
         })?;
         let [f_evals, jac_evals, evals] = m.counts;
-        let (f0, f, objective, trace) = match (&instance.rollout, m.end) {
-            (None, End::Trace(trace)) => (
-                trace.first().map_or(f64::NAN, |p| p.1),
+        let (f0, f, objective, trace, x) = match (&instance.rollout, m.end) {
+            (None, End::Trace(trace, x)) => (
+                // from the start itself, not the trace: an f(x0) that
+                // overflows is not in the trace, whose first point is then
+                // a later one
+                start_cost(instance),
                 m.objective,
                 None,
                 thin_trace(&trace),
+                x,
             ),
             (Some(forms), end) => {
                 let f0 = finite(rollout_cost(forms, &instance.start)?);
-                let f = finite(match end {
-                    End::Point(theta) => rollout_cost(forms, &theta)?,
-                    End::Controls(u) => forms
-                        .ddp
-                        .rollout_cost(&u)
-                        .map_err(|e| self.refused(instance, e.to_string()))?,
-                    End::Trace(_) => f0,
-                });
-                (f0, f, Some(m.objective), end_trace(f0, f, evals))
+                let (f, x) = match end {
+                    End::Point(theta) => (rollout_cost(forms, &theta)?, theta),
+                    End::Controls(u) => (
+                        forms
+                            .ddp
+                            .rollout_cost(&u)
+                            .map_err(|e| self.refused(instance, e.to_string()))?,
+                        u.concat(),
+                    ),
+                    End::Trace(_, x) => (f0, x),
+                };
+                let f = finite(f);
+                (f0, f, Some(m.objective), end_trace(f0, f, evals), x)
             }
             (None, _) => return Err(self.refused(instance, "the instance has no DDP form".into())),
         };
@@ -197,6 +205,8 @@ impl Solver {
             time_s: median_time(times),
             repeats: repeats.max(1),
             trace,
+            x0: Some(instance.start.clone()),
+            x: x.iter().all(|v| v.is_finite()).then_some(x),
         })
     }
 
@@ -222,7 +232,7 @@ impl Solver {
         };
         let end = match instance.rollout {
             Some(_) => End::Point(counted.best_point()),
-            None => End::Trace(counted.trace()),
+            None => End::Trace(counted.trace(), counted.best_point()),
         };
         let counts = [counted.f_evals(), counted.jac_evals(), counted.evals()];
         Ok((
@@ -362,12 +372,35 @@ struct Measured {
 
 /// Where a solve ended, for its figure of merit.
 enum End {
-    /// The trace of the best objective (scored by the objective).
-    Trace(Vec<(u64, f64)>),
+    /// The trace of the best objective (scored by the objective) and the
+    /// point of the best.
+    Trace(Vec<(u64, f64)>, Vec<f64>),
     /// The best point of the Eq. 3 form (scored by its rollout).
     Point(Vec<f64>),
     /// DDP's controls (scored by their rollout).
     Controls(Vec<Vec<f64>>),
+}
+
+/// $f(x_0) = \lVert r(x_0) \rVert^2$ of the instance's own problem,
+/// uncounted; NaN where it cannot be evaluated or overflows (the records
+/// hold finite values or NaN).
+pub fn start_cost(instance: &Instance) -> f64 {
+    cost_at(instance, &instance.start)
+        .filter(|f| f.is_finite())
+        .unwrap_or(f64::NAN)
+}
+
+/// $f(x) = \lVert r(x) \rVert^2$ of the instance's own problem, uncounted
+/// (`None`: `x` of the wrong length, or the residuals failed); may be
+/// infinite.
+pub fn cost_at(instance: &Instance, x: &[f64]) -> Option<f64> {
+    let problem = instance.least_squares.as_ref();
+    if x.len() != problem.n_params() {
+        return None;
+    }
+    let mut r = vec![0.0; problem.n_residuals()];
+    problem.residuals(x, &mut r).ok()?;
+    Some(r.iter().map(|v| v * v).sum())
 }
 
 /// The median of the timings (0 when there are none).
@@ -486,5 +519,30 @@ mod tests {
         let rec = Solver::Powell.run(inst, &budget, 1).expect("runs");
         assert_eq!(rec.status, "budget");
         assert!(!rec.converged && rec.evals <= 30 && rec.f < rec.f0);
+    }
+
+    /// Every run stores its start and final point, and its f is f at that
+    /// point; f0 is the start's own, even where it overflows (the old
+    /// records took the first finite value a solver met instead).
+    #[test]
+    fn runs_store_their_points_and_the_start_cost() {
+        let (inst, budget) = crate::problems::tests::rosenbrock(50);
+        for solver in [Solver::GaussNewton, Solver::Powell, Solver::NelderMead, Solver::Lbfgs] {
+            let rec = solver.run(&inst, &budget, 1).expect("runs");
+            assert_eq!(rec.x0.as_deref(), Some(inst.start.as_slice()));
+            let x = rec.x.as_deref().expect("x stored");
+            assert_eq!(cost_at(&inst, x), Some(rec.f), "{}", solver.name());
+        }
+        let js = crate::problems::ProblemSet::Mgh
+            .instances(Some("jennrich"))
+            .expect("mgh")
+            .into_iter()
+            .find(|i| i.scale == 100.0)
+            .expect("x100");
+        assert_eq!(cost_at(&js, &js.start), Some(f64::INFINITY));
+        for solver in [Solver::Powell, Solver::Lbfgs, Solver::GaussNewton] {
+            let rec = solver.run(&js, &budget, 1).expect("runs");
+            assert!(rec.f0.is_nan(), "{rec:?}");
+        }
     }
 }
