@@ -47,6 +47,15 @@ pub enum TrajoptError {
     /// The bounds admit no parameters (no point satisfies them all).
     #[error("the bounds are infeasible: no parameters satisfy them all")]
     InfeasibleBounds,
+    /// A budget of evaluations ran out inside a problem wrapper
+    /// ([`GroupedDifferences`](crate::derivative_free::GroupedDifferences));
+    /// the solver that owns the budget turns it into a status, so a caller
+    /// of a solver never sees it.
+    #[error("the budget of {evaluations} evaluations is used up")]
+    BudgetExhausted {
+        /// Evaluations made.
+        evaluations: usize,
+    },
     /// A user-supplied model or cost failed.
     #[error("the model failed: {0}")]
     Model(String),

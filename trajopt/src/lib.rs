@@ -1,6 +1,7 @@
 #![doc = include_str!("../README.md")]
 mod band_model;
 pub mod check;
+pub mod derivative_free;
 pub mod eq3;
 pub mod error;
 pub mod gauss_newton;
@@ -22,6 +23,7 @@ pub mod strategies;
 pub use faer;
 
 pub use check::{JacobianCheck, check_jacobian, check_model_jacobians, check_stage_cost_jacobians};
+pub use derivative_free::{DerivativeFree, DerivativeFreeResult, DerivativeFreeSettings, Difference};
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{

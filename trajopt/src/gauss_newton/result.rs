@@ -15,6 +15,10 @@ pub enum GaussNewtonStatus {
     ConvergedCost,
     /// The iteration cap was reached.
     MaxIterations,
+    /// A budget of residual evaluations was used up (the
+    /// [derivative-free](crate::derivative_free) mode's; plain
+    /// [`GaussNewton`](crate::GaussNewton) has no such budget).
+    MaxEvaluations,
     /// Steps kept failing until the damping made them negligible, while the
     /// gradient is not small: the residuals are not smooth enough here for
     /// their linearisation to predict them (a rough learned model, or a

@@ -1,0 +1,264 @@
+//! Derivative-free least squares: Levenberg-Marquardt steps on a Jacobian
+//! formed by grouped differences of the residuals, for problems whose
+//! Jacobian has a known sparsity pattern but whose derivatives are not to be
+//! trusted or not available (a learned model, the paper's reason for
+//! planning with Powell's method).
+//!
+//! # Method
+//!
+//! Minimises $F(\theta) = \lVert r(\theta) \rVert^2$ for a
+//! [`LeastSquaresProblem`] using only its residual values and its Jacobian's
+//! *pattern* (never [`jacobian_values`](LeastSquaresProblem::jacobian_values)).
+//!
+//! 1. **Groups** (Curtis, Powell and Reid 1974). The columns of the pattern
+//!    are split into groups of structurally orthogonal columns
+//!    ([`ColumnGroups`]): no residual depends on two columns of one group.
+//!    For Eq. 3 over cubic B-splines each residual touches the few
+//!    coefficients whose basis functions overlap its time step, so the
+//!    pendulum's 138 coefficients fall into about 30 groups (a number that does
+//!    not grow with the horizon), and an MGH problem with a dense Jacobian
+//!    into $n$ groups (MINPACK's `lmdif`).
+//! 2. **Jacobian.** One residual evaluation per group at
+//!    $\theta + \sum_{j \in G} h_j e_j$, $h_j = s \max(|\theta_j|, 1)$,
+//!    gives the group's columns by forward differences (the residuals at
+//!    $\theta$ are those of the step just accepted, reused); central
+//!    differences ([`Difference::Central`]) take two per group and are
+//!    second-order accurate.
+//! 3. **Step.** The damped Gauss-Newton step of
+//!    [`GaussNewton`](crate::GaussNewton) on that Jacobian (Levenberg-Marquardt:
+//!    a trust region in the scaled norm, accepted when the actual reduction
+//!    is positive against the linear model's), with its sparse Cholesky
+//!    factorisation, its bounds (through clarabel) and its tests.
+//!
+//! The per-point $\lambda$ of Eq. 3 is inside the residuals, so it is
+//! unchanged. On a smooth problem the differenced Jacobian is within
+//! $O(s)$ (forward) or $O(s^2)$ (central) of the exact one, so the method
+//! reaches the Gauss-Newton optimum (the same stationarity condition
+//! $J^\top r = 0$ up to that error), at $1 + $ (groups) residual evaluations
+//! per iteration instead of the $O(n)$ line searches of a Powell sweep.
+//!
+//! # Which problems it suits
+//!
+//! Least-squares problems with a sparse, known Jacobian pattern (Eq. 3:
+//! groups independent of the horizon), and small dense ones (MGH: $n$
+//! evaluations per Jacobian, as `lmdif`). Not problems whose residuals are
+//! noisy at the scale of the difference step $h_j$: a learned model whose
+//! prediction is piecewise (a truncated kernel) gives differences of its
+//! jumps; raise `relative_step` there. For a general $f$ that is not a sum
+//! of squares, use [`Powell`](crate::Powell).
+//!
+//! # Counting and budget
+//!
+//! `residual_evals` counts every residual evaluation, the differences'
+//! included; `max_residual_evals` caps it (the result is then the best point
+//! evaluated, with [`GaussNewtonStatus::MaxEvaluations`]). The statuses are
+//! [`GaussNewton`](crate::GaussNewton)'s, with its convergence tests on
+//! the differenced gradient $J^\top r$.
+//!
+//! # Defaults
+//!
+//! | field | default | meaning |
+//! |---|---|---|
+//! | `gauss_newton` | [`GaussNewtonSettings::default()`] | the step, its tests and the iteration cap |
+//! | `difference` | [`Difference::Forward`] | forward or central differences |
+//! | `relative_step` | $\sqrt{\epsilon} \approx 1.5 \times 10^{-8}$ (forward), $\epsilon^{1/3} \approx 6 \times 10^{-6}$ (central) | $s$ in $h_j = s \max(\lvert\theta_j\rvert, 1)$; `None` picks by `difference` |
+//! | `max_residual_evals` | `None` (no cap but the iteration cap) | budget of residual evaluations |
+//!
+//! # References
+//!
+//! - A. R. Curtis, M. J. D. Powell and J. K. Reid (1974), "On the
+//!   estimation of sparse Jacobian matrices", *IMA J. Appl. Math.* 13, 117-119.
+//! - J. J. Moré (1978), "The Levenberg-Marquardt algorithm: implementation
+//!   and theory", *Numerical Analysis*, LNM 630 (MINPACK's `lmdif`).
+//! - C. Cartis and L. Roberts (2019), "A derivative-free Gauss-Newton method",
+//!   *Math. Prog. Comp.* 11, 631-674 (DFO-GN; interpolation models instead
+//!   of differences: fewer evaluations on noisy residuals, not done here).
+//!
+//! # Example
+//!
+//! ```
+//! use trajopt::derivative_free::{DerivativeFree, DerivativeFreeSettings};
+//! use trajopt::problems::pendulum_swingup;
+//! use trajopt::{GaussNewton, GaussNewtonSettings};
+//!
+//! // Eq. 3 for the pendulum swing-up over 60 steps, from its initial guess
+//! let (problem, theta0) = pendulum_swingup(60, 100.0)?;
+//! let dfo = DerivativeFree::new(DerivativeFreeSettings::default())?.solve(&problem, &theta0)?;
+//! let gn = GaussNewton::new(GaussNewtonSettings::default())?.solve(&problem, &theta0)?;
+//! assert!(dfo.status.is_converged());
+//! assert!((dfo.cost - gn.cost).abs() <= 1e-6 * gn.cost);
+//! // the Jacobian by about 30 residual evaluations, not one per coefficient
+//! assert!(dfo.jacobian_groups < theta0.len() / 2);
+//! # Ok::<(), trajopt::TrajoptError>(())
+//! ```
+
+mod groups;
+
+use std::time::{Duration, Instant};
+
+pub use groups::{ColumnGroups, GroupedDifferences};
+
+use crate::error::{Result, TrajoptError};
+use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
+use crate::least_squares::LeastSquaresProblem;
+
+/// Which differences form the Jacobian.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[non_exhaustive]
+pub enum Difference {
+    /// $(r(\theta + h) - r(\theta)) / h$: one evaluation per group.
+    #[default]
+    Forward,
+    /// $(r(\theta + h) - r(\theta - h)) / 2h$: two per group, second-order accurate.
+    Central,
+}
+
+/// Settings of [`DerivativeFree`]; see the [module docs](self) for the defaults.
+///
+/// | field | range |
+/// |---|---|
+/// | `gauss_newton` | as [`GaussNewtonSettings::validate`] |
+/// | `relative_step` | `None`, or finite and $> 0$ |
+/// | `max_residual_evals` | `None`, or $\ge 1$ |
+#[derive(Debug, Clone, PartialEq, Default)]
+pub struct DerivativeFreeSettings {
+    /// The Levenberg-Marquardt step, its tests and iteration cap.
+    pub gauss_newton: GaussNewtonSettings,
+    /// Forward or central differences.
+    pub difference: Difference,
+    /// $s$ in the difference step $h_j = s \max(|\theta_j|, 1)$; `None`:
+    /// $\sqrt{\epsilon}$ forward, $\epsilon^{1/3}$ central.
+    pub relative_step: Option<f64>,
+    /// Budget of residual evaluations, the differences' included (`None`:
+    /// no cap but the iteration cap).
+    pub max_residual_evals: Option<usize>,
+}
+
+impl DerivativeFreeSettings {
+    /// Checks every field; the error names the first bad one.
+    pub fn validate(&self) -> Result<()> {
+        self.gauss_newton.validate()?;
+        if let Some(s) = self.relative_step
+            && !(s.is_finite() && s > 0.0)
+        {
+            return Err(TrajoptError::InvalidParameter {
+                name: "relative_step",
+                reason: format!("must be finite and > 0, got {s}"),
+            });
+        }
+        if self.max_residual_evals == Some(0) {
+            return Err(TrajoptError::InvalidParameter {
+                name: "max_residual_evals",
+                reason: "must be at least 1".into(),
+            });
+        }
+        Ok(())
+    }
+
+    /// The difference step's $s$ these settings use.
+    pub fn step(&self) -> f64 {
+        self.relative_step.unwrap_or(match self.difference {
+            Difference::Forward => f64::EPSILON.sqrt(),
+            Difference::Central => f64::EPSILON.cbrt(),
+        })
+    }
+}
+
+/// What [`DerivativeFree::solve`] returns.
+#[derive(Debug, Clone)]
+pub struct DerivativeFreeResult {
+    /// The best parameters found.
+    pub x: Vec<f64>,
+    /// $F$ at `x`.
+    pub cost: f64,
+    /// $F$ at the start.
+    pub initial_cost: f64,
+    /// Why it stopped: [`GaussNewton`]'s statuses, or
+    /// [`GaussNewtonStatus::MaxEvaluations`] at the budget.
+    pub status: GaussNewtonStatus,
+    /// Iterations (differenced Jacobians).
+    pub iterations: usize,
+    /// Residual evaluations, the differences' included.
+    pub residual_evals: usize,
+    /// Column groups: residual evaluations per forward-difference Jacobian.
+    pub jacobian_groups: usize,
+    /// Accepted cost after each iteration (empty when the budget stopped
+    /// the solve).
+    pub cost_history: Vec<f64>,
+    /// Wall time.
+    pub solve_time: Duration,
+}
+
+/// The derivative-free least-squares solver (see the [module docs](self)).
+#[derive(Debug, Clone)]
+pub struct DerivativeFree {
+    settings: DerivativeFreeSettings,
+    gauss_newton: GaussNewton,
+}
+
+impl DerivativeFree {
+    /// A solver with `settings`.
+    ///
+    /// # Errors
+    /// Invalid settings.
+    pub fn new(settings: DerivativeFreeSettings) -> Result<Self> {
+        settings.validate()?;
+        let gauss_newton = GaussNewton::new(settings.gauss_newton.clone())?;
+        Ok(Self { settings, gauss_newton })
+    }
+
+    /// The settings.
+    pub fn settings(&self) -> &DerivativeFreeSettings {
+        &self.settings
+    }
+
+    /// Minimises $\lVert r(\theta) \rVert^2$ from `theta0` with residual
+    /// values only.
+    ///
+    /// # Errors
+    /// Wrong sizes, a non-finite start, an error from the residuals, or
+    /// infeasible bounds; as [`GaussNewton::solve`].
+    pub fn solve<P: LeastSquaresProblem + ?Sized>(&self, problem: &P, theta0: &[f64]) -> Result<DerivativeFreeResult> {
+        let start = Instant::now();
+        let s = &self.settings;
+        let budget = s.max_residual_evals.unwrap_or(usize::MAX);
+        let wrapped = GroupedDifferences::new(problem, s.difference, s.step(), budget)?;
+        let jacobian_groups = wrapped.groups().n_groups();
+        match self.gauss_newton.solve(&wrapped, theta0) {
+            Ok(r) => Ok(DerivativeFreeResult {
+                x: r.x,
+                cost: r.cost,
+                initial_cost: r.initial_cost,
+                status: r.status,
+                iterations: r.iterations,
+                residual_evals: wrapped.residual_evals(),
+                jacobian_groups,
+                cost_history: r.cost_history,
+                solve_time: start.elapsed(),
+            }),
+            Err(TrajoptError::BudgetExhausted { .. }) => {
+                let Some((x, cost)) = wrapped.best() else {
+                    // the budget did not even cover the start
+                    return Err(TrajoptError::InvalidParameter {
+                        name: "max_residual_evals",
+                        reason: "the budget ran out before the start was evaluated".into(),
+                    });
+                };
+                // the start is the first point evaluated (before any move into the bounds)
+                let initial_cost = wrapped.first_cost().unwrap_or(cost);
+                Ok(DerivativeFreeResult {
+                    x,
+                    cost,
+                    initial_cost,
+                    status: GaussNewtonStatus::MaxEvaluations,
+                    iterations: wrapped.jacobian_evals(),
+                    residual_evals: wrapped.residual_evals(),
+                    jacobian_groups,
+                    cost_history: Vec::new(),
+                    solve_time: start.elapsed(),
+                })
+            }
+            Err(e) => Err(e),
+        }
+    }
+}
