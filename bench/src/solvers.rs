@@ -7,6 +7,7 @@
 //! | `newton` | the same, [`StepModel::Newton`] | $r$, $J$, $S$ by central differences of $J$ ($2n$ Jacobians) |
 //! | `adaptive` | the same, [`StepModel::Adaptive`] | as `newton`, $S$ only where the model choice asks for it |
 //! | `powell` | [`trajopt::Powell`] | $f$ |
+//! | `dfo-ls` | [`trajopt::DerivativeFree`]: Levenberg-Marquardt on a Jacobian forward-differenced by column groups of the residuals, settings as `gauss-newton`'s, the budget as its `max_residual_evals` | $r$ (each evaluation counts 1, the differences' included) |
 //! | `argmin-nelder-mead` | argmin's `NelderMead` (scipy's initial simplex: 5% of each coordinate, 0.00025 for a zero) | $f$ |
 //! | `argmin-lbfgs` | argmin's `LBFGS`, memory 7, Moré-Thuente line search | $f$, $\nabla f = 2 J^\top r$ |
 //! | `ddp-ilqr` | [`ddp::Ddp`], [`DdpMethod::Ilqr`], on the DDP form (trajectory set) | rollouts, linearisations |
@@ -34,7 +35,10 @@ use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use ddp::{Ddp, DdpMethod, DdpSettings};
-use trajopt::{DampingScale, GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
+use trajopt::{
+    DampingScale, DerivativeFree, DerivativeFreeSettings, GaussNewton, GaussNewtonSettings, Powell, PowellSettings,
+    StepModel,
+};
 
 use crate::error::{BenchError, Result};
 use crate::problems::{Budget, Counted, Instance};
@@ -53,6 +57,9 @@ pub enum Solver {
     Adaptive,
     /// trajopt's Powell.
     Powell,
+    /// trajopt's derivative-free least squares (Levenberg-Marquardt on a
+    /// differenced Jacobian).
+    DfoLs,
     /// argmin's Nelder-Mead.
     NelderMead,
     /// argmin's L-BFGS.
@@ -65,11 +72,12 @@ pub enum Solver {
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
         Self::Powell,
+        Self::DfoLs,
         Self::NelderMead,
         Self::Lbfgs,
         Self::Ilqr,
@@ -83,6 +91,7 @@ impl Solver {
             Self::Newton => "newton",
             Self::Adaptive => "adaptive",
             Self::Powell => "powell",
+            Self::DfoLs => "dfo-ls",
             Self::NelderMead => "argmin-nelder-mead",
             Self::Lbfgs => "argmin-lbfgs",
             Self::Ilqr => "ddp-ilqr",
@@ -92,7 +101,7 @@ impl Solver {
 
     /// Whether it uses only $f$ (the data profiles' solvers).
     pub fn derivative_free(self) -> bool {
-        matches!(self, Self::Powell | Self::NelderMead)
+        matches!(self, Self::Powell | Self::DfoLs | Self::NelderMead)
     }
 
     /// Whether it runs on `instance`: the DDP solvers where it has a DDP
@@ -302,14 +311,7 @@ impl Solver {
                     Self::Adaptive => StepModel::Adaptive,
                     _ => StepModel::GaussNewton,
                 };
-                let solver = GaussNewton::new(GaussNewtonSettings {
-                    max_iterations: usize::MAX,
-                    step_model,
-                    // MINPACK's scaling (the default stalls on Penalty II)
-                    damping_scale: DampingScale::RunningMax,
-                    ..GaussNewtonSettings::default()
-                })
-                .map_err(|e| refused(e.to_string()))?;
+                let solver = GaussNewton::new(gauss_newton_settings(step_model)).map_err(|e| refused(e.to_string()))?;
                 match solver.solve(counted, x0) {
                     Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
                     Err(e) => Outcome::Failed(e.to_string()),
@@ -325,6 +327,19 @@ impl Solver {
                 })
                 .map_err(|e| refused(e.to_string()))?;
                 match solver.solve(&|x: &[f64]| counted.cost(x), x0) {
+                    Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
+                    Err(e) => Outcome::Failed(e.to_string()),
+                }
+            }
+            Self::DfoLs => {
+                let budget = usize::try_from(counted.max_evals()).unwrap_or(usize::MAX);
+                let solver = DerivativeFree::new(DerivativeFreeSettings {
+                    gauss_newton: gauss_newton_settings(StepModel::GaussNewton),
+                    max_residual_evals: Some(budget.max(1)),
+                    ..DerivativeFreeSettings::default()
+                })
+                .map_err(|e| refused(e.to_string()))?;
+                match solver.solve(counted, x0) {
                     Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
                     Err(e) => Outcome::Failed(e.to_string()),
                 }
@@ -356,6 +371,18 @@ impl Solver {
             }
             Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
         })
+    }
+}
+
+/// The settings of `gauss-newton`, `newton`, `adaptive` (by `step_model`)
+/// and of `dfo-ls`'s step: no iteration cap (the budget stops a run) and
+/// MINPACK's scaling (the library default stalls on Penalty II).
+fn gauss_newton_settings(step_model: StepModel) -> GaussNewtonSettings {
+    GaussNewtonSettings {
+        max_iterations: usize::MAX,
+        step_model,
+        damping_scale: DampingScale::RunningMax,
+        ..GaussNewtonSettings::default()
     }
 }
 
@@ -527,7 +554,13 @@ mod tests {
     #[test]
     fn runs_store_their_points_and_the_start_cost() {
         let (inst, budget) = crate::problems::tests::rosenbrock(50);
-        for solver in [Solver::GaussNewton, Solver::Powell, Solver::NelderMead, Solver::Lbfgs] {
+        for solver in [
+            Solver::GaussNewton,
+            Solver::Powell,
+            Solver::DfoLs,
+            Solver::NelderMead,
+            Solver::Lbfgs,
+        ] {
             let rec = solver.run(&inst, &budget, 1).expect("runs");
             assert_eq!(rec.x0.as_deref(), Some(inst.start.as_slice()));
             let x = rec.x.as_deref().expect("x stored");
