@@ -214,8 +214,11 @@ impl Solver {
             time_s: median_time(times),
             repeats: repeats.max(1),
             trace,
-            x0: Some(instance.start.clone()),
-            x: x.iter().all(|v| v.is_finite()).then_some(x),
+            // the points where the record is scored by the problem's own f,
+            // which the runner recomputes from them; a rolled-out run's
+            // thousands of Eq. 3 coefficients or controls would only weigh
+            x0: instance.rollout.is_none().then(|| instance.start.clone()),
+            x: (instance.rollout.is_none() && x.iter().all(|v| v.is_finite())).then_some(x),
         })
     }
 
