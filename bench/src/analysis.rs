@@ -1,11 +1,13 @@
 //! Runs grouped by instance, judged by the convergence test
-//! ([`crate::profiles`]) at each $\tau$: who solved what, with which time
-//! and evaluations, and the profiles.
+//! ([`crate::profiles`]) at each $\tau$ and, on the MGH set, at the
+//! minimum ([`crate::minima`]): who solved what, with which time and
+//! evaluations, and the profiles.
 
 use std::collections::BTreeMap;
 
 use serde::Serialize;
 
+use crate::minima::{self, Reference};
 use crate::profiles::{ConvergenceTest, Profile, data_profiles, f_low, performance_profiles};
 use crate::record::RunRecord;
 
@@ -22,6 +24,26 @@ pub struct Outcome {
     pub evals: Option<u64>,
     /// Wall time of the run, when solved.
     pub time_s: Option<f64>,
+}
+
+/// How the headline counts judge a run.
+#[derive(Debug, Clone, Copy, PartialEq, Serialize)]
+pub enum Criterion {
+    /// At the best-known minimum ([`minima::at_minimum`]): the MGH set.
+    AtMinimum,
+    /// The set's convergence test at this $\tau$ (on the MGH set, also at
+    /// the minimum).
+    Tau(f64),
+}
+
+impl Criterion {
+    /// How the criterion reads in the tables.
+    pub fn label(self) -> String {
+        match self {
+            Self::AtMinimum => "at the minimum".into(),
+            Self::Tau(tau) => format!("tau = {tau:e}"),
+        }
+    }
 }
 
 /// Every run, by instance and solver, with $f_L$ per instance.
@@ -42,6 +64,12 @@ pub struct Analysis {
     pub runs: Vec<Vec<Option<RunRecord>>>,
     /// The convergence test the runs are judged by.
     pub test: ConvergenceTest,
+    /// Per instance, what it is judged against at the minimum (the MGH
+    /// set; `None` elsewhere): $f^*$ and whether it is degenerate.
+    pub references: Vec<Option<Reference>>,
+    /// What the runner did not reproduce from the records
+    /// ([`minima::recompute`]).
+    pub discrepancies: Vec<minima::Discrepancy>,
 }
 
 impl Analysis {
@@ -87,9 +115,69 @@ impl Analysis {
             instances,
             n,
             f_low: lows,
+            references: vec![None; rows.len()],
+            discrepancies: Vec::new(),
             runs: rows,
             test: ConvergenceTest::MoreWild,
         }
+    }
+
+    /// The same runs judged at the minimum where `reference` gives an
+    /// instance's [`Reference`] (by `(set, problem, scale)` key): its
+    /// $f^*$ becomes $f_L$.
+    pub fn with_references(mut self, reference: impl Fn(&(String, String, String)) -> Option<Reference>) -> Self {
+        self.references = self.instances.iter().map(reference).collect();
+        for (low, r) in self.f_low.iter_mut().zip(&self.references) {
+            if let Some(r) = r {
+                *low = r.f_star;
+            }
+        }
+        self
+    }
+
+    /// Whether any instance is judged at the minimum (the MGH set).
+    pub fn has_references(&self) -> bool {
+        self.references.iter().any(Option::is_some)
+    }
+
+    /// Why instance `p` is left out of the counts, if it is.
+    pub fn degenerate(&self, p: usize) -> Option<&str> {
+        self.references[p].as_ref()?.degenerate.as_deref()
+    }
+
+    /// The criterion of the headline counts (the summary, the goals, the
+    /// per-problem table): at the minimum where the instances have
+    /// references, else the strict $\tau$.
+    pub fn headline(&self) -> Criterion {
+        if self.has_references() {
+            Criterion::AtMinimum
+        } else {
+            Criterion::Tau(self.strict_tau())
+        }
+    }
+
+    /// How run `[p][s]` did by `criterion` (`None`: no such run).
+    pub fn judge(&self, p: usize, s: usize, criterion: Criterion) -> Option<Outcome> {
+        match criterion {
+            Criterion::AtMinimum => self.at_minimum(p, s),
+            Criterion::Tau(tau) => self.outcome(p, s, tau),
+        }
+    }
+
+    /// Whether run `[p][s]` ended at the minimum, and the evaluations at
+    /// which its trace first got there (`None`: no such run, or no
+    /// reference for the instance).
+    pub fn at_minimum(&self, p: usize, s: usize) -> Option<Outcome> {
+        let run = self.runs[p][s].as_ref()?;
+        let f_star = self.references[p].as_ref()?.f_star;
+        let solved = minima::at_minimum(run.f, f_star);
+        Some(Outcome {
+            solved,
+            // the recomputed final f may pass where the solver's own last
+            // traced value, rounded otherwise, did not: then all it spent
+            evals: solved.then(|| run.evals_to(minima::limit(f_star)).unwrap_or(run.evals)),
+            time_s: solved.then_some(run.time_s),
+        })
     }
 
     /// The same runs judged by `test`.
@@ -113,14 +201,23 @@ impl Analysis {
         self.solvers.iter().position(|s| s == solver)
     }
 
-    /// How run `[p][s]` did at `tau` (`None`: no such run).
+    /// How run `[p][s]` did at `tau` (`None`: no such run). On an
+    /// instance with a reference (the MGH set) a run passes only if it
+    /// also ended at the minimum: Moré and Wild's test from an enormous
+    /// $f(x_0)$ passes far above $f^*$; its evaluations are still those at
+    /// which its trace first met the test at `tau`.
     pub fn outcome(&self, p: usize, s: usize, tau: f64) -> Option<Outcome> {
         let run = self.runs[p][s].as_ref()?;
         let limit = self.test.threshold(run.f0, self.f_low[p], tau);
-        let solved = run.f <= limit;
+        let at_minimum = self.at_minimum(p, s).is_none_or(|o| o.solved);
+        let solved = run.f <= limit && at_minimum;
         Some(Outcome {
             solved,
-            evals: if solved { run.evals_to(limit) } else { None },
+            evals: if solved {
+                run.evals_to(limit).or(Some(run.evals))
+            } else {
+                None
+            },
             time_s: solved.then_some(run.time_s),
         })
     }
@@ -166,10 +263,11 @@ impl Analysis {
         data_profiles(&evals, &n, &names)
     }
 
-    /// The instances on which every one of `solvers` ran.
+    /// The instances on which every one of `solvers` ran, degenerate
+    /// ones left out.
     pub fn common_rows(&self, solvers: &[usize]) -> Vec<usize> {
         (0..self.instances.len())
-            .filter(|&p| solvers.iter().all(|&s| self.runs[p][s].is_some()))
+            .filter(|&p| self.degenerate(p).is_none() && solvers.iter().all(|&s| self.runs[p][s].is_some()))
             .collect()
     }
 }
@@ -234,5 +332,47 @@ mod tests {
             an.data(1e-3, &[0]).first().map(|p| p.values.clone()),
             Some(vec![20.0 / 3.0, 10.0])
         );
+    }
+
+    /// Issue 34: from a start where f(x0) is 1e30, Moré and Wild's test at
+    /// tau = 1e-7 passes at f = 1e22; at the minimum it does not, and
+    /// neither does the test at any tau once it is gated by the minimum.
+    #[test]
+    fn at_the_minimum_a_huge_f0_does_not_make_a_run_solved() {
+        let mut far = run("ours", "p", 1e22, 50);
+        far.f0 = 1e30;
+        far.trace = vec![(1, 1e30), (50, 1e22)];
+        let mut near = run("theirs", "p", 2.0 + 1e-9, 80);
+        near.f0 = 1e30;
+        near.trace = vec![(1, 1e30), (30, 3.0), (60, 2.0 + 2e-8), (80, 2.0 + 1e-9)];
+        // an instance whose start is already at the minimum
+        let q = run("ours", "q", 0.0, 3);
+        let reference = |key: &(String, String, String)| {
+            Some(Reference {
+                f0: 1e30,
+                f_star: 2.0,
+                source: "test".into(),
+                degenerate: (key.1 == "q").then(|| "the start is at the minimum".to_string()),
+            })
+        };
+        let plain = Analysis::new(vec![far.clone(), near.clone(), q.clone()], &["ours".into()]);
+        // the old reading: f_L = the best run, 2 + 1e-9; 1e22 passes at tau = 1e-7
+        assert!(plain.outcome(0, 0, 1e-7).expect("ran").solved);
+        let an = plain.with_references(reference);
+        assert_eq!(an.f_low, vec![2.0, 2.0]);
+        assert_eq!(an.headline(), Criterion::AtMinimum);
+        for tau in [1e-3, 1e-7] {
+            assert!(!an.outcome(0, 0, tau).expect("ran").solved);
+        }
+        assert!(!an.at_minimum(0, 0).expect("ran").solved);
+        // 2 + 1e-9 is within 1e-8 (1 + 2) of 2; its trace first got within at 60
+        let o = an.at_minimum(0, 1).expect("ran");
+        assert_eq!((o.solved, o.evals), (true, Some(60)));
+        // Moré-Wild's evaluations stay those of its own test (3 <= 2 + 1e-3 (1e30 - 2))
+        assert_eq!(an.outcome(0, 1, 1e-3).and_then(|o| o.evals), Some(30));
+        // the degenerate instance is in no common row
+        assert_eq!(an.degenerate(1), Some("the start is at the minimum"));
+        assert_eq!(an.common_rows(&[0]), vec![0]);
+        assert_eq!(an.judge(0, 1, Criterion::AtMinimum), an.at_minimum(0, 1));
     }
 }

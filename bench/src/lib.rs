@@ -27,6 +27,7 @@
 
 pub mod analysis;
 pub mod error;
+pub mod minima;
 pub mod plot;
 pub mod problems;
 pub mod profiles;

@@ -20,8 +20,8 @@ struct Cli {
     #[arg(long, default_value = "mgh")]
     set: String,
     /// Solvers: `all` or a comma-separated list of gauss-newton, newton,
-    /// adaptive, powell, argmin-nelder-mead, argmin-lbfgs, ddp-ilqr,
-    /// ddp-full (each runs where it applies).
+    /// adaptive, powell, dfo-ls, argmin-nelder-mead, argmin-lbfgs,
+    /// ddp-ilqr, ddp-full (each runs where it applies).
     #[arg(long, default_value = "all")]
     solvers: String,
     /// Only problems whose name contains this (e.g. `penalty2`).

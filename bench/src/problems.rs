@@ -234,6 +234,11 @@ impl<'a> Counted<'a> {
         self.f_evals.get() + self.n as u64 * self.jac_evals.get()
     }
 
+    /// The budget in evaluation equivalents.
+    pub fn max_evals(&self) -> u64 {
+        self.max_evals
+    }
+
     /// Residual (cost) evaluations so far.
     pub fn f_evals(&self) -> u64 {
         self.f_evals.get()

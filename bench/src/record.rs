@@ -7,8 +7,15 @@
 //!   {"solver": "scipy-lm", "set": "mgh", "problem": "01_rosenbrock", "n": 2, "m": 2,
 //!    "scale": 1.0, "status": "converged", "converged": true, "f0": 24.2, "f": 0.0,
 //!    "f_star": 0.0, "f_evals": 40, "jac_evals": 0, "evals": 40, "time_s": 0.0012,
-//!    "repeats": 3, "trace": [[1, 24.2], [4, 4.73], [40, 0.0]]}]}
+//!    "repeats": 3, "trace": [[1, 24.2], [4, 4.73], [40, 0.0]],
+//!    "x0": [-1.2, 1.0], "x": [1.0, 1.0]}]}
 //! ```
+//!
+//! `f0` and `f` are the solver's own account; the runner does not trust
+//! them: it recomputes $f(x_0)$ from the instance's start for every record
+//! and $f$ at the stored final `x` (see [`crate::minima`]). `x0` and `x`
+//! may be absent in records written before they were stored; such a
+//! record is judged by its own `f`.
 //!
 //! `evals` counts evaluation equivalents: residual (or cost) evaluations
 //! plus $n$ per Jacobian (or gradient) evaluation, what a forward-difference
@@ -72,6 +79,16 @@ pub struct RunRecord {
     pub repeats: u32,
     /// `[evals, f]` where the best $f$ so far fell (see [`thin_trace`]).
     pub trace: Vec<(u64, f64)>,
+    /// The starting point, when the writer stored it (the runner checks
+    /// it against the instance's start).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x0: Option<Vec<f64>>,
+    /// The final point: the one of the best $f$ evaluated, which is what
+    /// each solver returns. Absent in older records and where a run is
+    /// scored by a rollout (the trajectory set's swing-ups), not by the
+    /// problem's own $f$.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub x: Option<Vec<f64>>,
 }
 
 /// An `f64` that JSON holds as `null` when it was not finite (serde_json
@@ -135,6 +152,14 @@ impl RunRecord {
         }
         if self.trace.iter().any(|(_, f)| !f.is_finite()) {
             return Err(bad("trace", "values must be finite".into()));
+        }
+        for (field, point) in [("x0", &self.x0), ("x", &self.x)] {
+            if point.as_ref().is_some_and(|p| p.iter().any(|v| !v.is_finite())) {
+                return Err(bad(field, "entries must be finite".into()));
+            }
+        }
+        if let Some(x0) = self.x0.as_ref().filter(|x0| x0.len() != self.n) {
+            return Err(bad("x0", format!("must have n = {} entries, got {}", self.n, x0.len())));
         }
         Ok(())
     }
@@ -256,12 +281,17 @@ pub(crate) mod tests {
             time_s: 0.5,
             repeats: 1,
             trace: vec![(1, 10.0), (evals, f)],
+            x0: None,
+            x: None,
         }
     }
 
     #[test]
     fn a_record_file_round_trips_through_json() {
-        let file = RecordFile::new("test", vec![run("a", "p", 1e-300, 7), run("b", "q", 0.1 + 0.2, 9)]);
+        let mut with_points = run("b", "q", 0.1 + 0.2, 9);
+        with_points.x0 = Some(vec![-1.2, 1.0]);
+        with_points.x = Some(vec![1.0, 0.1 + 0.2]);
+        let file = RecordFile::new("test", vec![run("a", "p", 1e-300, 7), with_points]);
         let text = serde_json::to_string(&file).expect("serialises");
         let back = RecordFile::parse(&text, Path::new("x.json")).expect("parses");
         assert_eq!(back, file);
@@ -298,6 +328,13 @@ pub(crate) mod tests {
             Err(BenchError::BadField { index, field, .. }) => assert_eq!((index, field), (1, "time_s")),
             other => panic!("{other:?}"),
         }
+        let mut short = run("a", "p", 0.0, 3);
+        short.x0 = Some(vec![1.0]);
+        let text = serde_json::to_string(&RecordFile::new("t", vec![short])).expect("json");
+        assert!(matches!(
+            RecordFile::parse(&text, path),
+            Err(BenchError::BadField { field: "x0", .. })
+        ));
         let mut rising = run("a", "p", 0.0, 3);
         rising.trace = vec![(1, 1.0), (2, 2.0)];
         let text = serde_json::to_string(&RecordFile::new("t", vec![rising])).expect("json");

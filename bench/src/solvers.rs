@@ -7,6 +7,7 @@
 //! | `newton` | the same, [`StepModel::Newton`] | $r$, $J$, $S$ by central differences of $J$ ($2n$ Jacobians) |
 //! | `adaptive` | the same, [`StepModel::Adaptive`] | as `newton`, $S$ only where the model choice asks for it |
 //! | `powell` | [`trajopt::Powell`] | $f$ |
+//! | `dfo-ls` | [`trajopt::DerivativeFree`]: Levenberg-Marquardt on a Jacobian forward-differenced by column groups of the residuals, settings as `gauss-newton`'s, the budget as its `max_residual_evals` | $r$ (each evaluation counts 1, the differences' included) |
 //! | `argmin-nelder-mead` | argmin's `NelderMead` (scipy's initial simplex: 5% of each coordinate, 0.00025 for a zero) | $f$ |
 //! | `argmin-lbfgs` | argmin's `LBFGS`, memory 7, Moré-Thuente line search | $f$, $\nabla f = 2 J^\top r$ |
 //! | `ddp-ilqr` | [`ddp::Ddp`], [`DdpMethod::Ilqr`], on the DDP form (trajectory set) | rollouts, linearisations |
@@ -34,7 +35,10 @@ use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
 use ddp::{Ddp, DdpMethod, DdpSettings};
-use trajopt::{DampingScale, GaussNewton, GaussNewtonSettings, Powell, PowellSettings, StepModel};
+use trajopt::{
+    DampingScale, DerivativeFree, DerivativeFreeSettings, GaussNewton, GaussNewtonSettings, Powell, PowellSettings,
+    StepModel,
+};
 
 use crate::error::{BenchError, Result};
 use crate::problems::{Budget, Counted, Instance};
@@ -53,6 +57,9 @@ pub enum Solver {
     Adaptive,
     /// trajopt's Powell.
     Powell,
+    /// trajopt's derivative-free least squares (Levenberg-Marquardt on a
+    /// differenced Jacobian).
+    DfoLs,
     /// argmin's Nelder-Mead.
     NelderMead,
     /// argmin's L-BFGS.
@@ -65,11 +72,12 @@ pub enum Solver {
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 8] = [
+    pub const ALL: [Self; 9] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
         Self::Powell,
+        Self::DfoLs,
         Self::NelderMead,
         Self::Lbfgs,
         Self::Ilqr,
@@ -83,6 +91,7 @@ impl Solver {
             Self::Newton => "newton",
             Self::Adaptive => "adaptive",
             Self::Powell => "powell",
+            Self::DfoLs => "dfo-ls",
             Self::NelderMead => "argmin-nelder-mead",
             Self::Lbfgs => "argmin-lbfgs",
             Self::Ilqr => "ddp-ilqr",
@@ -92,7 +101,7 @@ impl Solver {
 
     /// Whether it uses only $f$ (the data profiles' solvers).
     pub fn derivative_free(self) -> bool {
-        matches!(self, Self::Powell | Self::NelderMead)
+        matches!(self, Self::Powell | Self::DfoLs | Self::NelderMead)
     }
 
     /// Whether it runs on `instance`: the DDP solvers where it has a DDP
@@ -157,24 +166,32 @@ impl Solver {
             reason: "no run".into(),
         })?;
         let [f_evals, jac_evals, evals] = m.counts;
-        let (f0, f, objective, trace) = match (&instance.rollout, m.end) {
-            (None, End::Trace(trace)) => (
-                trace.first().map_or(f64::NAN, |p| p.1),
+        let (f0, f, objective, trace, x) = match (&instance.rollout, m.end) {
+            (None, End::Trace(trace, x)) => (
+                // from the start itself, not the trace: an f(x0) that
+                // overflows is not in the trace, whose first point is then
+                // a later one
+                start_cost(instance),
                 m.objective,
                 None,
                 thin_trace(&trace),
+                x,
             ),
             (Some(forms), end) => {
                 let f0 = finite(rollout_cost(forms, &instance.start)?);
-                let f = finite(match end {
-                    End::Point(theta) => rollout_cost(forms, &theta)?,
-                    End::Controls(u) => forms
-                        .ddp
-                        .rollout_cost(&u)
-                        .map_err(|e| self.refused(instance, e.to_string()))?,
-                    End::Trace(_) => f0,
-                });
-                (f0, f, Some(m.objective), end_trace(f0, f, evals))
+                let (f, x) = match end {
+                    End::Point(theta) => (rollout_cost(forms, &theta)?, theta),
+                    End::Controls(u) => (
+                        forms
+                            .ddp
+                            .rollout_cost(&u)
+                            .map_err(|e| self.refused(instance, e.to_string()))?,
+                        u.concat(),
+                    ),
+                    End::Trace(_, x) => (f0, x),
+                };
+                let f = finite(f);
+                (f0, f, Some(m.objective), end_trace(f0, f, evals), x)
             }
             (None, _) => return Err(self.refused(instance, "the instance has no DDP form".into())),
         };
@@ -197,6 +214,11 @@ impl Solver {
             time_s: median_time(times),
             repeats: repeats.max(1),
             trace,
+            // the points where the record is scored by the problem's own f,
+            // which the runner recomputes from them; a rolled-out run's
+            // thousands of Eq. 3 coefficients or controls would only weigh
+            x0: instance.rollout.is_none().then(|| instance.start.clone()),
+            x: (instance.rollout.is_none() && x.iter().all(|v| v.is_finite())).then_some(x),
         })
     }
 
@@ -222,7 +244,7 @@ impl Solver {
         };
         let end = match instance.rollout {
             Some(_) => End::Point(counted.best_point()),
-            None => End::Trace(counted.trace()),
+            None => End::Trace(counted.trace(), counted.best_point()),
         };
         let counts = [counted.f_evals(), counted.jac_evals(), counted.evals()];
         Ok((
@@ -292,14 +314,7 @@ impl Solver {
                     Self::Adaptive => StepModel::Adaptive,
                     _ => StepModel::GaussNewton,
                 };
-                let solver = GaussNewton::new(GaussNewtonSettings {
-                    max_iterations: usize::MAX,
-                    step_model,
-                    // MINPACK's scaling (the default stalls on Penalty II)
-                    damping_scale: DampingScale::RunningMax,
-                    ..GaussNewtonSettings::default()
-                })
-                .map_err(|e| refused(e.to_string()))?;
+                let solver = GaussNewton::new(gauss_newton_settings(step_model)).map_err(|e| refused(e.to_string()))?;
                 match solver.solve(counted, x0) {
                     Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
                     Err(e) => Outcome::Failed(e.to_string()),
@@ -315,6 +330,19 @@ impl Solver {
                 })
                 .map_err(|e| refused(e.to_string()))?;
                 match solver.solve(&|x: &[f64]| counted.cost(x), x0) {
+                    Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
+                    Err(e) => Outcome::Failed(e.to_string()),
+                }
+            }
+            Self::DfoLs => {
+                let budget = usize::try_from(counted.max_evals()).unwrap_or(usize::MAX);
+                let solver = DerivativeFree::new(DerivativeFreeSettings {
+                    gauss_newton: gauss_newton_settings(StepModel::GaussNewton),
+                    max_residual_evals: Some(budget.max(1)),
+                    ..DerivativeFreeSettings::default()
+                })
+                .map_err(|e| refused(e.to_string()))?;
+                match solver.solve(counted, x0) {
                     Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
                     Err(e) => Outcome::Failed(e.to_string()),
                 }
@@ -349,6 +377,18 @@ impl Solver {
     }
 }
 
+/// The settings of `gauss-newton`, `newton`, `adaptive` (by `step_model`)
+/// and of `dfo-ls`'s step: no iteration cap (the budget stops a run) and
+/// MINPACK's scaling (the library default stalls on Penalty II).
+fn gauss_newton_settings(step_model: StepModel) -> GaussNewtonSettings {
+    GaussNewtonSettings {
+        max_iterations: usize::MAX,
+        step_model,
+        damping_scale: DampingScale::RunningMax,
+        ..GaussNewtonSettings::default()
+    }
+}
+
 /// What one solve measured, besides its time.
 struct Measured {
     status: String,
@@ -362,12 +402,35 @@ struct Measured {
 
 /// Where a solve ended, for its figure of merit.
 enum End {
-    /// The trace of the best objective (scored by the objective).
-    Trace(Vec<(u64, f64)>),
+    /// The trace of the best objective (scored by the objective) and the
+    /// point of the best.
+    Trace(Vec<(u64, f64)>, Vec<f64>),
     /// The best point of the Eq. 3 form (scored by its rollout).
     Point(Vec<f64>),
     /// DDP's controls (scored by their rollout).
     Controls(Vec<Vec<f64>>),
+}
+
+/// $f(x_0) = \lVert r(x_0) \rVert^2$ of the instance's own problem,
+/// uncounted; NaN where it cannot be evaluated or overflows (the records
+/// hold finite values or NaN).
+pub fn start_cost(instance: &Instance) -> f64 {
+    cost_at(instance, &instance.start)
+        .filter(|f| f.is_finite())
+        .unwrap_or(f64::NAN)
+}
+
+/// $f(x) = \lVert r(x) \rVert^2$ of the instance's own problem, uncounted
+/// (`None`: `x` of the wrong length, or the residuals failed); may be
+/// infinite.
+pub fn cost_at(instance: &Instance, x: &[f64]) -> Option<f64> {
+    let problem = instance.least_squares.as_ref();
+    if x.len() != problem.n_params() {
+        return None;
+    }
+    let mut r = vec![0.0; problem.n_residuals()];
+    problem.residuals(x, &mut r).ok()?;
+    Some(r.iter().map(|v| v * v).sum())
 }
 
 /// The median of the timings (0 when there are none).
@@ -486,5 +549,36 @@ mod tests {
         let rec = Solver::Powell.run(inst, &budget, 1).expect("runs");
         assert_eq!(rec.status, "budget");
         assert!(!rec.converged && rec.evals <= 30 && rec.f < rec.f0);
+    }
+
+    /// Every run stores its start and final point, and its f is f at that
+    /// point; f0 is the start's own, even where it overflows (the old
+    /// records took the first finite value a solver met instead).
+    #[test]
+    fn runs_store_their_points_and_the_start_cost() {
+        let (inst, budget) = crate::problems::tests::rosenbrock(50);
+        for solver in [
+            Solver::GaussNewton,
+            Solver::Powell,
+            Solver::DfoLs,
+            Solver::NelderMead,
+            Solver::Lbfgs,
+        ] {
+            let rec = solver.run(&inst, &budget, 1).expect("runs");
+            assert_eq!(rec.x0.as_deref(), Some(inst.start.as_slice()));
+            let x = rec.x.as_deref().expect("x stored");
+            assert_eq!(cost_at(&inst, x), Some(rec.f), "{}", solver.name());
+        }
+        let js = crate::problems::ProblemSet::Mgh
+            .instances(Some("jennrich"))
+            .expect("mgh")
+            .into_iter()
+            .find(|i| i.scale == 100.0)
+            .expect("x100");
+        assert_eq!(cost_at(&js, &js.start), Some(f64::INFINITY));
+        for solver in [Solver::Powell, Solver::Lbfgs, Solver::GaussNewton] {
+            let rec = solver.run(&js, &budget, 1).expect("runs");
+            assert!(rec.f0.is_nan(), "{rec:?}");
+        }
     }
 }

@@ -8,7 +8,13 @@ MINPACK-1's driver and in Rust), these solvers:
   (forward-difference Jacobian), ftol = xtol = gtol = 1e-15;
 - `scipy-trf`: least_squares(method="trf"), 2-point Jacobian, the same tolerances;
 - `nlopt-praxis`, `nlopt-newuoa`: NLopt's PRAXIS (Brent's principal axis) and
-  NEWUOA (Powell) on f = sum r^2, ftol_rel = 1e-15, xtol_rel = 1e-12.
+  NEWUOA (Powell) on f = sum r^2, ftol_rel = 1e-15, xtol_rel = 1e-12;
+- `pdfo-newuoa`, `pdfo-bobyqa`: PDFO's NEWUOA and BOBYQA (Powell's own
+  Fortran, no bounds) on f, PDFO's defaults (initial trust-region radius
+  1, npt = 2n + 1) but a final radius of 1e-12 and at most the budget's
+  evaluations (PDFO's maxfev; PDFO cannot be stopped from the objective, so
+  past the time limit the objective returns the best f so far, uncounted,
+  until maxfev).
 
 The residuals are those of scripts/golden/mgh_golden.py (an independent NumPy
 implementation written from the paper, imported, not copied). Every residual
@@ -16,13 +22,19 @@ call is counted (finite-difference calls included: an evaluation equivalent,
 as in Rust) and the budget is the runner's: BUDGET * (n + 1) evaluations and
 TIME_LIMIT seconds per run. The trace of the best f so far is thinned by the
 rule of bench/src/record.rs (`thin_trace`). Each run is timed REPEATS times
-(median).
+(median). Every record holds its start `x0` and the final point `x` (that
+of the best f evaluated, which is what each solver returns), from which the
+runner recomputes f(x0) and f itself.
 
-Writes OUT/scipy.json and OUT/nlopt.json (default OUT =
+Writes OUT/scipy.json, OUT/nlopt.json and OUT/pdfo.json (default OUT =
 results/benchmarks/outside), which `nprl-bench` merges into its profiles.
 
-Run from the repository root (makes .venv-bench/ on first use):
-  python3 scripts/bench/outside_mgh.py [--budget 2000] [--time-limit 10] [--repeats 3]
+Run from the repository root:
+  python3 scripts/bench/outside_mgh.py [--budget 2000] [--time-limit 10] [--repeats 3] [--groups scipy,nlopt,pdfo]
+
+It makes two virtual environments on first use: .venv-bench/ (numpy 2,
+scipy, nlopt) and .venv-bench-pdfo/ (pdfo 2.2.0, which needs numpy < 2); the
+pdfo group runs in the second, as a child process of this script.
 """
 import argparse
 import json
@@ -36,16 +48,26 @@ import time
 ROOT = pathlib.Path(__file__).resolve().parents[2]
 VENV = ROOT / ".venv-bench"
 PACKAGES = ["numpy==2.4.6", "scipy==1.17.1", "nlopt==2.11.0"]
+# pdfo 2.2.0's compiled Fortran needs numpy < 2
+VENV_PDFO = ROOT / ".venv-bench-pdfo"
+PACKAGES_PDFO = ["numpy==1.26.4", "pdfo==2.2.0"]
+GROUPS = ("scipy", "nlopt", "pdfo")
 
 
-def ensure_venv():
-    """Re-executes this script inside .venv-bench (made on first use)."""
-    py = VENV / "bin" / "python"
-    if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
-        return
+def venv_python(venv, packages):
+    """The Python of `venv`, made with `packages` on first use."""
+    py = venv / "bin" / "python"
     if not py.exists():
-        subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
-        subprocess.run([str(py), "-m", "pip", "install", "-q", *PACKAGES], check=True)
+        subprocess.run([sys.executable, "-m", "venv", str(venv)], check=True)
+        subprocess.run([str(py), "-m", "pip", "install", "-q", *packages], check=True)
+    return py
+
+
+def ensure_venv(venv, packages):
+    """Re-executes this script inside `venv` (made on first use)."""
+    if pathlib.Path(sys.prefix).resolve() == venv.resolve():
+        return
+    py = venv_python(venv, packages)
     os.execv(str(py), [str(py), __file__, *sys.argv[1:]])
 
 
@@ -60,6 +82,7 @@ class Counted:
         self.fun, self.m = fun, m
         self.max_evals, self.deadline = max_evals, time.perf_counter() + time_limit
         self.evals, self.best, self.trace, self.spent = 0, math.inf, [], False
+        self.best_x = None
 
     def residuals(self, x):
         import numpy as np
@@ -72,6 +95,7 @@ class Counted:
         f = float(np.sum(r * r))
         if math.isfinite(f) and f < self.best:
             self.best = f
+            self.best_x = [float(v) for v in x]
             self.trace.append((self.evals, f))
         return r
 
@@ -136,30 +160,93 @@ def run_nlopt(algorithm, c, x0, time_limit):
     return names.get(code, f"code {code}"), code in (1, 2, 3, 4)
 
 
-def main():
-    ensure_venv()
-    import numpy as np
-    import scipy
-    import nlopt
-    sys.path.insert(0, str(ROOT / "scripts" / "golden"))
-    import mgh_golden
+def run_pdfo(method, c, x0):
+    import warnings
+    from pdfo import pdfo
 
+    def objective(x):
+        try:
+            f = c.cost(x)
+        except Spent:
+            # PDFO cannot be stopped from here: the best so far, until maxfev
+            return c.best if math.isfinite(c.best) else 1e300
+        return f if math.isfinite(f) else 1e300
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        try:
+            res = pdfo(objective, list(x0), method=method,
+                       options={"radius_final": 1e-12, "maxfev": int(c.max_evals), "quiet": True})
+        except (ValueError, RuntimeError, ArithmeticError) as e:
+            return f"error: {type(e).__name__}", False
+    if c.spent:
+        return "budget", False
+    # 0: the final radius reached, 1: ftarget, 3: maxfev
+    status = int(res.status)
+    return ("success" if status == 0 else f"status {status}"), status in (0, 1)
+
+
+def parse_args():
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--budget", type=int, default=2000, help="simplex gradients (n + 1 evaluations) per run")
     ap.add_argument("--time-limit", type=float, default=10.0, help="seconds per run")
     ap.add_argument("--repeats", type=int, default=3, help="timings per run (median)")
     ap.add_argument("--filter", default=None, help="only problems whose name contains this")
+    ap.add_argument("--groups", default=",".join(GROUPS), help="comma-separated: scipy, nlopt, pdfo")
     ap.add_argument("--out", default=str(ROOT / "results" / "benchmarks" / "outside"))
     args = ap.parse_args()
+    args.groups = [g.strip() for g in args.groups.split(",") if g.strip()]
+    unknown = [g for g in args.groups if g not in GROUPS]
+    if unknown or not args.groups:
+        ap.error(f"unknown or no groups: {unknown}; known: {', '.join(GROUPS)}")
+    return args
 
-    solvers = {
-        "scipy-lm": ("scipy", lambda c, x0: run_scipy("lm", c, x0)),
-        "scipy-trf": ("scipy", lambda c, x0: run_scipy("trf", c, x0)),
-        "nlopt-praxis": ("nlopt", lambda c, x0: run_nlopt(nlopt.LN_PRAXIS, c, x0, args.time_limit)),
-        "nlopt-newuoa": ("nlopt", lambda c, x0: run_nlopt(nlopt.LN_NEWUOA, c, x0, args.time_limit)),
-    }
-    files = {"scipy": [], "nlopt": []}
-    started = time.perf_counter()
+
+def main():
+    args = parse_args()
+    if args.groups == ["pdfo"]:
+        ensure_venv(VENV_PDFO, PACKAGES_PDFO)
+        run_groups(args, ["pdfo"])
+        return
+    ensure_venv(VENV, PACKAGES)
+    here = [g for g in args.groups if g != "pdfo"]
+    run_groups(args, here)
+    if "pdfo" in args.groups:
+        # the same options, the pdfo group alone, in its own environment
+        argv, skip = [], False
+        for a in sys.argv[1:]:
+            if skip or a == "--groups" or a.startswith("--groups="):
+                skip = a == "--groups"
+                continue
+            argv.append(a)
+        py = venv_python(VENV_PDFO, PACKAGES_PDFO)
+        subprocess.run([str(py), __file__, *argv, "--groups", "pdfo"], check=True)
+
+
+def run_groups(args, groups):
+    """Runs the solvers of `groups` (all in this interpreter) and writes their files."""
+    import numpy as np
+    sys.path.insert(0, str(ROOT / "scripts" / "golden"))
+    import mgh_golden
+
+    solvers, versions = {}, {}
+    if "scipy" in groups:
+        import scipy
+        solvers["scipy-lm"] = ("scipy", lambda c, x0: run_scipy("lm", c, x0))
+        solvers["scipy-trf"] = ("scipy", lambda c, x0: run_scipy("trf", c, x0))
+        versions["scipy"] = f"scipy {scipy.__version__} least_squares (numpy {np.__version__})"
+    if "nlopt" in groups:
+        import nlopt
+        solvers["nlopt-praxis"] = ("nlopt", lambda c, x0: run_nlopt(nlopt.LN_PRAXIS, c, x0, args.time_limit))
+        solvers["nlopt-newuoa"] = ("nlopt", lambda c, x0: run_nlopt(nlopt.LN_NEWUOA, c, x0, args.time_limit))
+        versions["nlopt"] = f"nlopt {nlopt.__version__} (PRAXIS, NEWUOA; numpy {np.__version__})"
+    if "pdfo" in groups:
+        from importlib.metadata import version
+        solvers["pdfo-newuoa"] = ("pdfo", lambda c, x0: run_pdfo("newuoa", c, x0))
+        solvers["pdfo-bobyqa"] = ("pdfo", lambda c, x0: run_pdfo("bobyqa", c, x0))
+        versions["pdfo"] = f"pdfo {version('pdfo')} (NEWUOA, BOBYQA; numpy {np.__version__})"
+    files = {g: [] for g in groups}
+    spent = {g: 0.0 for g in groups}
     for pid, key, fun, n, m, x0 in mgh_golden.problems():
         name = f"{pid:02d}_{key}"
         if args.filter and args.filter not in name:
@@ -168,6 +255,7 @@ def main():
         for scale in (1.0, 10.0, 100.0):
             start = np.full(n, scale) if (scale != 1.0 and not x0.any()) else scale * x0
             for solver, (group, run) in solvers.items():
+                group_started = time.perf_counter()
                 times, first = [], None
                 for _ in range(max(1, args.repeats)):
                     c = Counted(fun, m, args.budget * (n + 1), args.time_limit)
@@ -177,28 +265,32 @@ def main():
                     if first is None:
                         first = (c, status, converged)
                 c, status, converged = first
+                spent[group] += time.perf_counter() - group_started
                 if not c.trace:
                     continue
                 times.sort()
+                # f0: this script's own f at the start (None where it overflows);
+                # the runner recomputes it from the start either way
+                with np.errstate(all="ignore"):
+                    r0 = np.asarray(fun(start.copy(), m), float)
+                    f0 = float(np.sum(r0 * r0))
                 files[group].append({
                     "solver": solver, "set": "mgh", "problem": name, "n": n, "m": m, "scale": scale,
-                    "status": status, "converged": bool(converged), "f0": c.trace[0][1], "f": c.best,
+                    "status": status, "converged": bool(converged),
+                    "f0": f0 if math.isfinite(f0) else None, "f": c.best,
                     "f_star": None, "f_evals": c.evals, "jac_evals": 0, "evals": c.evals,
                     "time_s": times[len(times) // 2], "repeats": max(1, args.repeats),
                     "trace": thin_trace(c.trace),
+                    "x0": [float(v) for v in start], "x": c.best_x,
                 })
                 print(f"{name:30s} x{scale:<5g} {solver:13s} f={c.best:.6e} evals={c.evals:7d} "
                       f"{times[len(times) // 2]:.2e} s {status}", flush=True)
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    elapsed = f"{time.perf_counter() - started:.1f} s for the runs of both files"
-    sources = {
-        "scipy": f"scipy {scipy.__version__} least_squares (numpy {np.__version__}), scripts/bench/outside_mgh.py, {elapsed}",
-        "nlopt": f"nlopt {nlopt.__version__} (PRAXIS, NEWUOA), scripts/bench/outside_mgh.py, {elapsed}",
-    }
     for group, runs in files.items():
+        source = f"{versions[group]}, scripts/bench/outside_mgh.py, {spent[group]:.1f} s for the runs"
         path = out / f"{group}.json"
-        path.write_text(json.dumps({"format": "nprl-bench/1", "source": sources[group], "runs": runs}) + "\n")
+        path.write_text(json.dumps({"format": "nprl-bench/1", "source": source, "runs": runs}) + "\n")
         print(f"wrote {path} ({len(runs)} runs)")
 
 

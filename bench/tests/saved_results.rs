@@ -1,0 +1,68 @@
+//! The saved MGH results (`results/benchmarks/runs.json` and the outside
+//! scripts' `results/benchmarks/outside/*.json`) against the problems
+//! themselves: for a sample of the records, $f$ at the stored final $x$
+//! and $f$ at the stored start, computed here, equal what the record says,
+//! and the start is the instance's. A record whose numbers a solver (or a
+//! script, with its own implementation of the residuals) got wrong, or
+//! that came from another start, fails here.
+
+use std::path::Path;
+
+use bench::problems::{Instance, ProblemSet};
+use bench::record::RecordFile;
+use bench::solvers::cost_at;
+
+/// Agreement to 1e-7 relative (1e-20 absolute near 0): the outside
+/// scripts' residuals are another implementation, which rounds otherwise
+/// where the residuals cancel (`scipy-lm` on Beale from $100 x_0$ ends at
+/// $x_1 = -4.5 \cdot 10^6$, $1 - x_2 = 2.2 \cdot 10^{-7}$: the two agree to
+/// 1.5e-9). A record from another point or of another problem is off by
+/// far more.
+fn close(a: f64, b: f64) -> bool {
+    (a - b).abs() <= 1e-7 * a.abs().max(b.abs()) + 1e-20
+}
+
+#[test]
+fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results/benchmarks");
+    let mut files = vec![dir.join("runs.json")];
+    for entry in std::fs::read_dir(dir.join("outside")).expect("results/benchmarks/outside") {
+        let path = entry.expect("entry").path();
+        if path.extension().is_some_and(|e| e == "json") {
+            files.push(path);
+        }
+    }
+    let instances: Vec<Instance> = ProblemSet::Mgh.instances(None).expect("mgh");
+    let mut checked = 0;
+    for path in &files {
+        let file = RecordFile::load(path).expect("a saved record file");
+        // every 7th record, all solvers and starts in turn
+        for r in file.runs.iter().step_by(7) {
+            let inst = instances
+                .iter()
+                .find(|i| i.problem == r.problem && i.scale == r.scale)
+                .unwrap_or_else(|| panic!("{}: no instance {} x{}", path.display(), r.problem, r.scale));
+            let what = format!("{} {} {} x{}", path.display(), r.solver, r.problem, r.scale);
+            let x0 = r.x0.as_deref().unwrap_or_else(|| panic!("{what}: no x0"));
+            assert_eq!(x0, inst.start.as_slice(), "{what}");
+            let x = r.x.as_deref().unwrap_or_else(|| panic!("{what}: no x"));
+            let f = cost_at(inst, x).expect("n entries");
+            // a final point where f overflows (a solver that stopped at an
+            // overflowing start) is recorded as null
+            assert!(
+                close(f, r.f) || (!f.is_finite() && r.f.is_nan()),
+                "{what}: f = {} recorded, {f} at its x",
+                r.f
+            );
+            let f0 = cost_at(inst, x0).expect("n entries");
+            assert!(
+                close(f0, r.f0) || (!f0.is_finite() && r.f0.is_nan()),
+                "{what}: f0 = {} recorded, {f0} at the start",
+                r.f0
+            );
+            checked += 1;
+        }
+    }
+    // ours (8 solvers' worth of the MGH set) and the outside files
+    assert!(checked >= 100, "only {checked} records checked");
+}
