@@ -25,7 +25,7 @@
 //!    differences ([`Difference::Central`]) take two per group and are
 //!    second-order accurate.
 //! 3. **Step.** The damped Gauss-Newton step of
-//!    [`GaussNewton`](crate::GaussNewton) on that Jacobian (Levenberg-Marquardt:
+//!    [`GaussNewton`] on that Jacobian (Levenberg-Marquardt:
 //!    a trust region in the scaled norm, accepted when the actual reduction
 //!    is positive against the linear model's), with its sparse Cholesky
 //!    factorisation, its bounds (through clarabel) and its tests.
@@ -52,7 +52,7 @@
 //! `residual_evals` counts every residual evaluation, the differences'
 //! included; `max_residual_evals` caps it (the result is then the best point
 //! evaluated, with [`GaussNewtonStatus::MaxEvaluations`]). The statuses are
-//! [`GaussNewton`](crate::GaussNewton)'s, with its convergence tests on
+//! [`GaussNewton`]'s, with its convergence tests on
 //! the differenced gradient $J^\top r$, and one more check: a cost or step
 //! test (the criterion stopped decreasing, the step became tiny) counts as
 //! convergence only where MINPACK's stationarity measure
