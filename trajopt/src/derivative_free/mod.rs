@@ -207,29 +207,6 @@ impl DerivativeFreeSettings {
     }
 }
 
-/// The parts of a Gauss-Newton result the mode passes on.
-struct GaussNewtonResultWith {
-    x: Vec<f64>,
-    cost: f64,
-    initial_cost: f64,
-    status: GaussNewtonStatus,
-    iterations: usize,
-    cost_history: Vec<f64>,
-}
-
-impl From<crate::gauss_newton::GaussNewtonResult> for GaussNewtonResultWith {
-    fn from(r: crate::gauss_newton::GaussNewtonResult) -> Self {
-        Self {
-            x: r.x,
-            cost: r.cost,
-            initial_cost: r.initial_cost,
-            status: r.status,
-            iterations: r.iterations,
-            cost_history: r.cost_history,
-        }
-    }
-}
-
 /// What [`DerivativeFree::solve`] returns.
 #[derive(Debug, Clone)]
 pub struct DerivativeFreeResult {
@@ -290,20 +267,16 @@ impl DerivativeFree {
         let budget = s.max_residual_evals.unwrap_or(usize::MAX);
         let wrapped = GroupedDifferences::new(problem, s.difference, s.step(), budget)?;
         let jacobian_groups = wrapped.groups().n_groups();
-        let solved = self.gauss_newton.solve(&wrapped, theta0).and_then(|r| {
+        let solved = self.gauss_newton.solve(&wrapped, theta0).and_then(|mut r| {
             // a cost or step test is believed only at a stationary point
-            let stalled = matches!(
+            if matches!(
                 r.status,
                 GaussNewtonStatus::ConvergedCost | GaussNewtonStatus::ConvergedStep
-            ) && wrapped.stationarity(&r.x)? > s.tol_stationary;
-            Ok(if stalled {
-                GaussNewtonResultWith {
-                    status: GaussNewtonStatus::Stalled,
-                    ..r.into()
-                }
-            } else {
-                r.into()
-            })
+            ) && wrapped.stationarity(&r.x)? > s.tol_stationary
+            {
+                r.status = GaussNewtonStatus::Stalled;
+            }
+            Ok(r)
         });
         match solved {
             Ok(r) => Ok(DerivativeFreeResult {
