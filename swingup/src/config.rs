@@ -218,6 +218,17 @@ pub enum Differences {
     Groups,
 }
 
+/// Which differences the derivative-free planner takes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum DifferenceKind {
+    /// $(f(z + h) - f(z)) / h$: first-order accurate, the fewest evaluations.
+    #[default]
+    Forward,
+    /// $(f(z + h) - f(z - h)) / 2h$: second-order accurate, about twice the evaluations.
+    Central,
+}
+
 /// Which basis represents the planned trajectories (Eq. 3 planners).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -315,6 +326,8 @@ pub struct PlannerConfig {
     pub x_max: f64,
     /// How [`Solver::DerivativeFree`] differences the Jacobian.
     pub differences: Differences,
+    /// Forward or central differences for [`Solver::DerivativeFree`].
+    pub difference_kind: DifferenceKind,
     /// With the Powell and derivative-free planners: also solve each plan's
     /// problem by Gauss-Newton (same model, start and continuation) and
     /// record its criterion in the plan (`gauss_newton_cost`), to check that
@@ -375,6 +388,7 @@ impl Default for PlannerConfig {
             x_max: 0.7,
             bound_weight: 1e4,
             differences: Differences::Elements,
+            difference_kind: DifferenceKind::Forward,
             compare_gauss_newton: false,
             max_iters: 200,
             powell_evals: 200_000,

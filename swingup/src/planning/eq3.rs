@@ -16,7 +16,7 @@ use trajopt::{
     TrackingCost,
 };
 
-use crate::config::{BasisKind, Config, Differences, Solver, Start};
+use crate::config::{BasisKind, Config, DifferenceKind, Differences, Solver, Start};
 use crate::error::ResultExt;
 use crate::planning::cost::SwingupCost;
 use crate::planning::support::DataSupport;
@@ -236,7 +236,7 @@ pub fn plan_from<M: trajopt::Model>(
         (Solver::DerivativeFree, Differences::Elements) => {
             // Gauss-Newton on the model's values alone: its Jacobians by
             // forward differences of each step's inputs, in one batch
-            let model = Differenced::new(model, Difference::Forward, None)?;
+            let model = Differenced::new(model, difference_of(cfg), None)?;
             let mut plan = solve(cfg, demo, &model, support, start, Method::GaussNewton)?;
             // in criterion evaluations: one model evaluation at every step is one
             plan.evaluations += model.difference_evals().div_ceil(demo.horizon().max(1));
@@ -247,6 +247,14 @@ pub fn plan_from<M: trajopt::Model>(
     };
     plan.gauss_newton_cost = reference;
     Ok(plan)
+}
+
+/// The derivative-free planner's kind of differences.
+fn difference_of(cfg: &Config) -> Difference {
+    match cfg.planner.difference_kind {
+        DifferenceKind::Forward => Difference::Forward,
+        DifferenceKind::Central => Difference::Central,
+    }
 }
 
 /// How [`solve`] minimises Eq. 3.
@@ -282,6 +290,7 @@ fn solve<M: trajopt::Model>(
     let solver = GaussNewton::new(gauss_newton.clone())?;
     let derivative_free = DerivativeFree::new(DerivativeFreeSettings {
         gauss_newton,
+        difference: difference_of(cfg),
         ..DerivativeFreeSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
