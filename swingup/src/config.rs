@@ -213,7 +213,7 @@ pub enum Differences {
     #[default]
     Elements,
     /// Per coefficient group: Curtis-Powell-Reid groups of the criterion's
-    /// residuals (about 30 criterion evaluations per Jacobian;
+    /// residuals (14 criterion evaluations per Jacobian;
     /// `trajopt::DerivativeFree`).
     Groups,
 }

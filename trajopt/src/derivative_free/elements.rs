@@ -20,7 +20,7 @@ use crate::error::{Result, TrajoptError};
 /// costs $n + m$ evaluations of the model at every step (forward, with the
 /// values at $z_k$ one more) or $2 (n + m)$ (central): 5 to 10 criterion
 /// evaluations for the pendulum, where grouping the coefficients
-/// ([`GroupedDifferences`](super::GroupedDifferences)) needs about 30. All
+/// ([`GroupedDifferences`](super::GroupedDifferences)) needs 14. All
 /// the perturbed points go to the inner model in one
 /// [`step_batch`](Model::step_batch) call (a learned model may evaluate them
 /// in parallel).
