@@ -56,7 +56,7 @@ fn describe_plans(runs: &[RunSummary], variant: &str) -> String {
     let mut text = format!(" ({converged}/{plans} plans converged");
     if compared > 0 {
         text += &format!(
-            ", {same}/{compared} converged within {SAME_OPTIMUM:e} of Gauss-Newton's criterion on the same problem"
+            ", {same}/{compared} converged at most {SAME_OPTIMUM:e} above Gauss-Newton's criterion on the same problem (or below it)"
         );
     }
     text + ")"
@@ -313,4 +313,18 @@ pub(super) fn claims(
         ));
     }
     out
+}
+
+/// The pairs of variants that differ only in the demonstration: (model,
+/// with it, without it), where both ran.
+pub fn demonstration_worth(variants: &[VariantSummary]) -> Vec<(&'static str, &VariantSummary, &VariantSummary)> {
+    let find = |e: &str, v: &str| variants.iter().find(|x| x.experiment == e && x.variant == v);
+    [
+        ("lwr", "learning", "gauss-newton/bspline"),
+        ("lwr-parametric", "beyond", "lwr-parametric"),
+        ("true", "planners", "eq3/true"),
+    ]
+    .into_iter()
+    .filter_map(|(model, e, v)| Some((model, find(e, v)?, find("beyond", &format!("{SCRATCH_PREFIX}{model}"))?)))
+    .collect()
 }
