@@ -247,10 +247,15 @@ impl<'a, P: LeastSquaresProblem + ?Sized> GroupedDifferences<'a, P> {
         if cost.is_finite() && memory.best.as_ref().is_none_or(|(_, f)| cost < *f) {
             memory.best = Some((theta.to_vec(), cost));
         }
+        // reuse the oldest entry's buffers once the memory is full
         if memory.recent.len() == REMEMBERED {
-            memory.recent.remove(0);
+            let (mut t, mut v) = memory.recent.remove(0);
+            t.copy_from_slice(theta);
+            v.copy_from_slice(r);
+            memory.recent.push((t, v));
+        } else {
+            memory.recent.push((theta.to_vec(), r.to_vec()));
         }
-        memory.recent.push((theta.to_vec(), r.to_vec()));
         Ok(())
     }
 
