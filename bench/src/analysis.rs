@@ -8,6 +8,7 @@ use std::collections::BTreeMap;
 use serde::Serialize;
 
 use crate::minima::{self, Reference};
+use crate::nist;
 use crate::profiles::{ConvergenceTest, Profile, data_profiles, f_low, performance_profiles};
 use crate::record::RunRecord;
 
@@ -167,9 +168,23 @@ impl Analysis {
     /// Whether run `[p][s]` ended at the minimum, and the evaluations at
     /// which its trace first got there (`None`: no such run, or no
     /// reference for the instance).
+    ///
+    /// On the NIST set (a reference with certified parameters) a run is
+    /// solved when its final point's log relative error is at least
+    /// [`nist::HEADLINE_DIGITS`] ([`Analysis::lre`]), and its evaluations
+    /// are all it spent: its trace holds $f$, not the parameters.
     pub fn at_minimum(&self, p: usize, s: usize) -> Option<Outcome> {
         let run = self.runs[p][s].as_ref()?;
-        let f_star = self.references[p].as_ref()?.f_star;
+        let reference = self.references[p].as_ref()?;
+        if reference.certified.is_some() {
+            let solved = self.lre(p, s)? >= nist::HEADLINE_DIGITS;
+            return Some(Outcome {
+                solved,
+                evals: solved.then_some(run.evals),
+                time_s: solved.then_some(run.time_s),
+            });
+        }
+        let f_star = reference.f_star;
         let solved = minima::at_minimum(run.f, f_star);
         Some(Outcome {
             solved,
@@ -178,6 +193,15 @@ impl Analysis {
             evals: solved.then(|| run.evals_to(minima::limit(f_star)).unwrap_or(run.evals)),
             time_s: solved.then_some(run.time_s),
         })
+    }
+
+    /// The log relative error of run `[p][s]`'s final point against the
+    /// certified parameters ([`nist::lre`]; 0 for a run that stored no
+    /// point); `None` without certified parameters or without the run.
+    pub fn lre(&self, p: usize, s: usize) -> Option<f64> {
+        let run = self.runs[p][s].as_ref()?;
+        let certified = self.references[p].as_ref()?.certified.as_ref()?;
+        Some(run.x.as_ref().map_or(0.0, |x| nist::lre(x, certified)))
     }
 
     /// The same runs judged by `test`.
@@ -353,6 +377,7 @@ mod tests {
                 f_star: 2.0,
                 source: "test".into(),
                 degenerate: (key.1 == "q").then(|| "the start is at the minimum".to_string()),
+                certified: None,
             })
         };
         let plain = Analysis::new(vec![far.clone(), near.clone(), q.clone()], &["ours".into()]);

@@ -77,6 +77,16 @@ pub enum BenchError {
         /// The README.
         path: PathBuf,
     },
+    /// A NIST StRD data file that does not parse.
+    #[error("{file}{}: {reason}", .line.map_or(String::new(), |l| format!(": line {l}")))]
+    NistData {
+        /// The file's name (`Misra1a.dat`).
+        file: String,
+        /// The line (1-based), or `None` for the file as a whole.
+        line: Option<usize>,
+        /// What is wrong.
+        reason: String,
+    },
     /// Drawing a figure failed.
     #[error("figure {figure}: {reason}")]
     Plot {

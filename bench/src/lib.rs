@@ -28,6 +28,7 @@
 pub mod analysis;
 pub mod error;
 pub mod minima;
+pub mod nist;
 pub mod plot;
 pub mod problems;
 pub mod profiles;

@@ -15,8 +15,9 @@ use clap::Parser;
 #[derive(Debug, Parser)]
 #[command(name = "nprl-bench", version)]
 struct Cli {
-    /// Problem set: mgh (the Moré-Garbow-Hillstrom problems) or trajectory
-    /// (the swing-ups in Eq. 3 and DDP form and the learned-LWR plan).
+    /// Problem set: mgh (the Moré-Garbow-Hillstrom problems), nist (the
+    /// NIST StRD nonlinear regression problems) or trajectory (the
+    /// swing-ups in Eq. 3 and DDP form and the learned-LWR plan).
     #[arg(long, default_value = "mgh")]
     set: String,
     /// Solvers: `all` or a comma-separated list of gauss-newton, newton,

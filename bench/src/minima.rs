@@ -275,12 +275,32 @@ pub struct Reference {
     pub source: String,
     /// Why the instance is left out of the counts (`None`: it is not).
     pub degenerate: Option<String>,
+    /// The certified parameters where a run is judged by them (the NIST
+    /// set, [`crate::nist`]): solved when their log relative error is at
+    /// least [`crate::nist::HEADLINE_DIGITS`]; `None`: judged by $f$.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub certified: Option<Vec<f64>>,
 }
 
 impl Reference {
-    /// The reference of `instance` (`None` off the MGH set or with no
-    /// best-known minimum).
+    /// The reference of `instance` (`None` off the MGH and NIST sets, or
+    /// with no best-known minimum). A NIST instance's $f^*$ is the
+    /// certified residual sum of squares, and it carries the certified
+    /// parameters.
     pub fn of(instance: &Instance) -> Option<Self> {
+        if instance.set == crate::nist::SET {
+            let p = crate::nist::all()
+                .ok()?
+                .into_iter()
+                .find(|p| p.name == instance.problem)?;
+            return Some(Self {
+                f0: start_cost(instance),
+                f_star: p.certified_rss,
+                source: "NIST StRD, certified (11 digits)".into(),
+                degenerate: None,
+                certified: Some(p.certified),
+            });
+        }
         let best = best_known(&mgh_problem(instance)?)?;
         let f0 = cost_at(instance, &instance.start).unwrap_or(f64::NAN);
         let degenerate = if !f0.is_finite() {
@@ -295,6 +315,7 @@ impl Reference {
             f_star: best.value,
             source: best.source,
             degenerate,
+            certified: None,
         })
     }
 }
@@ -312,6 +333,9 @@ pub struct Discrepancy {
     pub what: String,
 }
 
+/// The sets whose records the runner recomputes and judges at the minimum.
+pub const JUDGED: [&str; 2] = ["mgh", crate::nist::SET];
+
 /// Relative agreement asked of a recomputed $f$ (another implementation
 /// of the residuals, as the outside scripts', rounds differently), with an
 /// absolute floor for values near 0.
@@ -319,17 +343,17 @@ fn agrees(a: f64, b: f64) -> bool {
     (a - b).abs() <= 1e-9 * a.abs().max(b.abs()) + 1e-20 || (!a.is_finite() && !b.is_finite())
 }
 
-/// Replaces every MGH record's `f0` by $f(x_0)$ of its instance's start
-/// and, where it stored its final `x`, its `f` by $f(x)$, both computed
-/// here; returns what did not agree (a start other than the instance's,
-/// an `f` or `f0` the record got wrong) and leaves records of other sets
-/// untouched. `instances` are looked up by `(problem, scale)`.
+/// Replaces every MGH and NIST record's `f0` by $f(x_0)$ of its
+/// instance's start and, where it stored its final `x`, its `f` by
+/// $f(x)$, both computed here; returns what did not agree (a start other
+/// than the instance's, an `f` or `f0` the record got wrong) and leaves
+/// records of other sets untouched. `instances` are looked up by `(problem, scale)`.
 pub fn recompute(records: &mut [RunRecord], instances: &[Instance]) -> Vec<Discrepancy> {
     let mut out = Vec::new();
     for r in records.iter_mut() {
         let Some(inst) = instances
             .iter()
-            .find(|i| i.set == r.set && i.set == "mgh" && i.problem == r.problem && i.scale == r.scale)
+            .find(|i| i.set == r.set && JUDGED.contains(&i.set) && i.problem == r.problem && i.scale == r.scale)
         else {
             continue;
         };

@@ -41,24 +41,30 @@ pub enum ProblemSet {
     /// The trajectory swing-ups in Eq. 3 and DDP form and the learned-LWR
     /// swing-up plan ([`crate::trajectory`]).
     Trajectory,
+    /// The 27 NIST StRD nonlinear regression problems ([`crate::nist`]),
+    /// each from its two certified starts (the records' `scale` is the
+    /// start's number, 1 or 2), judged by the log relative error of the
+    /// parameters.
+    Nist,
 }
 
 impl ProblemSet {
     /// Every set.
-    pub const ALL: [Self; 2] = [Self::Mgh, Self::Trajectory];
+    pub const ALL: [Self; 3] = [Self::Mgh, Self::Trajectory, Self::Nist];
 
     /// The set's name on the command line and in the records.
     pub fn name(self) -> &'static str {
         match self {
             Self::Mgh => "mgh",
             Self::Trajectory => crate::trajectory::SET,
+            Self::Nist => crate::nist::SET,
         }
     }
 
     /// The convergence test its runs are judged by.
     pub fn test(self) -> ConvergenceTest {
         match self {
-            Self::Mgh => ConvergenceTest::MoreWild,
+            Self::Mgh | Self::Nist => ConvergenceTest::MoreWild,
             Self::Trajectory => ConvergenceTest::RelativeToBest,
         }
     }
@@ -105,6 +111,23 @@ impl ProblemSet {
         let keep = |i: &Instance| filter.is_none_or(|f| i.problem.contains(f));
         Ok(match self {
             Self::Trajectory => crate::trajectory::instances(filter)?,
+            Self::Nist => crate::nist::all()?
+                .into_iter()
+                .flat_map(|p| {
+                    let p = Arc::new(p);
+                    [1u8, 2].map(|start| Instance {
+                        set: self.name(),
+                        problem: p.name.clone(),
+                        scale: f64::from(start),
+                        start: p.starts[usize::from(start) - 1].clone(),
+                        f_star: Some(p.certified_rss),
+                        residuals: p.m(),
+                        least_squares: p.clone(),
+                        rollout: None,
+                    })
+                })
+                .filter(keep)
+                .collect(),
             Self::Mgh => mgh::all()
                 .into_iter()
                 .flat_map(|p| {

@@ -8,14 +8,16 @@ use std::fmt::Write as _;
 use std::path::Path;
 use std::process::Command;
 
-use serde::Serialize;
+use serde::{Deserialize, Serialize};
 
 use crate::analysis::{Analysis, Criterion};
 use crate::error::{BenchError, Result};
 use crate::profiles::Profile;
 
-/// Where and on what the numbers were measured.
-#[derive(Debug, Clone, PartialEq, Serialize)]
+/// Where and on what the numbers were measured (saved in every
+/// `benchmarks*.json` as `stamp`, and read back by the tests that check
+/// the saved reports against their records).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stamp {
     /// `git rev-parse HEAD`, or `unknown`.
     pub commit: String,
@@ -459,6 +461,87 @@ pub fn problems_markdown(a: &Analysis) -> String {
     s
 }
 
+/// The NIST set's tables, Ceres's way: per solver, the problems whose
+/// final parameters agree with the certified ones to at least 4 and 6
+/// digits (LRE, [`crate::nist::lre`]) from each start; per problem, each
+/// solver's LRE from start 1 and start 2 (**bold** at 4 digits or more).
+pub fn nist_markdown(a: &Analysis) -> String {
+    let difficulty: std::collections::BTreeMap<String, String> = crate::nist::all()
+        .map(|all| {
+            all.into_iter()
+                .map(|p| (p.name, format!("{:?}", p.difficulty)))
+                .collect()
+        })
+        .unwrap_or_default();
+    let starts = ["1", "2"];
+    let mut s = String::from("| solver | runs |");
+    for k in crate::nist::DIGITS {
+        for start in starts {
+            let _ = write!(s, " LRE >= {k} (start {start}) |");
+        }
+        let _ = write!(s, " LRE >= {k} (both starts) |");
+    }
+    let _ = writeln!(s, "\n|---|---|{}", "---|".repeat(3 * crate::nist::DIGITS.len()));
+    for (col, name) in a.solvers.iter().enumerate() {
+        let runs = (0..a.instances.len()).filter(|&p| a.runs[p][col].is_some()).count();
+        let _ = write!(s, "| {name} | {runs} |");
+        for k in crate::nist::DIGITS {
+            let count = |start: Option<&str>| {
+                (0..a.instances.len())
+                    .filter(|&p| start.is_none_or(|st| a.instances[p].2 == st))
+                    .filter(|&p| a.lre(p, col).is_some_and(|l| l >= k))
+                    .count()
+            };
+            for start in starts {
+                let _ = write!(s, " {} |", count(Some(start)));
+            }
+            let _ = write!(s, " {} |", count(None));
+        }
+        s.push('\n');
+    }
+    let _ = write!(
+        s,
+        "\n### Per problem\n\nLRE of the final parameters from start 1 / start 2 (the smallest over the parameters, capped at 11; 0 when no digit agrees); **bold** at 4 digits or more, `-` where the solver did not run.\n\n| problem | difficulty | n | m | {} |\n|---|---|---|---|{}\n",
+        a.solvers.join(" | "),
+        "---|".repeat(a.solvers.len())
+    );
+    let mut problems: Vec<&String> = a.instances.iter().map(|k| &k.1).collect();
+    problems.dedup();
+    for problem in problems {
+        let rows: Vec<usize> = (0..a.instances.len())
+            .filter(|&p| &a.instances[p].1 == problem)
+            .collect();
+        let Some(&first) = rows.first() else { continue };
+        let m = a.runs[first].iter().flatten().map(|r| r.m).next().unwrap_or(0);
+        let _ = write!(
+            s,
+            "| {problem} | {} | {} | {m} |",
+            difficulty.get(problem).map_or("?", String::as_str),
+            a.n[first]
+        );
+        for col in 0..a.solvers.len() {
+            let cells: Vec<String> = starts
+                .iter()
+                .map(|start| {
+                    rows.iter()
+                        .find(|&&p| a.instances[p].2 == *start)
+                        .and_then(|&p| a.lre(p, col))
+                        .map_or("-".into(), |l| {
+                            if l >= crate::nist::HEADLINE_DIGITS {
+                                format!("**{l:.1}**")
+                            } else {
+                                format!("{l:.1}")
+                            }
+                        })
+                })
+                .collect();
+            let _ = write!(s, " {} |", cells.join(" / "));
+        }
+        s.push('\n');
+    }
+    s
+}
+
 /// A short form of a status for the tables.
 fn status_word(status: &str) -> String {
     let word = status.split([':', ' ', '(']).next().unwrap_or(status);
@@ -607,6 +690,7 @@ mod tests {
                 f_star: 0.0,
                 source: "exact".into(),
                 degenerate: None,
+                certified: None,
             })
         })
     }
@@ -702,6 +786,7 @@ mod tests {
                     f_star: 0.0,
                     source: "test".into(),
                     degenerate: None,
+                    certified: None,
                 })
             })
         };

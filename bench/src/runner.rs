@@ -31,7 +31,6 @@ use crate::error::{BenchError, Result};
 use crate::minima::{self, Reference};
 use crate::plot::ProfileFigure;
 use crate::problems::{Budget, ProblemSet};
-use crate::profiles::ConvergenceTest;
 use crate::record::{RecordFile, RunRecord};
 use crate::report::{self, Stamp};
 use crate::solvers::Solver;
@@ -119,44 +118,15 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     } else {
         started.elapsed().as_secs_f64()
     };
-    let mut sources = vec![ours.source.clone()];
-    let mut all: Vec<RunRecord> = ours.runs;
-    let repeats = all.first().map_or(settings.repeats, |r| r.repeats);
-    for path in outside_files(&settings.out.join("outside"), &settings.outside)? {
-        let file = RecordFile::load(&path)?;
-        sources.push(format!("{} ({})", file.source, path.display()));
-        all.extend(file.runs);
-    }
-    // the MGH set is judged at the minimum, by numbers computed here: f(x0)
-    // of every record from its instance's start, f at its stored x
-    let mut references = BTreeMap::new();
-    let mut discrepancies = Vec::new();
-    if settings.set == ProblemSet::Mgh {
-        let instances = settings.set.instances(settings.filter.as_deref())?;
-        // outside records of instances not in this run's set (a filter) are left out
-        all.retain(|r| {
-            instances
-                .iter()
-                .any(|i| i.set == r.set && i.problem == r.problem && i.scale == r.scale)
-        });
-        discrepancies = minima::recompute(&mut all, &instances);
-        for i in &instances {
-            if let Some(r) = Reference::of(i) {
-                references.insert((i.set.to_string(), i.problem.clone(), format!("{}", i.scale)), r);
-            }
-        }
-    }
-    // a solver that applies to none of the instances gets no column
-    let our_names: Vec<String> = settings
-        .solvers
-        .iter()
-        .map(|s| s.name().to_string())
-        .filter(|name| all.iter().any(|r| r.solver == *name))
-        .collect();
-    let mut analysis = Analysis::new(all, &our_names)
-        .with_test(settings.set.test())
-        .with_references(|key| references.get(key).cloned());
-    analysis.discrepancies = discrepancies;
+    let repeats = ours.runs.first().map_or(settings.repeats, |r| r.repeats);
+    let (analysis, sources) = analyse(
+        settings.set,
+        settings.filter.as_deref(),
+        &settings.solvers,
+        ours,
+        &settings.out,
+        &settings.outside,
+    )?;
     let (commit, dirty, date) = Stamp::git();
     let stamp = Stamp {
         commit,
@@ -174,6 +144,65 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     };
     write_all(&analysis, &stamp, settings)?;
     Ok((analysis, stamp))
+}
+
+/// Judges saved records: `ours` (a `runs.json`) with the outside records
+/// of `out/outside/*.json` and `outside`, on the instances of `set`
+/// whose names contain `filter`. On the MGH and NIST sets $f(x_0)$ and
+/// $f$ are recomputed from the instances ([`minima::recompute`]) and the
+/// runs judged at the minimum. Returns the analysis and the records'
+/// sources; writes nothing. `solvers` orders our columns (a solver
+/// without records gets none).
+///
+/// # Errors
+/// An outside records file that cannot be read or is malformed (naming
+/// it), or a set whose instances cannot be built.
+pub fn analyse(
+    set: ProblemSet,
+    filter: Option<&str>,
+    solvers: &[Solver],
+    ours: RecordFile,
+    out: &Path,
+    outside: &[PathBuf],
+) -> Result<(Analysis, Vec<String>)> {
+    let mut sources = vec![ours.source.clone()];
+    let mut all: Vec<RunRecord> = ours.runs;
+    for path in outside_files(&out.join("outside"), outside)? {
+        let file = RecordFile::load(&path)?;
+        sources.push(format!("{} ({})", file.source, path.display()));
+        all.extend(file.runs);
+    }
+    // the MGH and NIST sets are judged at the minimum, by numbers computed
+    // here: f(x0) of every record from its instance's start, f at its
+    // stored x
+    let mut references = BTreeMap::new();
+    let mut discrepancies = Vec::new();
+    if matches!(set, ProblemSet::Mgh | ProblemSet::Nist) {
+        let instances = set.instances(filter)?;
+        // records of instances not in this run's set (a filter) are left out
+        all.retain(|r| {
+            instances
+                .iter()
+                .any(|i| i.set == r.set && i.problem == r.problem && i.scale == r.scale)
+        });
+        discrepancies = minima::recompute(&mut all, &instances);
+        for i in &instances {
+            if let Some(r) = Reference::of(i) {
+                references.insert((i.set.to_string(), i.problem.clone(), format!("{}", i.scale)), r);
+            }
+        }
+    }
+    // a solver that applies to none of the instances gets no column
+    let our_names: Vec<String> = solvers
+        .iter()
+        .map(|s| s.name().to_string())
+        .filter(|name| all.iter().any(|r| r.solver == *name))
+        .collect();
+    let mut analysis = Analysis::new(all, &our_names)
+        .with_test(set.test())
+        .with_references(|key| references.get(key).cloned());
+    analysis.discrepancies = discrepancies;
+    Ok((analysis, sources))
 }
 
 /// Every solver on every instance, one at a time (so that the timings do
@@ -299,7 +328,7 @@ fn write_all(a: &Analysis, stamp: &Stamp, settings: &RunnerSettings) -> Result<(
                     "f_star": r.f_star, "f_evals": r.f_evals, "jac_evals": r.jac_evals, "evals": r.evals,
                     "time_s": r.time_s,
                     "objective": r.objective,
-                    "degenerate": a.degenerate(p), "at_minimum": a.at_minimum(p, s),
+                    "degenerate": a.degenerate(p), "at_minimum": a.at_minimum(p, s), "lre": a.lre(p, s),
                     "outcomes": a.taus().iter().map(|&t| json!({"tau": t, "outcome": a.outcome(p, s, t)})).collect::<Vec<_>>(),
                 }))
             })
@@ -316,7 +345,10 @@ fn write_all(a: &Analysis, stamp: &Stamp, settings: &RunnerSettings) -> Result<(
         .collect();
     let report_json = json!({
         "stamp": stamp, "goals": goals, "summary": summary, "solvers": a.solvers,
-        "criterion": a.has_references().then(|| json!({"at_minimum": "f <= f* + tol_rel (1 + |f*|)", "tol_rel": minima::TOL_REL})),
+        "criterion": match set {
+            ProblemSet::Nist => Some(json!({"at_minimum": "LRE of the parameters >= digits", "digits": crate::nist::HEADLINE_DIGITS, "reported": crate::nist::DIGITS})),
+            _ => a.has_references().then(|| json!({"at_minimum": "f <= f* + tol_rel (1 + |f*|)", "tol_rel": minima::TOL_REL})),
+        },
         "references": references, "discrepancies": a.discrepancies, "runs": outcomes,
     });
     let stem = set.report_stem();
@@ -327,7 +359,7 @@ fn write_all(a: &Analysis, stamp: &Stamp, settings: &RunnerSettings) -> Result<(
     let summary_md = mgh.then_some(summary_md);
     report::write(
         &report_dir.join(format!("{stem}.md")),
-        &markdown(a, stamp, &goals, summary_md.as_deref(), out, report_dir),
+        &markdown(a, stamp, &goals, summary_md.as_deref(), set, out, report_dir),
     )
 }
 
@@ -336,13 +368,15 @@ fn markdown(
     stamp: &Stamp,
     goals: &[report::Goal],
     summary_md: Option<&str>,
+    set: ProblemSet,
     out: &Path,
     report_dir: &Path,
 ) -> String {
     let rel = out.strip_prefix(report_dir).unwrap_or(out).display().to_string();
-    let title = match a.test {
-        ConvergenceTest::MoreWild => "Benchmarks".to_string(),
-        ConvergenceTest::RelativeToBest => "Benchmarks: the trajectory set".to_string(),
+    let title = match set {
+        ProblemSet::Mgh => "Benchmarks",
+        ProblemSet::Trajectory => "Benchmarks: the trajectory set",
+        ProblemSet::Nist => "Benchmarks: the NIST StRD set",
     };
     let mut s = format!(
         "# {title}\n\nGenerated by `nprl-bench` (see `bench/README.md`); do not edit. Commit {}{}, {} cores, load {} before and {} after, {} runs (each of ours timed {} times, median), budget {} simplex gradients and {} s per run, {}; our runs took {:.1} s of wall time.\n\nSources: {}.\n\n",
@@ -381,6 +415,12 @@ fn markdown(
             }
         }
         s.push_str(&format!("\n## Summary (at the minimum)\n\n{summary_md}\n"));
+    } else if set == ProblemSet::Nist {
+        s.push_str(&format!(
+            "## Criterion\n\nThe 27 NIST StRD nonlinear regression problems from both certified starts; f is the residual sum of squares (computed here at each run's final x). A run is solved when its final parameters agree with NIST's certified ones to at least {} significant digits: the log relative error, LRE = -log10(|b - c| / |c|), smallest over the parameters, capped at 11 (Ceres's convention and threshold); 6 digits are reported too. A solved run's evaluations are all it spent. Moré and Wild's test at tau (the profiles) counts a run only if it is also solved so. See `bench/README.md`.\n\n## Digits per solver\n\n{}\n",
+            crate::nist::HEADLINE_DIGITS,
+            report::nist_markdown(a)
+        ));
     } else {
         s.push_str(
             "Figure of merit: the task cost of each run's final controls rolled out through the exact dynamics (`pendulum-lwr`: its Eq. 3 criterion); solved at tau when within tau (relative) of the best any solver found on the instance. Evaluations of a solved run: all it spent (`pendulum-lwr`: those at which its trace first passed, as on the MGH set). See `bench/README.md`.\n\n");
@@ -397,6 +437,10 @@ fn markdown(
         s.push_str(&format!("\n## Best-known minima\n\n{}", report::references_markdown(a)));
     }
     let criterion = match a.headline() {
+        Criterion::AtMinimum if set == ProblemSet::Nist => format!(
+            "agrees with the certified parameters to {} digits",
+            crate::nist::HEADLINE_DIGITS
+        ),
         Criterion::AtMinimum => "ended at the minimum".to_string(),
         Criterion::Tau(tau) => format!("solved its instance at tau = {tau:e}"),
     };

@@ -10,7 +10,9 @@ use std::path::Path;
 
 use bench::problems::{Instance, ProblemSet};
 use bench::record::RecordFile;
-use bench::solvers::cost_at;
+use bench::report::{self, Stamp, summary_markdown};
+use bench::runner::analyse;
+use bench::solvers::{Solver, cost_at};
 
 /// Agreement to 1e-7 relative (1e-20 absolute near 0): the outside
 /// scripts' residuals are another implementation, which rounds otherwise
@@ -65,4 +67,37 @@ fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
     }
     // ours (8 solvers' worth of the MGH set) and the outside files
     assert!(checked >= 100, "only {checked} records checked");
+}
+
+/// The README's benchmark block, `results/benchmarks_summary.md` and the
+/// summary in `results/benchmarks.md` are what the runner makes of the
+/// saved records today: the records judged again with this commit's code,
+/// stamped with the stamp saved beside them. A README edited by hand, a
+/// summary left from other records, or a change to how runs are judged
+/// without regenerating `results/` fails here (regenerate with the
+/// commands of `bench/README.md`, then `--reuse --update-readme README.md`).
+#[test]
+fn the_readme_benchmark_block_is_the_summary_of_the_saved_records() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let out = root.join("results/benchmarks");
+    let saved: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(root.join("results/benchmarks.json")).expect("benchmarks.json"))
+            .expect("json");
+    let stamp: Stamp = serde_json::from_value(saved["stamp"].clone()).expect("a stamp");
+    let ours = RecordFile::load(&out.join("runs.json")).expect("runs.json");
+    let (analysis, _) = analyse(ProblemSet::Mgh, None, &Solver::ALL, ours, &out, &[]).expect("analysis");
+    assert_eq!(
+        analysis.runs.iter().flatten().flatten().count(),
+        stamp.runs,
+        "runs judged now and when the report was written"
+    );
+    let summary = summary_markdown(&report::summary(&analysis), &stamp);
+    let readme = std::fs::read_to_string(root.join("README.md")).expect("README.md");
+    let start = readme.find(report::README_START).expect("the start marker") + report::README_START.len();
+    let end = start + readme[start..].find(report::README_END).expect("the end marker");
+    assert_eq!(&readme[start..end], summary, "README.md's benchmark block is stale");
+    let saved_summary = std::fs::read_to_string(root.join("results/benchmarks_summary.md")).expect("summary");
+    assert_eq!(saved_summary, summary, "results/benchmarks_summary.md is stale");
+    let md = std::fs::read_to_string(root.join("results/benchmarks.md")).expect("benchmarks.md");
+    assert!(md.contains(&summary), "results/benchmarks.md's summary is stale");
 }
