@@ -87,6 +87,14 @@ pub enum BenchError {
         /// What is wrong.
         reason: String,
     },
+    /// A `--compare-to` reference that names no records.
+    #[error("--compare-to {spec}: {reason}")]
+    CompareTo {
+        /// The reference as given.
+        spec: String,
+        /// Why it cannot be read.
+        reason: String,
+    },
     /// Drawing a figure failed.
     #[error("figure {figure}: {reason}")]
     Plot {

@@ -26,6 +26,7 @@
 //! ```
 
 pub mod analysis;
+pub mod compare;
 pub mod error;
 pub mod minima;
 pub mod nist;

@@ -52,6 +52,12 @@ struct Cli {
     /// Do not run: reuse OUT/runs.json (to merge new outside records).
     #[arg(long)]
     reuse: bool,
+    /// Compare our runs with those of REF: a directory holding runs.json,
+    /// a records file, or a git revision whose committed OUT/runs.json is
+    /// read; prints per-solver instances solved, gained, lost and median
+    /// evaluations, and writes OUT/compare.{md,json}.
+    #[arg(long, value_name = "REF")]
+    compare_to: Option<String>,
     /// Also write the summary into this README, between its
     /// `<!-- benchmarks:start -->` and `<!-- benchmarks:end -->` lines.
     #[arg(long)]
@@ -97,11 +103,19 @@ fn run(cli: Cli) -> bench::Result<()> {
         outside: cli.outside,
         reuse: cli.reuse,
     };
-    // a README without its markers is refused before anything runs
+    // a README without its markers, or a reference that names no records,
+    // is refused before anything runs
     if let Some(path) = &cli.update_readme {
         readme_with_summary(path, "")?;
     }
+    let reference = match &cli.compare_to {
+        Some(spec) => Some(bench::compare::load_reference(spec, &settings.out)?),
+        None => None,
+    };
     let (analysis, stamp) = execute(&settings)?;
+    if let Some((records, label)) = reference {
+        compare(&settings, &analysis, records, &label, &stamp.commit)?;
+    }
     if let Some(path) = &cli.update_readme {
         let summary_path = settings.report_dir.join("benchmarks_summary.md");
         let summary = std::fs::read_to_string(&summary_path).map_err(|source| bench::BenchError::Io {
@@ -130,6 +144,47 @@ fn run(cli: Cli) -> bench::Result<()> {
         settings.report_dir.display()
     );
     Ok(())
+}
+
+/// Judges the reference records as this run's, prints what changed per
+/// solver and writes it to `OUT/compare.{md,json}`.
+fn compare(
+    settings: &RunnerSettings,
+    now: &bench::analysis::Analysis,
+    records: bench::record::RecordFile,
+    label: &str,
+    commit: &str,
+) -> bench::Result<()> {
+    let (before, _) = bench::runner::analyse(
+        settings.set,
+        settings.filter.as_deref(),
+        &settings.solvers,
+        records,
+        &settings.out,
+        &settings.outside,
+    )?;
+    let ours: Vec<String> = settings.solvers.iter().map(|s| s.name().to_string()).collect();
+    let changes = bench::compare::changes(&before, now, &ours);
+    let now_label = format!("{} (this run)", commit.get(..12).unwrap_or(commit));
+    let mut md = bench::compare::markdown(&changes, label, &now_label);
+    let missing: Vec<&str> = ours
+        .iter()
+        .filter(|s| !changes.iter().any(|c| &c.solver == *s))
+        .map(String::as_str)
+        .collect();
+    if !missing.is_empty() {
+        md.push_str(&format!(
+            "\nNot compared (no records on one side): {}.\n",
+            missing.join(", ")
+        ));
+    }
+    println!("{md}");
+    bench::report::write(&settings.out.join("compare.md"), &md)?;
+    let json = serde_json::json!({"before": label, "after": now_label, "changes": changes});
+    bench::report::write(
+        &settings.out.join("compare.json"),
+        &(serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"),
+    )
 }
 
 /// The README at `path` with `summary` between its benchmark markers.
