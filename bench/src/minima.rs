@@ -53,6 +53,26 @@ pub fn at_minimum(f: f64, f_star: f64) -> bool {
     f <= limit(f_star)
 }
 
+/// The digits to which `f` reaches `f_star`: $-\log_{10}((f - f^*) / (1 +
+/// \lvert f^* \rvert))$, the log relative error of Ceres's convention with a
+/// floor of 1 under $\lvert f^* \rvert$ (so that $f^* = 0$ is measured
+/// absolutely), capped at 16; 16 at or below $f^*$, 0 for NaN or far above.
+/// [`at_minimum`] is `digits(f, f*) >= 8`.
+pub fn digits(f: f64, f_star: f64) -> f64 {
+    if f.is_nan() {
+        return 0.0;
+    }
+    let excess = (f - f_star) / (1.0 + f_star.abs());
+    if excess <= 0.0 {
+        16.0
+    } else {
+        (-excess.log10()).clamp(0.0, 16.0) + 0.0
+    }
+}
+
+/// The digits reported beside the headline's 8 ([`digits`]).
+pub const REPORTED_DIGITS: [f64; 2] = [4.0, 6.0];
+
 /// A problem's best-known minimum.
 #[derive(Debug, Clone, PartialEq)]
 pub struct BestKnown {
@@ -400,6 +420,20 @@ pub fn recompute(records: &mut [RunRecord], instances: &[Instance]) -> Vec<Discr
 mod tests {
     use super::*;
     use crate::problems::ProblemSet;
+
+    #[test]
+    fn digits_measure_how_far_above_the_minimum() {
+        assert_eq!(digits(0.0, 0.0), 16.0);
+        assert!((digits(1e-4, 0.0) - 4.0).abs() < 1e-12);
+        // f* = 99: 1e-4 (1 + 99) above it is 4 digits
+        assert!((digits(99.01, 99.0) - 4.0).abs() < 1e-9);
+        assert_eq!(digits(f64::NAN, 0.0), 0.0);
+        assert_eq!(digits(1e9, 0.0), 0.0);
+        // the headline criterion is 8 digits
+        for f in [1e-8, 0.99e-8, 1.01e-8, 0.5] {
+            assert_eq!(at_minimum(f, 0.0), digits(f, 0.0) >= 8.0, "{f}");
+        }
+    }
 
     #[test]
     fn the_criterion_by_hand() {

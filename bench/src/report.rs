@@ -12,6 +12,7 @@ use serde::{Deserialize, Serialize};
 
 use crate::analysis::{Analysis, Criterion};
 use crate::error::{BenchError, Result};
+use crate::minima;
 use crate::profiles::Profile;
 
 /// Where and on what the numbers were measured (saved in every
@@ -555,10 +556,26 @@ pub fn solvers_markdown(a: &Analysis) -> String {
     let all: Vec<usize> = (0..a.solvers.len()).collect();
     let [loose, strict] = a.taus();
     let minimum = a.has_references();
+    // on a set judged by f* (MGH), the runs whose final f reaches it to 4
+    // and 6 digits (minima::digits) besides the headline's 8
+    let by_digits = minimum && a.references.iter().flatten().all(|r| r.certified.is_none());
+    let digit_columns: String = if by_digits {
+        minima::REPORTED_DIGITS
+            .iter()
+            .map(|k| format!(" f to {k} digits |"))
+            .collect()
+    } else {
+        String::new()
+    };
     let mut s = format!(
-        "| solver | derivative-free | runs |{} solved (tau {loose:e}) | solved (tau {strict:e}) | fastest (tau {strict:e}) | fewest evaluations (tau {strict:e}) |\n|---|---|---|{}---|---|---|---|\n",
+        "| solver | derivative-free | runs |{}{digit_columns} solved (tau {loose:e}) | solved (tau {strict:e}) | fastest (tau {strict:e}) | fewest evaluations (tau {strict:e}) |\n|---|---|---|{}{}---|---|---|---|\n",
         if minimum { " at the minimum |" } else { "" },
         if minimum { "---|" } else { "" },
+        if by_digits {
+            "---|".repeat(minima::REPORTED_DIGITS.len())
+        } else {
+            String::new()
+        },
     );
     let (time, evals) = a.performance(strict, &all);
     let counted: Vec<usize> = (0..a.instances.len()).filter(|&p| a.degenerate(p).is_none()).collect();
@@ -571,9 +588,29 @@ pub fn solvers_markdown(a: &Analysis) -> String {
                 .count()
         };
         let best = |profiles: &[Profile]| profiles.get(col).map_or(0.0, |p| p.at(1.0));
+        let digits: String = if by_digits {
+            minima::REPORTED_DIGITS
+                .iter()
+                .map(|&k| {
+                    let n = counted
+                        .iter()
+                        .filter(|&&p| {
+                            let f_star = a.references[p].as_ref().map(|r| r.f_star);
+                            a.runs[p][col]
+                                .as_ref()
+                                .zip(f_star)
+                                .is_some_and(|(r, f_star)| minima::digits(r.f, f_star) >= k)
+                        })
+                        .count();
+                    format!(" {n} |")
+                })
+                .collect()
+        } else {
+            String::new()
+        };
         let _ = writeln!(
             s,
-            "| {name} | {} | {runs} |{} {} | {} | {:.0}% | {:.0}% |",
+            "| {name} | {} | {runs} |{}{digits} {} | {} | {:.0}% | {:.0}% |",
             if a.derivative_free[col] { "yes" } else { "no" },
             if minimum {
                 format!(" {} |", solved(Criterion::AtMinimum))

@@ -1,6 +1,6 @@
-//! The saved MGH results (`results/benchmarks/runs.json` and the outside
-//! scripts' `results/benchmarks/outside/*.json`) against the problems
-//! themselves: for a sample of the records, $f$ at the stored final $x$
+//! The saved MGH and NIST results (`results/benchmarks/runs.json`,
+//! `results/benchmarks/nist/runs.json` and the outside scripts'
+//! `outside/*.json` beside them) against the problems themselves: for a sample of the records, $f$ at the stored final $x$
 //! and $f$ at the stored start, computed here, equal what the record says,
 //! and the start is the instance's. A record whose numbers a solver (or a
 //! script, with its own implementation of the residuals) got wrong, or
@@ -26,7 +26,19 @@ fn close(a: f64, b: f64) -> bool {
 
 #[test]
 fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
-    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results/benchmarks");
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results/benchmarks");
+    // ours (8 solvers' worth of the MGH set, 7 of the NIST set) and the outside files
+    for (set, dir, at_least) in [
+        (ProblemSet::Mgh, root.clone(), 100),
+        (ProblemSet::Nist, root.join("nist"), 50),
+    ] {
+        let checked = check_a_sample(set, &dir);
+        assert!(checked >= at_least, "{}: only {checked} records checked", set.name());
+    }
+}
+
+/// Checks every 7th record of `dir`'s files; returns how many.
+fn check_a_sample(set: ProblemSet, dir: &Path) -> usize {
     let mut files = vec![dir.join("runs.json")];
     for entry in std::fs::read_dir(dir.join("outside")).expect("results/benchmarks/outside") {
         let path = entry.expect("entry").path();
@@ -34,7 +46,7 @@ fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
             files.push(path);
         }
     }
-    let instances: Vec<Instance> = ProblemSet::Mgh.instances(None).expect("mgh");
+    let instances: Vec<Instance> = set.instances(None).expect("the set's instances");
     let mut checked = 0;
     for path in &files {
         let file = RecordFile::load(path).expect("a saved record file");
@@ -65,8 +77,7 @@ fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
             checked += 1;
         }
     }
-    // ours (8 solvers' worth of the MGH set) and the outside files
-    assert!(checked >= 100, "only {checked} records checked");
+    checked
 }
 
 /// The README's benchmark block, `results/benchmarks_summary.md` and the

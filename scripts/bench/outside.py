@@ -402,7 +402,8 @@ def run_groups(args, groups):
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     for group, runs in files.items():
-        source = f"{versions[group]}, scripts/bench/outside.py --set {args.set}, {spent[group]:.1f} s for the runs"
+        source = (f"{versions[group]}, scripts/bench/outside.py --set {args.set} --time-limit {args.time_limit:g} "
+                  f"--budget {args.budget}, {spent[group]:.1f} s for the runs")
         path = out / f"{group}.json"
         path.write_text(json.dumps({"format": "nprl-bench/1", "source": source, "runs": runs}) + "\n")
         print(f"wrote {path} ({len(runs)} runs)")
