@@ -12,7 +12,7 @@
 //! | `OUT/perf_time_tau1e-7.{svg,png}`, `perf_evals_*`, `data_*` | the figures, at $\tau = 10^{-3}$ and $10^{-7}$ |
 //! | `REPORT/benchmarks.md` | goals, summary, per-solver and per-problem tables |
 //! | `REPORT/benchmarks.json` | the stamp, goals, summary and every run's outcome |
-//! | `REPORT/benchmarks_summary.md` | the five-row summary alone |
+//! | `REPORT/benchmarks_summary.md` | the six-row summary alone |
 //!
 //! The MGH set writes the three `REPORT` files above; another set writes
 //! `REPORT/benchmarks_<set>.{md,json}` (stamp, per-solver and per-problem
