@@ -84,9 +84,9 @@ pub struct RunRecord {
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x0: Option<Vec<f64>>,
     /// The final point: the one of the best $f$ evaluated, which is what
-    /// each solver returns. Absent in older records and where a run is
-    /// scored by a rollout (the trajectory set's swing-ups), not by the
-    /// problem's own $f$.
+    /// each solver returns; on the trajectory set the Eq. 3 coefficients,
+    /// or DDP's controls stacked, whose rollout the runner scores
+    /// ([`crate::trajectory::figure_of_merit`]). Absent in older records.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x: Option<Vec<f64>>,
 }

@@ -633,6 +633,27 @@ pub fn solvers_markdown(a: &Analysis) -> String {
     s
 }
 
+/// What the runner recomputed from the records (f(x0) from the start, f
+/// at the stored final point) and where a record disagreed, as Markdown.
+pub fn checks_markdown(a: &Analysis) -> String {
+    let mut s = String::new();
+    let runs = a.runs.iter().flatten().flatten().count();
+    let with_x = a.runs.iter().flatten().flatten().filter(|r| r.x.is_some()).count();
+    let _ = write!(
+        s,
+        "\n### Checks\n\nThe runner computed f(x0) of every run from its instance's start, and f at the final x stored in {with_x} of the {runs} runs (the others are judged by their own f). Differences from the records (beyond 1e-9 relative): {}.\n",
+        if a.discrepancies.is_empty() {
+            "none".to_string()
+        } else {
+            a.discrepancies.len().to_string()
+        }
+    );
+    for d in &a.discrepancies {
+        let _ = writeln!(s, "- {} on {} from {} x0: {}", d.solver, d.problem, d.scale, d.what);
+    }
+    s
+}
+
 /// The best-known minima by problem, with sources, the degenerate
 /// instances, and what the runner did not reproduce from the records, as
 /// Markdown (the MGH set).
@@ -663,20 +684,7 @@ pub fn references_markdown(a: &Analysis) -> String {
         degenerate.len(),
         degenerate.join("\n")
     );
-    let runs = a.runs.iter().flatten().flatten().count();
-    let with_x = a.runs.iter().flatten().flatten().filter(|r| r.x.is_some()).count();
-    let _ = write!(
-        s,
-        "\n### Checks\n\nThe runner computed f(x0) of every run from its instance's start, and f at the final x stored in {with_x} of the {runs} runs (the others are judged by their own f). Differences from the records (beyond 1e-9 relative): {}.\n",
-        if a.discrepancies.is_empty() {
-            "none".to_string()
-        } else {
-            a.discrepancies.len().to_string()
-        }
-    );
-    for d in &a.discrepancies {
-        let _ = writeln!(s, "- {} on {} from {} x0: {}", d.solver, d.problem, d.scale, d.what);
-    }
+    s.push_str(&checks_markdown(a));
     let below: Vec<String> = a
         .instances
         .iter()

@@ -191,6 +191,12 @@ pub fn analyse(
                 references.insert((i.set.to_string(), i.problem.clone(), format!("{}", i.scale)), r);
             }
         }
+    } else if set == ProblemSet::Trajectory {
+        // the trajectory set is judged relative to the best run, on the
+        // figure of merit recomputed here from each record's final point
+        let instances = set.instances(filter)?;
+        all.retain(|r| instances.iter().any(|i| i.problem == r.problem && i.scale == r.scale));
+        discrepancies = crate::trajectory::recompute(&mut all, &instances);
     }
     // a solver that applies to none of the instances gets no column
     let our_names: Vec<String> = solvers
@@ -435,6 +441,8 @@ fn markdown(
     }
     if a.has_references() {
         s.push_str(&format!("\n## Best-known minima\n\n{}", report::references_markdown(a)));
+    } else {
+        s.push_str(&report::checks_markdown(a));
     }
     let criterion = match a.headline() {
         Criterion::AtMinimum if set == ProblemSet::Nist => format!(
@@ -483,6 +491,10 @@ mod tests {
         };
         let (analysis, stamp) = execute(&settings).expect("runs");
         assert_eq!(analysis.instances.len(), 1);
+        // every record stores its final point, and its f is that point's
+        // rollout, recomputed by the runner
+        assert!(analysis.runs[0].iter().flatten().all(|r| r.x.is_some()));
+        assert!(analysis.discrepancies.is_empty(), "{:?}", analysis.discrepancies);
         // every solver but Nelder-Mead (off the trajectory set) ran
         let ran: Vec<&str> = analysis.runs[0].iter().flatten().map(|r| r.solver.as_str()).collect();
         let expected: Vec<&str> = Solver::ALL

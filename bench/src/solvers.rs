@@ -214,11 +214,11 @@ impl Solver {
             time_s: median_time(times),
             repeats: repeats.max(1),
             trace,
-            // the points where the record is scored by the problem's own f,
-            // which the runner recomputes from them; a rolled-out run's
-            // thousands of Eq. 3 coefficients or controls would only weigh
-            x0: instance.rollout.is_none().then(|| instance.start.clone()),
-            x: (instance.rollout.is_none() && x.iter().all(|v| v.is_finite())).then_some(x),
+            // the start and the final point, from which the runner
+            // recomputes f0 and f (a rolled-out run: its Eq. 3
+            // coefficients, or DDP's controls, stacked)
+            x0: Some(instance.start.clone()),
+            x: x.iter().all(|v| v.is_finite()).then_some(x),
         })
     }
 
@@ -441,7 +441,7 @@ fn median_time(mut times: Vec<f64>) -> f64 {
 
 /// A figure of merit for the records, which hold finite values: a
 /// rollout that blew up (infinite cost) is recorded as `f64::MAX`.
-fn finite(f: f64) -> f64 {
+pub(crate) fn finite(f: f64) -> f64 {
     if f.is_finite() { f } else { f64::MAX }
 }
 

@@ -66,6 +66,73 @@ pub fn rollout_cost(forms: &Forms, theta: &[f64]) -> Result<f64> {
         .map_err(|e| model_error(e.to_string()))
 }
 
+/// The figure of merit of a stored final point of `instance`: the
+/// rollout cost of its controls ([`rollout_cost`] for a point of the Eq. 3
+/// form, of length $n$; the DDP form's rollout for stacked controls, of
+/// length $N m$), `f64::MAX` for a rollout that blows up; for the
+/// learned-LWR instance (no exact dynamics) its Eq. 3 criterion. `None`
+/// for a point of neither length.
+pub fn figure_of_merit(instance: &Instance, x: &[f64]) -> Option<f64> {
+    let Some(forms) = &instance.rollout else {
+        return crate::solvers::cost_at(instance, x).map(crate::solvers::finite);
+    };
+    let m = forms.ddp.initial_controls().first().map_or(0, Vec::len);
+    let f = if x.len() == instance.n() {
+        rollout_cost(forms, x).ok()?
+    } else if m > 0 && x.len() == forms.ddp.horizon() * m {
+        let controls: Vec<Vec<f64>> = x.chunks_exact(m).map(<[f64]>::to_vec).collect();
+        forms.ddp.rollout_cost(&controls).ok()?
+    } else {
+        return None;
+    };
+    Some(crate::solvers::finite(f))
+}
+
+/// Replaces every trajectory record's `f0` by the figure of merit of its
+/// instance's start and, where it stored its final `x`, its `f` by that
+/// of `x` ([`figure_of_merit`]), computed here; returns what did not
+/// agree to $10^{-9}$ (relative). Records of other sets, and of instances
+/// not in `instances`, are left untouched.
+pub fn recompute(records: &mut [crate::record::RunRecord], instances: &[Instance]) -> Vec<crate::minima::Discrepancy> {
+    let mut out = Vec::new();
+    for r in records.iter_mut().filter(|r| r.set == SET) {
+        let Some(inst) = instances.iter().find(|i| i.problem == r.problem && i.scale == r.scale) else {
+            continue;
+        };
+        let mut note = |what: String| {
+            out.push(crate::minima::Discrepancy {
+                solver: r.solver.clone(),
+                problem: r.problem.clone(),
+                scale: r.scale,
+                what,
+            })
+        };
+        let agrees = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()) + 1e-20;
+        if let Some(f0) = figure_of_merit(inst, &inst.start) {
+            if !agrees(f0, r.f0) {
+                note(format!("f0 {:e} recorded, {f0:e} at the start", r.f0));
+            }
+            r.f0 = f0;
+        }
+        if let Some(x) = &r.x {
+            match figure_of_merit(inst, x) {
+                Some(f) => {
+                    if !agrees(f, r.f) {
+                        note(format!("f {:e} recorded, {f:e} at its x", r.f));
+                    }
+                    r.f = f;
+                }
+                None => note(format!(
+                    "x has {} entries, neither n = {} nor the controls'",
+                    x.len(),
+                    inst.n()
+                )),
+            }
+        }
+    }
+    out
+}
+
 fn model_error(reason: String) -> BenchError {
     BenchError::InvalidSetting {
         name: "trajectory instance",
@@ -191,6 +258,31 @@ mod tests {
         let got = rollout_cost(&forms, &theta).expect("rollout");
         assert!((got - want).abs() < 1e-12 * want, "{got} vs {want}");
         assert!(rollout_cost(&forms, &theta[1..]).is_err());
+    }
+
+    #[test]
+    fn a_stored_point_is_scored_the_same_as_coefficients_or_as_controls() {
+        let mut inst = instances(Some("pendulum-h50-lambda1e2")).expect("builds").remove(0);
+        let forms = inst.rollout.clone().expect("forms");
+        let controls: Vec<Vec<f64>> = (0..50).map(|k| vec![3.0 * (0.1 * k as f64).sin()]).collect();
+        let states = vec![vec![0.0, 0.0]; 51];
+        let theta = parameters_of(&forms.eq3, &states, &controls).expect("theta");
+        let by_theta = figure_of_merit(&inst, &theta).expect("n entries");
+        let by_controls = figure_of_merit(&inst, &controls.concat()).expect("N m entries");
+        assert_eq!(by_theta, by_controls);
+        assert_eq!(by_controls, forms.ddp.rollout_cost(&controls).expect("rollout"));
+        assert_eq!(figure_of_merit(&inst, &[1.0; 7]), None);
+        // a record whose f is not that of its x is corrected and reported
+        let mut record = crate::record::tests::run("ddp-ilqr", &inst.problem, 1.0, 10);
+        record.set = SET.into();
+        record.x = Some(controls.concat());
+        inst.scale = record.scale;
+        let mut records = vec![record];
+        let found = recompute(&mut records, std::slice::from_ref(&inst));
+        assert_eq!(records[0].f, by_controls);
+        assert_eq!(records[0].f0, figure_of_merit(&inst, &inst.start).expect("start"));
+        assert_eq!(found.len(), 2, "{found:?}");
+        assert!(found[1].what.starts_with("f 1e0 recorded"), "{found:?}");
     }
 
     #[test]
