@@ -35,6 +35,7 @@ use serde::Serialize;
 use crate::analysis::Analysis;
 use crate::error::{BenchError, Result};
 use crate::record::RecordFile;
+use crate::report::median;
 
 /// What changed for one solver between two sets of records.
 #[derive(Debug, Clone, PartialEq, Serialize)]
@@ -57,16 +58,6 @@ pub struct SolverChange {
     pub median_evals: [Option<f64>; 2],
     /// Instances the solver ran on both sides (non-degenerate).
     pub instances: usize,
-}
-
-fn median(mut v: Vec<f64>) -> Option<f64> {
-    v.sort_by(f64::total_cmp);
-    let k = v.len();
-    match k {
-        0 => None,
-        _ if k % 2 == 1 => Some(v[k / 2]),
-        _ => Some(0.5 * (v[k / 2 - 1] + v[k / 2])),
-    }
 }
 
 /// Per solver of `solvers`, what changed from `before` to `after` (both
@@ -222,23 +213,22 @@ mod tests {
     #[test]
     fn gained_lost_and_medians_over_the_instances_solved_both_times() {
         // f0 = 10, f* = 0 (run's defaults): solved at tau 1e-7 when f <= 1e-6
-        let mk = run;
         let before = Analysis::new(
             vec![
-                mk("a", "p", 0.0, 10),
-                mk("a", "q", 0.0, 20),
-                mk("a", "r", 1.0, 5),
-                mk("b", "p", 0.0, 7),
+                run("a", "p", 0.0, 10),
+                run("a", "q", 0.0, 20),
+                run("a", "r", 1.0, 5),
+                run("b", "p", 0.0, 7),
             ],
             &["a".into(), "b".into()],
         );
         let after = Analysis::new(
             vec![
-                mk("a", "p", 0.0, 30),
-                mk("a", "q", 1.0, 20),
-                mk("a", "r", 0.0, 5),
+                run("a", "p", 0.0, 30),
+                run("a", "q", 1.0, 20),
+                run("a", "r", 0.0, 5),
                 // an instance the reference did not run is not counted
-                mk("a", "s", 0.0, 5),
+                run("a", "s", 0.0, 5),
             ],
             &["a".into()],
         );

@@ -369,11 +369,32 @@ fn agrees(a: f64, b: f64) -> bool {
 /// than the instance's, an `f` or `f0` the record got wrong) and leaves
 /// records of other sets untouched. `instances` are looked up by `(problem, scale)`.
 pub fn recompute(records: &mut [RunRecord], instances: &[Instance]) -> Vec<Discrepancy> {
+    recompute_by(
+        records,
+        instances,
+        |set| JUDGED.contains(&set),
+        |inst, x| cost_at(inst, x).map(|f| if f.is_finite() { f } else { f64::NAN }),
+    )
+}
+
+/// The runner's own account of the records of the sets `in_set` accepts:
+/// each record's `f0` replaced by `value(instance, start)` and, where it
+/// stored its final `x`, its `f` by `value(instance, x)` (`None`: `x` of
+/// no form the instance knows, reported); a stored `x0` other than the
+/// instance's start, and every value that differs from the record's, are
+/// returned. [`recompute`] (MGH, NIST: $f$) and
+/// [`crate::trajectory::recompute`] (the rollout) share it.
+pub(crate) fn recompute_by(
+    records: &mut [RunRecord],
+    instances: &[Instance],
+    in_set: impl Fn(&str) -> bool,
+    value: impl Fn(&Instance, &[f64]) -> Option<f64>,
+) -> Vec<Discrepancy> {
     let mut out = Vec::new();
     for r in records.iter_mut() {
         let Some(inst) = instances
             .iter()
-            .find(|i| i.set == r.set && JUDGED.contains(&i.set) && i.problem == r.problem && i.scale == r.scale)
+            .find(|i| i.set == r.set && in_set(i.set) && i.problem == r.problem && i.scale == r.scale)
         else {
             continue;
         };
@@ -395,21 +416,24 @@ pub fn recompute(records: &mut [RunRecord], instances: &[Instance]) -> Vec<Discr
         if r.x0.as_ref().is_some_and(other_start) {
             note("x0 is not the instance's start".into());
         }
-        let f0 = start_cost(inst);
+        let f0 = value(inst, &inst.start).unwrap_or(f64::NAN);
         if !agrees(f0, r.f0) {
             note(format!("f0 {:e} recorded, {f0:e} at the start", r.f0));
         }
         r.f0 = f0;
         if let Some(x) = &r.x {
-            match cost_at(inst, x) {
+            match value(inst, x) {
                 Some(f) => {
-                    let f = if f.is_finite() { f } else { f64::NAN };
                     if !agrees(f, r.f) {
                         note(format!("f {:e} recorded, {f:e} at its x", r.f));
                     }
                     r.f = f;
                 }
-                None => note(format!("x has {} entries, n = {}", x.len(), r.n)),
+                None => note(format!(
+                    "x has {} entries, of no form of the instance (n = {})",
+                    x.len(),
+                    r.n
+                )),
             }
         }
     }

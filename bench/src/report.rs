@@ -118,7 +118,9 @@ pub struct Goal {
     pub evidence: Vec<Comparison>,
 }
 
-fn median(mut v: Vec<f64>) -> Option<f64> {
+/// The median of `v` (the mean of the middle two for an even count;
+/// `None` when empty).
+pub(crate) fn median(mut v: Vec<f64>) -> Option<f64> {
     if v.is_empty() {
         return None;
     }

@@ -94,43 +94,7 @@ pub fn figure_of_merit(instance: &Instance, x: &[f64]) -> Option<f64> {
 /// agree to $10^{-9}$ (relative). Records of other sets, and of instances
 /// not in `instances`, are left untouched.
 pub fn recompute(records: &mut [crate::record::RunRecord], instances: &[Instance]) -> Vec<crate::minima::Discrepancy> {
-    let mut out = Vec::new();
-    for r in records.iter_mut().filter(|r| r.set == SET) {
-        let Some(inst) = instances.iter().find(|i| i.problem == r.problem && i.scale == r.scale) else {
-            continue;
-        };
-        let mut note = |what: String| {
-            out.push(crate::minima::Discrepancy {
-                solver: r.solver.clone(),
-                problem: r.problem.clone(),
-                scale: r.scale,
-                what,
-            })
-        };
-        let agrees = |a: f64, b: f64| (a - b).abs() <= 1e-9 * a.abs().max(b.abs()) + 1e-20;
-        if let Some(f0) = figure_of_merit(inst, &inst.start) {
-            if !agrees(f0, r.f0) {
-                note(format!("f0 {:e} recorded, {f0:e} at the start", r.f0));
-            }
-            r.f0 = f0;
-        }
-        if let Some(x) = &r.x {
-            match figure_of_merit(inst, x) {
-                Some(f) => {
-                    if !agrees(f, r.f) {
-                        note(format!("f {:e} recorded, {f:e} at its x", r.f));
-                    }
-                    r.f = f;
-                }
-                None => note(format!(
-                    "x has {} entries, neither n = {} nor the controls'",
-                    x.len(),
-                    inst.n()
-                )),
-            }
-        }
-    }
-    out
+    crate::minima::recompute_by(records, instances, |set| set == SET, figure_of_merit)
 }
 
 fn model_error(reason: String) -> BenchError {
