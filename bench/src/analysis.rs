@@ -52,6 +52,10 @@ impl Criterion {
 pub struct Analysis {
     /// The solvers, ours first (in the order given), then the outside ones by name.
     pub solvers: Vec<String>,
+    /// How many of [`solvers`](Self::solvers) are ours (the first ones):
+    /// compiled Rust, the only ones whose times are compared (the outside
+    /// solvers run from Python).
+    pub ours: usize,
     /// Which solvers use only $f$ (derivative-free): ours that say so, and
     /// outside solvers whose records have no Jacobian evaluations.
     pub derivative_free: Vec<bool>,
@@ -111,6 +115,7 @@ impl Analysis {
         }
         let derivative_free = seen_jac.iter().map(|j| !j).collect();
         Self {
+            ours: ours.len(),
             solvers,
             derivative_free,
             instances,
@@ -218,6 +223,11 @@ impl Analysis {
     /// The strict tolerance: the tables' and the summary's.
     pub fn strict_tau(&self) -> f64 {
         self.taus()[1]
+    }
+
+    /// The columns of our solvers.
+    pub fn our_columns(&self) -> Vec<usize> {
+        (0..self.ours).collect()
     }
 
     /// The solver's column, if it ran.

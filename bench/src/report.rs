@@ -238,7 +238,7 @@ pub fn goals(a: &Analysis) -> Vec<Goal> {
             evidence: vec![powell],
         },
         Goal {
-            goal: "(issue 21) Gauss-Newton/LM solves at the minimum at least as many MGH instances as MINPACK (scipy lm), in less time (median per-instance time ratio < 1)".into(),
+            goal: "(issue 21) Gauss-Newton/LM solves at the minimum at least as many MGH instances as MINPACK (scipy lm), in less time (median per-instance time ratio < 1; scipy lm runs from Python with NumPy residuals, so the time is not like for like: the evaluations row of the summary is)".into(),
             verdict: verdict(gn_measured, gn_met),
             evidence: vec![solved, time],
         },
@@ -577,7 +577,7 @@ pub fn solvers_markdown(a: &Analysis) -> String {
         String::new()
     };
     let mut s = format!(
-        "| solver | derivative-free | runs |{}{digit_columns} solved (tau {loose:e}) | solved (tau {strict:e}) | fastest (tau {strict:e}) | fewest evaluations (tau {strict:e}) |\n|---|---|---|{}{}---|---|---|---|\n",
+        "| solver | derivative-free | runs |{}{digit_columns} solved (tau {loose:e}) | solved (tau {strict:e}) | fastest of ours (tau {strict:e}) | fewest evaluations (tau {strict:e}) |\n|---|---|---|{}{}---|---|---|---|\n",
         if minimum { " at the minimum |" } else { "" },
         if minimum { "---|" } else { "" },
         if by_digits {
@@ -586,7 +586,9 @@ pub fn solvers_markdown(a: &Analysis) -> String {
             String::new()
         },
     );
-    let (time, evals) = a.performance(strict, &all);
+    // times only among our (compiled) solvers: the outside ones run from Python
+    let (time, _) = a.performance(strict, &a.our_columns());
+    let (_, evals) = a.performance(strict, &all);
     let counted: Vec<usize> = (0..a.instances.len()).filter(|&p| a.degenerate(p).is_none()).collect();
     for (col, name) in a.solvers.iter().enumerate() {
         let runs = counted.iter().filter(|&&p| a.runs[p][col].is_some()).count();
@@ -597,6 +599,11 @@ pub fn solvers_markdown(a: &Analysis) -> String {
                 .count()
         };
         let best = |profiles: &[Profile]| profiles.get(col).map_or(0.0, |p| p.at(1.0));
+        let fastest = if col < a.ours {
+            format!("{:.0}%", 100.0 * best(&time))
+        } else {
+            "-".to_string()
+        };
         let digits: String = if by_digits {
             minima::REPORTED_DIGITS
                 .iter()
@@ -619,7 +626,7 @@ pub fn solvers_markdown(a: &Analysis) -> String {
         };
         let _ = writeln!(
             s,
-            "| {name} | {} | {runs} |{}{digits} {} | {} | {:.0}% | {:.0}% |",
+            "| {name} | {} | {runs} |{}{digits} {} | {} | {fastest} | {:.0}% |",
             if a.derivative_free[col] { "yes" } else { "no" },
             if minimum {
                 format!(" {} |", solved(Criterion::AtMinimum))
@@ -628,7 +635,6 @@ pub fn solvers_markdown(a: &Analysis) -> String {
             },
             solved(Criterion::Tau(loose)),
             solved(Criterion::Tau(strict)),
-            100.0 * best(&time),
             100.0 * best(&evals),
         );
     }
