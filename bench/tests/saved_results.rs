@@ -37,15 +37,56 @@ fn f_at_the_stored_points_of_a_sample_of_saved_records_is_what_they_say() {
     }
 }
 
-/// Checks every 7th record of `dir`'s files; returns how many.
-fn check_a_sample(set: ProblemSet, dir: &Path) -> usize {
-    let mut files = vec![dir.join("runs.json")];
-    for entry in std::fs::read_dir(dir.join("outside")).expect("results/benchmarks/outside") {
-        let path = entry.expect("entry").path();
-        if path.extension().is_some_and(|e| e == "json") {
-            files.push(path);
+/// The saved trajectory records (ours and the outside script's) against
+/// the rollout of their stored final points: the figure of merit each
+/// records is that of its controls (every 3rd record of the registry
+/// instances; the learned-LWR one would need a learning run here).
+#[test]
+fn the_trajectory_records_figure_of_merit_is_the_rollout_of_their_stored_point() {
+    let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("../results/benchmarks/trajectory");
+    // every registry name holds "-h"; "pendulum-lwr" does not
+    let instances = bench::trajectory::instances(Some("-h")).expect("the registry instances");
+    let mut checked = 0;
+    for path in record_files(&dir) {
+        let file = RecordFile::load(&path).expect("a saved record file");
+        for r in file
+            .runs
+            .iter()
+            .filter(|r| r.problem != bench::trajectory::LWR_INSTANCE)
+            .step_by(3)
+        {
+            let what = format!("{} {} {}", path.display(), r.solver, r.problem);
+            let inst = instances
+                .iter()
+                .find(|i| i.problem == r.problem)
+                .unwrap_or_else(|| panic!("{what}: no instance"));
+            let x = r.x.as_deref().unwrap_or_else(|| panic!("{what}: no x"));
+            let f = bench::trajectory::figure_of_merit(inst, x).unwrap_or_else(|| panic!("{what}: x of no form"));
+            assert!(close(f, r.f), "{what}: f = {} recorded, {f} by rollout", r.f);
+            checked += 1;
         }
     }
+    assert!(checked >= 40, "only {checked} records checked");
+}
+
+/// `dir/runs.json` and `dir/outside/*.json`.
+fn record_files(dir: &Path) -> Vec<std::path::PathBuf> {
+    let mut files = vec![dir.join("runs.json")];
+    if let Ok(entries) = std::fs::read_dir(dir.join("outside")) {
+        for entry in entries {
+            let path = entry.expect("entry").path();
+            if path.extension().is_some_and(|e| e == "json") {
+                files.push(path);
+            }
+        }
+    }
+    files.sort();
+    files
+}
+
+/// Checks every 7th record of `dir`'s files; returns how many.
+fn check_a_sample(set: ProblemSet, dir: &Path) -> usize {
+    let files = record_files(dir);
     let instances: Vec<Instance> = set.instances(None).expect("the set's instances");
     let mut checked = 0;
     for path in &files {
