@@ -102,11 +102,18 @@ pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
     if files.is_empty() {
         return Ok(());
     }
+    // the task the directory records, so a run of the other one is told why
+    let task = store::Manifest::read(&dir.join(MANIFEST_FILE))
+        .ok()
+        .flatten()
+        .map(|m| m.task)
+        .or_else(|| dir.join("cartpole.json").exists().then(|| "cartpole".to_string()));
     ensure_refused!(
         force,
-        "{} holds another run ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
+        "{} holds another run{} ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
          or pass --force to delete that run's files first",
         dir.display(),
+        task.map_or(String::new(), |t| format!(", of the {t} task")),
         files.len(),
         files[0].file_name().and_then(|n| n.to_str()).unwrap_or("?")
     );
