@@ -1,7 +1,7 @@
 //! Fault injection for tests: fail the Nth file system operation of some
 //! kinds, as a full disk, a failing sync or a kill mid-write would.
 //!
-//! Every file system operation of this crate asks [`check`] first (one
+//! Every file system operation of this crate asks one internal check first (one
 //! relaxed atomic load when no plan is installed), so a test in any crate
 //! can install a [`FaultPlan`] and drive the crate's callers through every
 //! failure in turn. Plans are process-wide; a plan limited to a directory
