@@ -347,3 +347,23 @@ fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
     let mode = std::fs::metadata(&real).expect("meta").permissions().mode() & 0o777;
     assert_eq!(mode, 0o600);
 }
+
+/// A refused resume changes nothing in the directory: a torn last record
+/// stays where it is until a resume that is not refused moves it aside.
+#[test]
+fn a_refused_resume_leaves_a_torn_record_alone() {
+    let dir = Scratch::new("refused-torn");
+    ok(&swingup(&grid("1", &[]), &dir.0));
+    let log = dir.0.join("runs.jsonl");
+    let text = std::fs::read_to_string(&log).expect("runs");
+    let torn = &text[..text.len() - 40];
+    std::fs::write(&log, torn).expect("tear");
+    refused(&swingup(&grid("2", &["--resume"]), &dir.0), &["max_trials differs"]);
+    assert_eq!(std::fs::read_to_string(&log).expect("runs"), torn);
+    let names: Vec<String> = std::fs::read_dir(&dir.0)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains(".torn-")), "{names:?}");
+}

@@ -15,7 +15,10 @@
 //!   is refused too;
 //! - only the declared parts are read: a `runs*.jsonl` file without its
 //!   settings file (a backup, a copy) is never merged;
-//! - a run that cannot be saved stops the grid at once, naming the file.
+//! - a run that cannot be saved stops the grid at once, naming the file;
+//! - a refused grid changes nothing: every check is made before the
+//!   part's runs file is repaired or its settings file written (a fresh
+//!   grid writes its settings file only when its runs file is empty).
 //!
 //! Directories saved before manifests (`settings.json` holding the bare
 //! settings) are read as before: `runs.jsonl` and `runs-K-of-N.jsonl`.
@@ -245,6 +248,8 @@ pub fn open_grid(
     let report_only = mode == GridMode::ReportOnly;
     let mut parts = declared_parts(dir)?;
     let own_declared = parts.iter().any(|p| p.shard == shard);
+    // written once every check passed
+    let mut create_own_settings = false;
     if !own_declared && !report_only {
         if std::fs::metadata(&own_runs).is_ok_and(|m| m.len() > 0) {
             warnings.push(format!(
@@ -253,7 +258,7 @@ pub fn open_grid(
                 own_settings.display()
             ));
         } else {
-            manifest.write(&own_settings)?;
+            create_own_settings = true;
         }
         parts.push(Part {
             shard,
@@ -280,14 +285,10 @@ pub fn open_grid(
                 part.settings.display()
             )),
         }
-        let contents = if part.shard == shard && !report_only {
-            let (opened, contents) = AppendLog::open::<RunSummary>(&part.runs)?;
-            log = Some(opened);
-            contents
-        } else {
-            store::read_log::<RunSummary>(&part.runs)?
-        };
-        if let Some(torn) = &contents.torn {
+        // read only: the part's own log is repaired once every check passed
+        let contents = store::read_log::<RunSummary>(&part.runs)?;
+        let own = part.shard == shard && !report_only;
+        if let Some(torn) = contents.torn.as_ref().filter(|_| !own) {
             warnings.push(format!("{torn}; that run will run again"));
         }
         for (i, run) in contents.records.into_iter().enumerate() {
@@ -309,6 +310,16 @@ pub fn open_grid(
                 previous.push(run);
             }
         }
+    }
+    if create_own_settings {
+        manifest.write(&own_settings)?;
+    }
+    if !report_only {
+        let (opened, contents) = AppendLog::open::<RunSummary>(&own_runs)?;
+        if let Some(torn) = &contents.torn {
+            warnings.push(format!("{torn}; that run will run again"));
+        }
+        log = Some(opened);
     }
     Ok(OpenGrid {
         log,
