@@ -84,6 +84,11 @@ pub enum Error {
     /// A figure could not be drawn or written ([`crate::output::plot`]).
     #[error(transparent)]
     Plot(#[from] PlotError),
+    /// From the storage layer ([`store`]): a results file that cannot be
+    /// read or written, or a directory reopened with another task or other
+    /// settings; the error names the file.
+    #[error(transparent)]
+    Store(#[from] store::StoreError),
     /// What the library was doing when `source` occurred.
     #[error("{context}")]
     Context {
@@ -286,6 +291,9 @@ pub enum PlotError {
         /// What went wrong.
         source: std::io::Error,
     },
+    /// A figure's file could not be replaced (the error names it).
+    #[error(transparent)]
+    Store(Box<store::StoreError>),
 }
 
 #[cfg(test)]

@@ -8,10 +8,55 @@ use std::path::{Path, PathBuf};
 use anyhow::Context;
 use clap::{Parser, Subcommand};
 use swingup::config::{BasisKind, Config, Controller, ModelKind, Solver};
-use swingup::experiments::{Experiment, ExperimentSettings, run_experiments};
+use swingup::experiments::{Experiment, ExperimentSettings};
 use swingup::learn::run;
+use swingup::output::grid::{GridEvent, GridMode, GridOptions};
 use swingup::output::run_report;
 use swingup::record::{TrialKind, TrialRecord};
+
+/// Set once stdout is found closed (a pipe whose reader is gone, as in
+/// `swingup ... | head -1`): output is dropped from then on, and the work
+/// goes on and is saved.
+static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
+
+/// Writes a line to stdout; a closed stdout never stops the program (nor
+/// panics, as `println!` would): the line is dropped, said once on stderr.
+fn say_line(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    use std::sync::atomic::Ordering;
+    if STDOUT_CLOSED.load(Ordering::Relaxed) {
+        return;
+    }
+    let mut out = std::io::stdout().lock();
+    if out
+        .write_fmt(args)
+        .and_then(|()| out.write_all(b"\n"))
+        .and_then(|()| out.flush())
+        .is_err()
+        && !STDOUT_CLOSED.swap(true, Ordering::Relaxed)
+    {
+        note_line(format_args!(
+            "note: stdout is closed; the program goes on and saves its results without showing them"
+        ));
+    }
+}
+
+/// Writes a line to stderr, ignoring a closed stderr.
+fn note_line(args: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let mut err = std::io::stderr().lock();
+    let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
+}
+
+/// `println!` that never panics ([`say_line`]).
+macro_rules! say {
+    ($($arg:tt)*) => { say_line(format_args!($($arg)*)) };
+}
+
+/// `eprintln!` that never panics ([`note_line`]).
+macro_rules! note {
+    ($($arg:tt)*) => { note_line(format_args!($($arg)*)) };
+}
 
 /// Learn a pendulum swing-up from a human demonstration, as in Atkeson's
 /// "Nonparametric Model-Based Reinforcement Learning" (simulated).
@@ -157,13 +202,15 @@ struct ExperimentsArgs {
     #[arg(long)]
     resume: bool,
     /// With --resume: run nothing, write the report of the saved runs alone
-    /// (of every `runs*.jsonl` in `--out`: merge shards by copying their
-    /// files into one directory).
+    /// (of every part `--out` declares: `settings.json` with `runs.jsonl`,
+    /// each shard's `settings-K-of-N.json` with `runs-K-of-N.jsonl`; merge
+    /// shards run elsewhere by copying both files of each into one
+    /// directory). Shards with other settings are refused.
     #[arg(long, requires = "resume")]
     report_only: bool,
     /// Run only part K of N of the grid (e.g. `--shard 2/4`), for N machines
     /// or a batch scheduler's job array; the part's runs go to
-    /// `runs-K-of-N.jsonl`.
+    /// `runs-K-of-N.jsonl`, its settings to `settings-K-of-N.json`.
     #[arg(long)]
     shard: Option<swingup::experiments::Shard>,
     /// Run only the variants whose name starts with this (repeatable; e.g.
@@ -188,12 +235,21 @@ struct ExperimentsArgs {
 /// Errors print as the program's message and its causes, one line each,
 /// without a backtrace (even with `RUST_BACKTRACE` set), and exit with 1.
 fn main() -> std::process::ExitCode {
+    // the storage layer's fault injection, for this program's tests
+    // (`NPRL_STORE_FAULT=op=write,nth=2,path=runs.jsonl`; see `store::fault`)
+    let _faults = match store::fault::install_from_env("NPRL_STORE_FAULT") {
+        Ok(guard) => guard,
+        Err(e) => {
+            note!("error: NPRL_STORE_FAULT: {e}");
+            return std::process::ExitCode::FAILURE;
+        }
+    };
     match run_command() {
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {e}");
+            note!("error: {e}");
             for cause in e.chain().skip(1) {
-                eprintln!("  caused by: {cause}");
+                note!("  caused by: {cause}");
             }
             std::process::ExitCode::FAILURE
         }
@@ -204,7 +260,7 @@ fn run_command() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command.unwrap_or(Command::Learn(LearnArgs::default())) {
         Command::Config => {
-            print!("{}", toml::to_string(&Config::default())?);
+            say!("{}", toml::to_string(&Config::default())?.trim_end());
             Ok(())
         }
         Command::Learn(args) => learn(&args),
@@ -220,7 +276,7 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         with_successful_data,
     };
     let perturbations = default_perturbations();
-    println!(
+    say!(
         "planning with {} perturbed exact models, each run on the robot over {} seeds",
         perturbations.len(),
         args.seeds
@@ -229,14 +285,16 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
     let version = code_version();
     let cfg = Config::default();
     let rows = open_loop_tolerance(&cfg, &perturbations, args.seeds)?;
-    println!(
+    say!(
         "learning with the pure LWR over {} seeds, {} trials each, to measure its error along the exact plan",
-        args.model_seeds, args.model_trials
+        args.model_seeds,
+        args.model_trials
     );
     let model_error = learned_model_error(&cfg, args.model_seeds, args.model_trials)?;
-    println!(
+    say!(
         "learning with the pure LWR after a successful swing-up over {} seeds, up to {} trials each",
-        args.success_seeds, args.success_trials
+        args.success_seeds,
+        args.success_trials
     );
     let successful_data = with_successful_data(&cfg, args.success_seeds, args.success_trials)?;
     std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
@@ -252,8 +310,8 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         &serde_json::to_string_pretty(&report)?,
     )?;
     write_atomic(&args.out.join("sensitivity.md"), &md)?;
-    print!("{md}");
-    println!("written: {}", args.out.join("sensitivity.md").display());
+    say!("{}", md.trim_end());
+    say!("written: {}", args.out.join("sensitivity.md").display());
     if let Some(readme) = &args.update_readme {
         run_report::update_between(
             readme,
@@ -261,7 +319,7 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
             "<!-- sensitivity:end -->",
             &report.readme_summary(),
         )?;
-        println!("updated the sensitivity summary in {}", readme.display());
+        say!("updated the sensitivity summary in {}", readme.display());
     }
     Ok(())
 }
@@ -351,17 +409,20 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     };
     let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
     let file = out.join("cartpole.json");
-    anyhow::ensure!(
-        args.force || !file.exists(),
-        "{} holds a cart-pole run; pass --force to start over there",
-        out.display()
-    );
     let mut settings = swingup::cartpole::CartPoleSettings::default();
     if let Some(n) = args.max_trials {
         settings.max_trials = n;
     }
     let seed = args.seed.unwrap_or(1);
-    println!(
+    // a directory holding a run (of either task) is refused unless --force,
+    // which deletes that run's files only; the run records its task
+    swingup::output::rundir::prepare_fresh(out, args.force)?;
+    swingup::output::rundir::create_manifest(
+        out,
+        "cartpole",
+        &serde_json::json!({ "settings": &settings, "seed": seed }),
+    )?;
+    say!(
         "cartpole (PILCO's): one random trial, then MPC with the LWR; up to {} MPC trials of {} s; seed {seed}; writing to {}",
         settings.max_trials,
         settings.episode,
@@ -370,7 +431,7 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let record = swingup::cartpole::run(&settings, seed)?;
     for t in &record.trials {
-        println!(
+        say!(
             "trial {:>2}: {:<6} {}, tip {:.2} m from the target at the end, PILCO cost {:.1}, {:.0} s of data{}",
             t.trial,
             t.controller,
@@ -390,10 +451,10 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     }
     write_atomic(&file, &serde_json::to_string_pretty(&record)?)?;
     match (record.success_trial, record.seconds_to_success) {
-        (Some(t), Some(s)) => println!("**Result:** success at trial {t} after {s:.1} s of system data."),
-        _ => println!("**Result:** no success within {} trials.", record.trials.len()),
+        (Some(t), Some(s)) => say!("**Result:** success at trial {t} after {s:.1} s of system data."),
+        _ => say!("**Result:** no success within {} trials.", record.trials.len()),
     }
-    println!("wrote {} ({:.1} s)", file.display(), start.elapsed().as_secs_f64());
+    say!("wrote {} ({:.1} s)", file.display(), start.elapsed().as_secs_f64());
     Ok(())
 }
 
@@ -417,11 +478,15 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         apply_options(args, file.as_ref(), &mut cfg);
         cfg.validate()?;
         swingup::output::rundir::prepare_fresh(out, args.force)?;
+        // written once: the task and settings that made the run, and the
+        // configuration, never rewritten by a resume
+        swingup::output::rundir::create_manifest(out, "pendulum", &cfg)?;
+        write_atomic(&out.join("config.toml"), &toml::to_string(&cfg)?)?;
         cfg
     };
     let previous = if args.resume {
         let trials = run_report::read_trials(out)?;
-        println!(
+        say!(
             "resuming {}: {} finished trial(s) read back",
             out.display(),
             trials.len()
@@ -430,8 +495,7 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     } else {
         Vec::new()
     };
-    write_atomic(&out.join("config.toml"), &toml::to_string(&cfg)?)?;
-    println!(
+    say!(
         "swingup: robot l = {} m, b = {} /s, hand lag {} s; human l = {} m; model {}, planner {}, basis {}, lambda = {:e}; up to {} trials; seed {}",
         cfg.robot.length,
         cfg.robot.damping,
@@ -444,12 +508,12 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         cfg.max_trials,
         cfg.seed
     );
-    println!("writing to {}", out.display());
+    say!("writing to {}", out.display());
     let start = std::time::Instant::now();
     let record = run(&cfg, previous, &mut SaveAndShow { out })?;
     run_report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;
-    println!("{}", run_report::result_line(&record));
-    println!(
+    say!("{}", run_report::result_line(&record));
+    say!(
         "report: {}, plots: {}, {} (and .png) ({:.1} s)",
         out.join("report.md").display(),
         out.join("figure3.svg").display(),
@@ -460,7 +524,7 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
 }
 
 /// A learning run's progress: each phase and trial shown as it happens,
-/// each finished trial saved at once (so an interrupted run loses nothing,
+/// each finished trial saved at once, before it is shown (so an interrupted run loses nothing,
 /// and a run that cannot save stops at once).
 struct SaveAndShow<'a> {
     out: &'a Path,
@@ -468,12 +532,14 @@ struct SaveAndShow<'a> {
 
 impl swingup::learn::Progress for SaveAndShow<'_> {
     fn trial(&mut self, trial: &TrialRecord) -> swingup::Result<()> {
+        // saved before it is shown: a closed stdout never loses a trial
+        run_report::write_trial(self.out, trial)?;
         print_trial(trial);
-        run_report::write_trial(self.out, trial)
+        Ok(())
     }
 
     fn phase(&mut self, index: usize, phase: &str) {
-        println!("trial {index:>2}: {phase} ...");
+        say!("trial {index:>2}: {phase} ...");
     }
 }
 
@@ -520,14 +586,12 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         }
     }
     let out = &args.out;
-    std::fs::create_dir_all(out).with_context(|| format!("creating {}", out.display()))?;
-    let log_name = match args.shard {
-        Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
-        None => "runs.jsonl".into(),
+    let mode = match (args.resume, args.report_only) {
+        (true, true) => GridMode::ReportOnly,
+        (true, false) => GridMode::Resume,
+        _ => GridMode::Fresh { force: args.force },
     };
-    // one program at a time per runs file (shards of one grid may share the directory)
-    let _lock = swingup::output::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
-    println!(
+    say!(
         "experiments {:?}{}: {}; on {} threads; writing to {}",
         which,
         if args.variants.is_empty() {
@@ -539,137 +603,74 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         rayon::current_num_threads(),
         out.display()
     );
-    // the saved runs must have been made with these settings
-    if let Some(w) = swingup::output::grid::check_grid_settings(out, &settings, args.resume)? {
-        eprintln!("warning: {w}");
-    }
-    let log = out.join(&log_name);
-    let previous: Vec<swingup::experiments::RunSummary> = if args.resume {
-        let (runs, warnings) = swingup::output::grid::read_saved_runs(out)?;
-        for w in warnings {
-            eprintln!("warning: {w}");
-        }
-        runs
-    } else {
-        // a fresh grid never empties one that holds finished runs
-        let saved = std::fs::metadata(&log).map(|m| m.len()).unwrap_or(0);
-        anyhow::ensure!(
-            saved == 0 || args.force,
-            "{} holds finished runs; continue that grid with --resume, choose another --out, or pass --force \
-             to start over (its runs are then lost)",
-            log.display()
-        );
-        std::fs::write(&log, "").with_context(|| format!("creating {}", log.display()))?;
-        vec![]
-    };
-    if !previous.is_empty() {
-        println!(
-            "resuming: {} finished run(s) read back from {}",
-            previous.len(),
-            log.display()
-        );
-    }
-    // every finished run is appended to runs.jsonl at once: an interrupted grid loses nothing
-    let appender = std::sync::Mutex::new(
-        std::fs::OpenOptions::new()
-            .append(true)
-            .open(&log)
-            .with_context(|| format!("opening {}", log.display()))?,
-    );
     // a progress bar with the remaining time on a terminal (stderr); one
-    // line per finished run on stdout either way
+    // line per finished run on stdout either way, once it is saved
     let bar = indicatif::ProgressBar::new(0);
     if let Ok(style) =
         indicatif::ProgressStyle::with_template("{bar:40} {pos}/{len} runs, {elapsed} elapsed, ETA {eta}")
     {
         bar.set_style(style);
     }
-    bar.set_position(previous.len() as u64);
-    bar.reset_eta();
-    let report = run_experiments(
-        &which,
-        &settings,
-        previous,
-        !args.report_only,
-        args.shard,
-        &args.variants,
-        &|done, total, r| {
-            if let (Ok(mut f), Ok(line)) = (appender.lock(), serde_json::to_string(r)) {
-                use std::io::Write;
-                // one write per record: a kill leaves a whole line or a torn last line
-                if let Err(e) = f.write_all(format!("{line}\n").as_bytes()) {
-                    eprintln!("warning: could not save the run to runs.jsonl: {e}");
-                }
-            }
-            let line = format!(
-                "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
-                r.experiment,
-                r.variant,
-                r.seed,
-                r.success_trial
-                    .map_or("no success".into(), |t| format!("success at trial {t}")),
-                r.seconds
-            );
+    let options = GridOptions {
+        which: which.clone(),
+        settings,
+        out: out.clone(),
+        mode,
+        shard: args.shard,
+        variants: args.variants.clone(),
+    };
+    let report = swingup::output::grid::run_grid(&options, &|event| match event {
+        GridEvent::Warning(w) => note!("warning: {w}"),
+        GridEvent::Resumed(n) => {
+            bar.set_position(n as u64);
+            bar.reset_eta();
+            say!("resuming: {n} finished run(s) read back from {}", out.display());
+        }
+        GridEvent::Saved(done, total, r) => {
             bar.set_length(total as u64);
             bar.set_position(done as u64);
-            bar.suspend(|| println!("{line}"));
-        },
-    )?;
+            bar.suspend(|| {
+                say!(
+                    "[{done:>4}/{total}] {} {} seed {}: {} ({:.1} s)",
+                    r.experiment,
+                    r.variant,
+                    r.seed,
+                    r.success_trial
+                        .map_or("no success".into(), |t| format!("success at trial {t}")),
+                    r.seconds
+                );
+            });
+        }
+        GridEvent::KeptWallTime(None, s) => say!("kept the wall time measured when these runs were made ({s:.0} s)"),
+        GridEvent::KeptWallTime(Some(task), _) => say!("kept the wall time measured when the {task} runs were made"),
+    });
     bar.finish_and_clear();
-    let mut report = report;
-    // a report rewritten from saved runs keeps the grid's measured wall
-    // time, and each task whose runs it did not change keeps its own
-    if let Some(previous) = std::fs::read_to_string(out.join("experiments.json"))
-        .ok()
-        .and_then(|text| serde_json::from_str::<swingup::experiments::ExperimentsReport>(&text).ok())
-    {
-        if report.keep_wall_time_of(&previous) {
-            println!(
-                "kept the wall time measured when these runs were made ({:.0} s)",
-                report.seconds
-            );
-        }
-        for task in report.keep_task_times_of(&previous) {
-            println!("kept the wall time measured when the {task} runs were made");
-        }
-    }
-    let json = serde_json::to_string_pretty(&report)?;
-    write_atomic(&out.join("experiments.json"), &json)?;
-    write_atomic(
-        &out.join("experiments.md"),
-        &swingup::output::grid_report::markdown(&report),
-    )?;
-    let figures = swingup::output::plot::experiment_figures(&report)?;
-    for (stem, plot) in &figures {
-        plot.write(out, stem)?;
-    }
+    let report = report?;
     let table = swingup::output::grid_report::claims_table(&report.claims);
     // the paper's claims come from its experiments; `mpc` has its own tables
     let paper = which.iter().any(|e| *e != Experiment::Mpc);
     if paper {
-        println!("\n{table}");
+        say!("\n{table}");
     } else {
-        println!("\n{}", swingup::output::grid_report::mpc_readme_block(&report));
+        say!("\n{}", swingup::output::grid_report::mpc_readme_block(&report));
     }
     if let Some(readme) = &args.update_readme {
         let provenance = swingup::output::grid_report::provenance(&report);
         if paper {
             let block = format!("{provenance}\n\n{table}");
             run_report::update_between(readme, "<!-- claims:start -->", "<!-- claims:end -->", &block)?;
-            println!("updated the claims table in {}", readme.display());
+            say!("updated the claims table in {}", readme.display());
         }
         if which.contains(&Experiment::Mpc) {
             let block = swingup::output::grid_report::mpc_readme_block(&report);
             run_report::update_between(readme, "<!-- mpc:start -->", "<!-- mpc:end -->", &block)?;
-            println!("updated the MPC tables in {}", readme.display());
+            say!("updated the MPC tables in {}", readme.display());
         }
     }
-    println!(
-        "wrote {}, {} and {} figure(s) ({}; .svg and .png) ({:.0} s)",
+    say!(
+        "wrote {}, {} and the figures (.svg and .png) ({:.0} s)",
         out.join("experiments.json").display(),
         out.join("experiments.md").display(),
-        figures.len(),
-        figures.iter().map(|f| f.0).collect::<Vec<_>>().join(", "),
         report.seconds
     );
     Ok(())
@@ -744,7 +745,7 @@ fn print_trial(t: &TrialRecord) {
     } else {
         format!("failed: {}", t.failure)
     };
-    println!(
+    say!(
         "trial {:>2}: max angle {:>4.0} deg, {} | {}",
         t.index,
         t.max_angle.to_degrees(),

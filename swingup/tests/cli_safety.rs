@@ -188,23 +188,31 @@ fn a_second_program_in_a_busy_directory_is_refused() {
     assert!(dir.0.join("trial_01.json").exists());
 }
 
-/// A trial that cannot be saved (a full disk: the temporary file is
-/// `/dev/full`) stops the run at once, with an error naming the file, and
-/// leaves no temporary file behind.
-#[cfg(target_os = "linux")]
+/// A trial that cannot be saved (a full disk, injected through the
+/// storage layer's fault hook) stops the run at once, with an error naming
+/// the file, and leaves no temporary file behind.
 #[test]
 fn a_run_that_cannot_save_stops_at_once_and_names_the_file() {
     let dir = Scratch::new("full");
-    let tmp = dir.0.join("trial_01.csv.tmp");
-    std::os::unix::fs::symlink("/dev/full", &tmp).expect("symlink");
-    let o = swingup(&["learn", "--model", "true", "--max-trials", "3"], &dir.0);
+    let o = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(["learn", "--model", "true", "--max-trials", "3", "--out"])
+        .arg(&dir.0)
+        .env("NPRL_STORE_FAULT", "op=write,persist,path=trial_01.csv")
+        .output()
+        .expect("the swingup program runs");
     assert!(!o.status.success());
     let e = stderr(&o);
-    assert!(e.contains("trial_01.csv.tmp") && e.contains("saving trial 1"), "{e}");
+    assert!(e.contains("trial_01.csv") && e.contains("saving trial 1"), "{e}");
     assert!(e.contains("the run stopped there"), "{e}");
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(!out.contains("trial  2:"), "ran on after the failed save:\n{out}");
-    assert!(std::fs::symlink_metadata(&tmp).is_err(), "the temporary file was left");
+    let left: Vec<String> = std::fs::read_dir(&dir.0)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .filter(|n| store::is_temporary(n))
+        .collect();
+    assert!(left.is_empty(), "temporary files left: {left:?}");
     assert!(!dir.0.join("trial_01.csv").exists());
 }
 

@@ -4,6 +4,7 @@
 use swingup::cartpole::CartPoleSettings;
 use swingup::config::ModelKind;
 use swingup::experiments::{CARTPOLE_VARIANT, Experiment, ExperimentSettings, ExperimentsReport, run_experiments};
+use swingup::output::grid;
 
 /// The learning experiment's derivative-free variant records, per plan,
 /// Gauss-Newton's criterion on the same problem, and its plans reach it
@@ -30,7 +31,7 @@ fn derivative_free_plans_are_checked_against_gauss_newton() -> Result<(), Box<dy
         true,
         None,
         &[],
-        &|_, _, _| {},
+        &|_, _, _| Ok(()),
     )?;
     let runs: Vec<_> = report
         .runs
@@ -77,7 +78,9 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         mpc_seeds: 0,
         cartpole: Default::default(),
     };
-    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &[], &|_, _, _| {})?;
+    let report = run_experiments(&[Experiment::Lambda], &settings, vec![], true, None, &[], &|_, _, _| {
+        Ok(())
+    })?;
     assert_eq!(report.runs.len(), 2);
     let by = |v: &str| report.variants.iter().find(|x| x.variant == v);
     let zero = by("lambda=0e0").ok_or("no lambda = 0 variant")?;
@@ -125,15 +128,24 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
             true,
             Some(shard),
             &[],
-            &|_, _, r| assert_eq!(r.variant, "lambda=1e3", "shard {k} ran {}", r.variant),
+            &|_, _, r| {
+                assert_eq!(r.variant, "lambda=1e3", "shard {k} ran {}", r.variant);
+                Ok(())
+            },
         )?;
         assert_eq!(part.runs.len(), 1, "shard {k}");
         assert_eq!(part.runs[0].variant, back.runs[k - 1].variant, "shard {k}");
     }
-    // saved as runs.jsonl records: a torn last line is skipped with a
-    // warning naming the file and line, a bad complete line is an error
+    // saved as the records of two parts (the grid's and a shard's): a torn
+    // last line is skipped with a warning naming the file and line, a bad
+    // complete line is an error naming them
     let dir = std::env::temp_dir().join(format!("swingup-saved-runs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)?;
+    for name in ["settings.json", "settings-2-of-2.json"] {
+        let path = dir.join(name);
+        grid::grid_manifest(&settings, &path)?.write(&path)?;
+    }
     let lines: Vec<String> = report
         .runs
         .iter()
@@ -142,15 +154,19 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     let whole = format!("{}\n{}\n", lines[0], lines[1]);
     std::fs::write(dir.join("runs.jsonl"), format!("{whole}{}", &lines[0][..20]))?;
     std::fs::write(dir.join("runs-2-of-2.jsonl"), format!("{}\n", lines[1]))?;
-    let (runs, warnings) = swingup::output::grid::read_saved_runs(&dir)?;
-    assert_eq!(runs.len(), 2, "both runs once, the torn copy skipped");
-    assert_eq!(warnings.len(), 1, "{warnings:?}");
-    assert!(warnings[0].contains("runs.jsonl line 3"), "{warnings:?}");
+    let opened = grid::open_grid(&dir, &settings, None, grid::GridMode::ReportOnly)?;
+    assert_eq!(opened.previous.len(), 2, "both runs once, the torn copy skipped");
+    assert_eq!(opened.warnings.len(), 1, "{:?}", opened.warnings);
+    assert!(
+        opened.warnings[0].contains("runs.jsonl line 3"),
+        "{:?}",
+        opened.warnings
+    );
     std::fs::write(
         dir.join("runs.jsonl"),
         format!("{}\nnot json\n{}\n", lines[0], lines[1]),
     )?;
-    let e = swingup::output::grid::read_saved_runs(&dir)
+    let e = grid::open_grid(&dir, &settings, None, grid::GridMode::ReportOnly)
         .expect_err("bad line")
         .to_string();
     assert!(e.contains("runs.jsonl line 2"), "{e}");
@@ -193,6 +209,7 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         first_plan_ms: vec![],
         trial_success: vec![false, true],
         code_version: "commit earlier".into(),
+        settings_digest: String::new(),
     };
     let report = run_experiments(
         &[Experiment::Mpc],
@@ -201,7 +218,10 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         true,
         None,
         &["cartpole".to_string()],
-        &|_, _, r| assert_eq!(r.variant, CARTPOLE_VARIANT, "ran {}", r.variant),
+        &|_, _, r| {
+            assert_eq!(r.variant, CARTPOLE_VARIANT, "ran {}", r.variant);
+            Ok(())
+        },
     )?;
     assert_eq!(report.runs.len(), 2, "the saved pendulum run and the new cart-pole run");
     assert_eq!(report.ran, Some(1));
@@ -233,21 +253,24 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
     );
     // saved as a runs file and read back, the record is the same
     let dir = std::env::temp_dir().join(format!("swingup-cartpole-runs-{}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
     std::fs::create_dir_all(&dir)?;
+    let settings_file = dir.join(grid::SETTINGS_FILE);
+    grid::grid_manifest(&settings, &settings_file)?.write(&settings_file)?;
     let lines: Vec<String> = report
         .runs
         .iter()
         .map(serde_json::to_string)
         .collect::<Result<_, _>>()?;
     std::fs::write(dir.join("runs.jsonl"), format!("{}\n", lines.join("\n")))?;
-    let (back, warnings) = swingup::output::grid::read_saved_runs(&dir)?;
-    assert!(warnings.is_empty(), "{warnings:?}");
-    assert_eq!(back, report.runs);
+    let opened = grid::open_grid(&dir, &settings, None, grid::GridMode::ReportOnly)?;
+    assert!(opened.warnings.is_empty(), "{:?}", opened.warnings);
+    assert_eq!(opened.previous, report.runs);
     // resumed with its runs, nothing runs again
     let again = run_experiments(
         &[Experiment::Mpc],
         &settings,
-        back,
+        opened.previous,
         true,
         None,
         &["cartpole".to_string()],
@@ -255,26 +278,23 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
     )?;
     assert_eq!(again.variants, report.variants);
     // the settings are recorded; resuming with another cart-pole is refused
-    swingup::output::grid::check_grid_settings(&dir, &settings, false)?;
-    assert_eq!(swingup::output::grid::check_grid_settings(&dir, &settings, true)?, None);
     let mut other = settings.clone();
     other.cartpole.max_trials = 2;
-    let e = swingup::output::grid::check_grid_settings(&dir, &other, true)
+    let e = grid::open_grid(&dir, &other, None, grid::GridMode::Resume)
         .expect_err("other cart-pole settings")
         .to_string();
     assert!(e.contains("cartpole.max_trials differs"), "{e}");
-    // settings saved before the cart-pole was part of the grid read back
-    // as its defaults: a grid of the defaults resumes, another does not
+    // settings saved before the cart-pole was part of the grid (and before
+    // manifests) read back as its defaults: a grid of the defaults
+    // resumes, another does not
+    std::fs::remove_file(dir.join("runs.jsonl"))?;
     let mut legacy: serde_json::Value = serde_json::to_value(ExperimentSettings::full())?;
     legacy.as_object_mut().ok_or("settings object")?.remove("cartpole");
-    std::fs::write(dir.join("settings.json"), serde_json::to_string(&legacy)?)?;
-    assert_eq!(
-        swingup::output::grid::check_grid_settings(&dir, &ExperimentSettings::full(), true)?,
-        None
-    );
+    std::fs::write(&settings_file, serde_json::to_string(&legacy)?)?;
+    grid::open_grid(&dir, &ExperimentSettings::full(), None, grid::GridMode::ReportOnly)?;
     let mut changed = ExperimentSettings::full();
     changed.cartpole.episode = 3.0;
-    assert!(swingup::output::grid::check_grid_settings(&dir, &changed, true).is_err());
+    assert!(grid::open_grid(&dir, &changed, None, grid::GridMode::ReportOnly).is_err());
     std::fs::remove_dir_all(&dir)?;
     Ok(())
 }

@@ -96,6 +96,13 @@ fn twenty() -> u64 {
 }
 
 impl ExperimentSettings {
+    /// A fingerprint of the settings (16 hex digits, [`store::digest`] of
+    /// their JSON), which every run made with them carries
+    /// ([`RunSummary::settings_digest`]).
+    pub fn digest(&self) -> String {
+        store::digest(serde_json::to_string(self).unwrap_or_default().as_bytes())
+    }
+
     /// The full grid: 20 seeds for each learning variant (C2) and each
     /// `mpc` variant, 6 for every other variant, 8 trials (the cart-pole:
     /// a random trial and up to 15 MPC trials, PILCO's) (the run time of the committed grid is in
@@ -215,6 +222,11 @@ pub struct RunSummary {
     /// saved before it was recorded.
     #[serde(default)]
     pub code_version: String,
+    /// The fingerprint of the grid's settings the run was made with
+    /// ([`ExperimentSettings::digest`]), so that a run is never read back
+    /// under other settings; empty for runs saved before it was recorded.
+    #[serde(default, skip_serializing_if = "String::is_empty")]
+    pub settings_digest: String,
 }
 
 /// Aggregate of one variant over its seeds.
@@ -506,7 +518,8 @@ pub fn variant_names(which: &[Experiment], settings: &ExperimentSettings) -> Vec
 
 /// Runs the experiments `which` on the grid `settings`, calling `progress`
 /// after each run with (runs done, runs in all, the run) so that the caller
-/// can save it at once. Runs in `previous` (an interrupted grid's, saved
+/// can save it at once; when `progress` fails (the run could not be saved),
+/// no further run starts and that error is returned. Runs in `previous` (an interrupted grid's, saved
 /// that way) are kept and not run again; with `run_missing` false nothing
 /// runs and the report covers `previous` alone (each variant says how many
 /// runs it has). With a `shard`, only that part of the grid runs (the
@@ -520,10 +533,11 @@ pub fn run_experiments(
     run_missing: bool,
     shard: Option<Shard>,
     variants: &[String],
-    progress: &(dyn Fn(usize, usize, &RunSummary) + Sync),
+    progress: &(dyn Fn(usize, usize, &RunSummary) -> crate::Result<()> + Sync),
 ) -> crate::Result<ExperimentsReport> {
     let start = Instant::now();
     let version = crate::experiments::sensitivity::code_version();
+    let digest = settings.digest();
     let all: Vec<Job> = jobs(which, settings)
         .into_iter()
         .enumerate()
@@ -550,12 +564,23 @@ pub fn run_experiments(
     let total = previous.len() + jobs.len();
     let done = AtomicUsize::new(previous.len());
     let errors = Mutex::new(Vec::new());
+    // the first failure to save: no run starts after it
+    let stopped: Mutex<Option<crate::Error>> = Mutex::new(None);
+    let stop = std::sync::atomic::AtomicBool::new(false);
     let mut runs: Vec<RunSummary> = jobs
         .par_iter()
+        .filter(|_| !stop.load(Ordering::SeqCst))
         .filter_map(|job| match run_one(job, &version) {
-            Ok(r) => {
-                let n = done.fetch_add(1, Ordering::Relaxed) + 1;
-                progress(n, total, &r);
+            Ok(mut r) => {
+                r.settings_digest.clone_from(&digest);
+                let n = done.fetch_add(1, Ordering::SeqCst) + 1;
+                if let Err(e) = progress(n, total, &r) {
+                    stop.store(true, Ordering::SeqCst);
+                    if let Ok(mut first) = stopped.lock() {
+                        first.get_or_insert(e);
+                    }
+                    return None;
+                }
                 Some(r)
             }
             Err(e) => {
@@ -566,6 +591,9 @@ pub fn run_experiments(
             }
         })
         .collect();
+    if let Some(e) = stopped.into_inner().ok().flatten() {
+        return Err(e);
+    }
     let errors = errors.into_inner().unwrap_or_default();
     if !errors.is_empty() {
         return Err(crate::Error::RunsFailed(errors));
@@ -655,6 +683,7 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
         first_plan_ms: vec![],
         trial_success: record.trials.iter().map(|t| t.success).collect(),
         code_version: version.to_string(),
+        settings_digest: String::new(),
     })
 }
 
@@ -704,6 +733,7 @@ fn run_cartpole(job: &Job, settings: &CartPoleSettings, version: &str) -> crate:
         first_plan_ms: mpc_trials().map(|t| t.replan_ms[0]).collect(),
         trial_success: r.trials.iter().map(|t| t.success).collect(),
         code_version: version.to_string(),
+        settings_digest: String::new(),
     })
 }
 
@@ -816,6 +846,7 @@ pub(crate) mod tests {
             first_plan_ms: vec![],
             trial_success: vec![],
             code_version: "commit test".into(),
+            settings_digest: String::new(),
         }
     }
 

@@ -1,141 +1,462 @@
-//! A grid's directory: the runs saved in its `runs*.jsonl` files (one per
-//! grid, or one per shard) and the settings they were made with, so that
-//! a resumed grid never mixes runs made with other settings.
+//! A grid's directory: its parts (the grid, or each shard of it), each a
+//! write-once manifest of the settings (`settings.json`, or
+//! `settings-K-of-N.json` for shard K of N) and the runs made with them
+//! (`runs.jsonl`, or `runs-K-of-N.jsonl`), kept by the storage layer
+//! ([`store`]): a run is appended whole and synced, a torn last record is
+//! moved aside and reported, the reports are replaced atomically.
+//!
+//! The rules:
+//! - a fresh grid refuses a part that holds runs (before writing
+//!   anything) unless `--force`;
+//! - a resumed grid, or a report of saved runs, refuses a part whose
+//!   settings differ from the command's, naming the file and the keys;
+//!   every run carries a fingerprint of its settings
+//!   ([`ExperimentSettings::digest`]), so a settings file edited by hand
+//!   is refused too;
+//! - only the declared parts are read: a `runs*.jsonl` file without its
+//!   settings file (a backup, a copy) is never merged;
+//! - a run that cannot be saved stops the grid at once, naming the file;
+//! - a refused grid changes nothing: every check is made before the
+//!   part's runs file is repaired or its settings file written (a fresh
+//!   grid writes its settings file only when its runs file is empty).
+//!
+//! Directories saved before manifests (`settings.json` holding the bare
+//! settings) are read as before: `runs.jsonl` and `runs-K-of-N.jsonl`.
 
-use crate::experiments::{ExperimentSettings, RunSummary};
+use std::path::{Path, PathBuf};
 
-/// The file in a grid's directory that holds the settings its runs were made with.
+use store::{AppendLog, Manifest};
+
+use crate::experiments::{Experiment, ExperimentSettings, ExperimentsReport, RunSummary, Shard, run_experiments};
+
+/// The file of an unsharded grid's settings (its manifest).
 pub const SETTINGS_FILE: &str = "settings.json";
 
-/// Checks that a grid resumed in `dir` uses the settings its saved runs
-/// were made with ([`SETTINGS_FILE`]), and records them for a fresh grid
-/// (`resume` false). Settings saved before a field existed count as that
-/// field's default. Returns a warning when a resumed directory has no
-/// settings file (a grid saved before it existed: its runs cannot be checked).
+/// The program a grid's manifest records.
+pub const PROGRAM: &str = "swingup experiments";
+
+/// The task a grid's manifest records.
+pub const TASK: &str = "experiments grid";
+
+/// The settings file of a part: `settings.json`, or `settings-K-of-N.json`.
+pub fn settings_file_name(shard: Option<Shard>) -> String {
+    match shard {
+        Some(s) => format!("settings-{}-of-{}.json", s.index, s.count),
+        None => SETTINGS_FILE.into(),
+    }
+}
+
+/// The runs file of a part: `runs.jsonl`, or `runs-K-of-N.jsonl`.
+pub fn runs_file_name(shard: Option<Shard>) -> String {
+    match shard {
+        Some(s) => format!("runs-{}-of-{}.jsonl", s.index, s.count),
+        None => "runs.jsonl".into(),
+    }
+}
+
+/// The shard a part's file name (`settings-2-of-4.json`, `runs-2-of-4.jsonl`)
+/// names, strictly: `Some(None)` for the unsharded files.
+fn part_of(name: &str, stem: &str, ext: &str) -> Option<Option<Shard>> {
+    let rest = name.strip_prefix(stem)?.strip_suffix(ext)?;
+    if rest.is_empty() {
+        return Some(None);
+    }
+    let (k, n) = rest.strip_prefix('-')?.split_once("-of-")?;
+    let shard: Shard = format!("{k}/{n}").parse().ok()?;
+    (format!("-{}-of-{}", shard.index, shard.count) == rest).then_some(Some(shard))
+}
+
+/// One part of a grid's directory.
+#[derive(Debug, Clone, PartialEq)]
+pub struct Part {
+    /// The shard, or `None` for the grid's own part.
+    pub shard: Option<Shard>,
+    /// Its settings file.
+    pub settings: PathBuf,
+    /// Its runs file.
+    pub runs: PathBuf,
+}
+
+/// A grid's manifest of `settings`.
 ///
 /// # Errors
-/// Different settings (the error names the keys and the ways on), or a
-/// file that cannot be read, parsed or written.
-pub fn check_grid_settings(
-    dir: &std::path::Path,
-    settings: &ExperimentSettings,
-    resume: bool,
-) -> crate::Result<Option<String>> {
-    let path = dir.join(SETTINGS_FILE);
-    if !resume {
-        // a temporary name of this process's own: the shards of a job
-        // array may start in one directory at once
-        let tmp = dir.join(format!("settings.{}.tmp", std::process::id()));
-        std::fs::write(&tmp, serde_json::to_string_pretty(settings)?)
-            .map_err(|e| crate::Error::io("writing", &tmp, e))?;
-        std::fs::rename(&tmp, &path).map_err(|e| crate::Error::io("renaming to", &path, e))?;
-        return Ok(None);
-    }
-    let Ok(text) = std::fs::read_to_string(&path) else {
-        return Ok(Some(format!(
-            "{} has no {SETTINGS_FILE}: the saved runs cannot be checked against this grid's settings",
-            dir.display()
-        )));
+/// The settings cannot be serialised.
+pub fn grid_manifest(settings: &ExperimentSettings, path: &Path) -> crate::Result<Manifest> {
+    Ok(Manifest::new(
+        PROGRAM,
+        TASK,
+        settings,
+        &crate::experiments::sensitivity::code_version(),
+        path,
+    )?)
+}
+
+/// The settings recorded in a part's settings file: a manifest, or (a
+/// directory saved before manifests) the bare settings, `legacy` then.
+/// Read through the settings type, so a setting added since counts as
+/// its default.
+fn read_part_settings(path: &Path) -> crate::Result<Option<(ExperimentSettings, bool)>> {
+    let text = match std::fs::read_to_string(path) {
+        Ok(t) => t,
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(e) => return Err(crate::Error::io("reading", path, e)),
     };
-    // read back through the settings type, so that a setting added since
-    // (with its default) is compared as that default, not as missing
-    let saved: ExperimentSettings =
-        serde_json::from_str(&text).map_err(|e| crate::Error::parse(&path, Some(e.line()), e))?;
-    let saved = serde_json::to_value(saved)?;
-    let now = serde_json::to_value(settings)?;
-    let mut differ = Vec::new();
-    differing_keys("", &saved, &now, &mut differ);
+    if let Ok(m) = serde_json::from_str::<Manifest>(&text) {
+        if (m.program.as_str(), m.task.as_str()) != (PROGRAM, TASK) {
+            return Err(store::StoreError::TaskMismatch {
+                path: path.to_path_buf(),
+                saved_program: m.program,
+                saved_task: m.task,
+                program: PROGRAM.into(),
+                task: TASK.into(),
+            }
+            .into());
+        }
+        let s = serde_json::from_value(m.settings)
+            .map_err(|e| crate::Error::parse(path, None, format_args!("not a grid's settings: {e}")))?;
+        return Ok(Some((s, false)));
+    }
+    let s = serde_json::from_str(&text)
+        .map_err(|e| crate::Error::parse(path, Some(e.line()), format_args!("not a grid's settings: {e}")))?;
+    Ok(Some((s, true)))
+}
+
+/// Refuses a part whose recorded settings differ from `settings`, naming
+/// its file and the keys.
+fn check_part(path: &Path, saved: &ExperimentSettings, settings: &ExperimentSettings) -> crate::Result<()> {
+    let differ = store::differing_keys(&serde_json::to_value(saved)?, &serde_json::to_value(settings)?);
     crate::error::ensure_refused!(
         differ.is_empty(),
-        "the runs saved in {} were made with other settings ({} differ{}); resume with the same options, \
+        "the runs saved with {} were made with other settings ({} differ{}); resume with the same options, \
          or start a fresh grid in another --out (or here with --force, losing those runs)",
-        dir.display(),
+        path.display(),
         differ.join(", "),
         if differ.len() == 1 { "s" } else { "" }
     );
-    Ok(None)
+    Ok(())
 }
 
-/// The dotted keys (`cartpole.max_trials`) whose values differ between
-/// `a` and `b`, into `out`; `prefix` names the objects' own key ("" at the
-/// top, where two non-objects differ as `(all)`).
-fn differing_keys(prefix: &str, a: &serde_json::Value, b: &serde_json::Value, out: &mut Vec<String>) {
-    match (a.as_object(), b.as_object()) {
-        (Some(a), Some(b)) => {
-            let mut keys: Vec<&String> = a.keys().chain(b.keys()).collect();
-            keys.sort();
-            keys.dedup();
-            for k in keys {
-                let name = if prefix.is_empty() {
-                    k.clone()
-                } else {
-                    format!("{prefix}.{k}")
-                };
-                match (a.get(k), b.get(k)) {
-                    (Some(x), Some(y)) => differing_keys(&name, x, y, out),
-                    _ => out.push(name),
-                }
-            }
-        }
-        _ if a != b => out.push(if prefix.is_empty() {
-            "(all)".into()
-        } else {
-            prefix.into()
-        }),
-        _ => {}
-    }
-}
-
-/// The runs saved in every `runs*.jsonl` file of `dir` (a grid's file, or
-/// its shards' files), in file-name order; a run saved twice counts once.
-/// A last line without its newline (a write cut short by a kill) is
-/// skipped, with a warning naming the file and line; any other line that
-/// does not parse is an error naming them.
+/// The parts a grid's directory declares: each settings file
+/// (`settings.json`, `settings-K-of-N.json`) with its runs file, in name
+/// order. A directory saved before manifests (its `settings.json` holds
+/// the bare settings) declares `runs.jsonl` and every `runs-K-of-N.jsonl`.
 ///
 /// # Errors
-/// `dir` or a file cannot be read, or a complete line does not parse.
-pub fn read_saved_runs(dir: &std::path::Path) -> crate::Result<(Vec<RunSummary>, Vec<String>)> {
-    let mut files: Vec<std::path::PathBuf> = std::fs::read_dir(dir)
-        .map_err(|e| crate::Error::io("reading", dir, e))?
-        .filter_map(|e| e.ok().map(|e| e.path()))
-        .filter(|p| {
-            p.file_name()
-                .and_then(|n| n.to_str())
-                .is_some_and(|n| n.starts_with("runs") && n.ends_with(".jsonl"))
+/// The directory cannot be listed, or its `settings.json` cannot be read.
+pub fn declared_parts(dir: &Path) -> crate::Result<Vec<Part>> {
+    let names: Vec<String> = match std::fs::read_dir(dir) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok())
+            .filter_map(|e| e.file_name().to_str().map(String::from))
+            .collect(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(vec![]),
+        Err(e) => return Err(crate::Error::io("reading", dir, e)),
+    };
+    let part = |shard: Option<Shard>| Part {
+        shard,
+        settings: dir.join(settings_file_name(shard)),
+        runs: dir.join(runs_file_name(shard)),
+    };
+    let legacy = matches!(read_part_settings(&dir.join(SETTINGS_FILE))?, Some((_, true)));
+    let mut parts: Vec<Part> = names
+        .iter()
+        .filter_map(|n| {
+            if legacy {
+                part_of(n, "runs", ".jsonl")
+            } else {
+                part_of(n, "settings", ".json")
+            }
         })
+        .map(part)
         .collect();
-    files.sort();
-    let mut runs: Vec<RunSummary> = Vec::new();
+    if legacy && !parts.iter().any(|p| p.shard.is_none()) {
+        parts.push(part(None));
+    }
+    parts.sort_by(|a, b| a.runs.cmp(&b.runs));
+    Ok(parts)
+}
+
+/// How a grid opens its directory.
+#[derive(Debug, Clone, Copy, PartialEq, Eq)]
+pub enum GridMode {
+    /// A fresh grid: a part holding runs is refused unless `force` (which
+    /// empties it).
+    Fresh {
+        /// Start over in a part that holds runs (they are lost).
+        force: bool,
+    },
+    /// Continue a grid: the saved runs are read back, the missing ones run.
+    Resume,
+    /// Write the report of the saved runs only: nothing in the directory
+    /// but the reports changes.
+    ReportOnly,
+}
+
+/// A grid's directory, opened.
+#[derive(Debug)]
+pub struct OpenGrid {
+    /// The part's runs file, open for appending (none for [`GridMode::ReportOnly`]).
+    pub log: Option<AppendLog>,
+    /// The runs saved in the declared parts, each once.
+    pub previous: Vec<RunSummary>,
+    /// What the user should know (a torn record moved aside, a part whose
+    /// settings cannot be checked), one line each.
+    pub warnings: Vec<String>,
+}
+
+/// Opens the part `shard` of the grid in `dir` (created if needed) for
+/// `settings`, by the rules of this module; nothing is written when the
+/// grid is refused.
+///
+/// # Errors
+/// A refusal (runs there for a fresh grid; other settings, a task other
+/// than a grid's, a run made with other settings; no saved runs for a
+/// report), or a file that cannot be read or written, named.
+pub fn open_grid(
+    dir: &Path,
+    settings: &ExperimentSettings,
+    shard: Option<Shard>,
+    mode: GridMode,
+) -> crate::Result<OpenGrid> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    let own_settings = dir.join(settings_file_name(shard));
+    let own_runs = dir.join(runs_file_name(shard));
+    let manifest = grid_manifest(settings, &own_settings)?;
     let mut warnings = Vec::new();
-    for file in files {
-        let text = std::fs::read_to_string(&file).map_err(|e| crate::Error::io("reading", &file, e))?;
-        let lines: Vec<&str> = text.split('\n').collect();
-        for (i, line) in lines.iter().enumerate().filter(|(_, l)| !l.trim().is_empty()) {
-            let run: RunSummary = match serde_json::from_str(line) {
-                Ok(run) => run,
-                // the last piece has no newline after it: a torn write
-                Err(e) if i + 1 == lines.len() => {
-                    warnings.push(format!(
-                        "{} line {}: skipped an incomplete last record ({e}); that run will run again",
-                        file.display(),
-                        i + 1
-                    ));
-                    continue;
-                }
-                Err(e) => {
-                    return Err(crate::Error::parse(
-                        &file,
-                        Some(i + 1),
-                        format_args!("not a saved run: {e}"),
-                    ));
-                }
-            };
+    if let GridMode::Fresh { force } = mode {
+        // refused before anything is written
+        let saved = std::fs::metadata(&own_runs).map(|m| m.len()).unwrap_or(0);
+        crate::error::ensure_refused!(
+            saved == 0 || force,
+            "{} holds finished runs; continue that grid with --resume, choose another --out, or pass --force \
+             to start over (its runs are then lost)",
+            own_runs.display()
+        );
+        // the runs go first: a kill between the two leaves an empty part
+        // under the old settings, never old runs under new settings
+        let log = AppendLog::create(&own_runs)?;
+        match read_part_settings(&own_settings) {
+            Ok(Some((saved, false))) if check_part(&own_settings, &saved, settings).is_ok() => {}
+            _ => manifest.write(&own_settings)?,
+        }
+        return Ok(OpenGrid {
+            log: Some(log),
+            previous: vec![],
+            warnings,
+        });
+    }
+    let report_only = mode == GridMode::ReportOnly;
+    let mut parts = declared_parts(dir)?;
+    let own_declared = parts.iter().any(|p| p.shard == shard);
+    // written once every check passed
+    let mut create_own_settings = false;
+    if !own_declared && !report_only {
+        if std::fs::metadata(&own_runs).is_ok_and(|m| m.len() > 0) {
+            warnings.push(format!(
+                "{} has no {}: its saved runs cannot be checked against this grid's settings",
+                own_runs.display(),
+                own_settings.display()
+            ));
+        } else {
+            create_own_settings = true;
+        }
+        parts.push(Part {
+            shard,
+            settings: own_settings.clone(),
+            runs: own_runs.clone(),
+        });
+    }
+    crate::error::ensure_refused!(
+        !parts.is_empty(),
+        "{} holds no saved runs of a grid (no {} or settings-K-of-N.json); run the grid first",
+        dir.display(),
+        SETTINGS_FILE
+    );
+    let digest = settings.digest();
+    let mut log = None;
+    let mut previous: Vec<RunSummary> = Vec::new();
+    for part in &parts {
+        match read_part_settings(&part.settings)? {
+            Some((saved, _)) => check_part(&part.settings, &saved, settings)?,
+            None if part.shard == shard => {}
+            None => warnings.push(format!(
+                "{} has no {}: its runs cannot be checked against this grid's settings",
+                part.runs.display(),
+                part.settings.display()
+            )),
+        }
+        // read only: the part's own log is repaired once every check passed
+        let contents = store::read_log::<RunSummary>(&part.runs)?;
+        let own = part.shard == shard && !report_only;
+        if let Some(torn) = contents.torn.as_ref().filter(|_| !own) {
+            warnings.push(format!("{torn}; that run will run again"));
+        }
+        for (i, run) in contents.records.into_iter().enumerate() {
+            crate::error::ensure_refused!(
+                run.settings_digest.is_empty() || run.settings_digest == digest,
+                "{} record {} ({} {} seed {}) was made with other settings than {} records now (it was \
+                 edited, or the runs were copied from another grid); resume with the settings of its runs, \
+                 or start a fresh grid in another --out",
+                part.runs.display(),
+                i + 1,
+                run.experiment,
+                run.variant,
+                run.seed,
+                part.settings.display()
+            );
             let same =
                 |r: &RunSummary| (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed);
-            if !runs.iter().any(same) {
-                runs.push(run);
+            if !previous.iter().any(same) {
+                previous.push(run);
             }
         }
     }
-    Ok((runs, warnings))
+    if create_own_settings {
+        manifest.write(&own_settings)?;
+    }
+    if !report_only {
+        let (opened, contents) = AppendLog::open::<RunSummary>(&own_runs)?;
+        if let Some(torn) = &contents.torn {
+            warnings.push(format!("{torn}; that run will run again"));
+        }
+        log = Some(opened);
+    }
+    Ok(OpenGrid {
+        log,
+        previous,
+        warnings,
+    })
+}
+
+/// A grid to run ([`run_grid`]), as `swingup experiments` takes it.
+#[derive(Debug, Clone)]
+pub struct GridOptions {
+    /// The experiments.
+    pub which: Vec<Experiment>,
+    /// The grid's settings.
+    pub settings: ExperimentSettings,
+    /// Its directory.
+    pub out: PathBuf,
+    /// How the directory is opened.
+    pub mode: GridMode,
+    /// Run only this part of the grid.
+    pub shard: Option<Shard>,
+    /// Run only the variants whose names start with one of these.
+    pub variants: Vec<String>,
+}
+
+/// What [`run_grid`] tells its caller as it goes.
+#[derive(Debug)]
+pub enum GridEvent<'a> {
+    /// Something the user should know (a torn record moved aside, ...).
+    Warning(&'a str),
+    /// The runs read back from the directory.
+    Resumed(usize),
+    /// A run finished and was saved: (runs done, runs in all, the run).
+    Saved(usize, usize, &'a RunSummary),
+    /// The wall time of the saved runs was kept (`None`: of the whole
+    /// grid; `Some(task)`: of that task).
+    KeptWallTime(Option<&'a str>, f64),
+}
+
+/// Runs a grid in its directory and writes its reports there: opens the
+/// directory ([`open_grid`]), runs the missing runs (none for
+/// [`GridMode::ReportOnly`]), appending each to the part's runs file
+/// before it is shown (`show`), and replaces `experiments.json`,
+/// `experiments.md` and the figures. The directory is locked for the
+/// part's runs file. A run that cannot be saved stops the grid at once.
+///
+/// # Errors
+/// A refusal or a file error of [`open_grid`], a run that failed, or a
+/// file that cannot be written (named).
+pub fn run_grid(opts: &GridOptions, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> crate::Result<ExperimentsReport> {
+    let out = &opts.out;
+    let log_name = runs_file_name(opts.shard);
+    // one program at a time per runs file (shards of one grid may share the directory)
+    let _lock = crate::output::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
+    let grid = open_grid(out, &opts.settings, opts.shard, opts.mode)?;
+    for w in &grid.warnings {
+        show(GridEvent::Warning(w));
+    }
+    if !grid.previous.is_empty() {
+        show(GridEvent::Resumed(grid.previous.len()));
+    }
+    let log = std::sync::Mutex::new(grid.log);
+    let saved = std::sync::atomic::AtomicUsize::new(0);
+    let report = run_experiments(
+        &opts.which,
+        &opts.settings,
+        grid.previous,
+        opts.mode != GridMode::ReportOnly,
+        opts.shard,
+        &opts.variants,
+        &|done, total, r| {
+            let mut log = log
+                .lock()
+                .map_err(|_| crate::Error::data("a worker panicked while saving a run"))?;
+            if let Some(log) = log.as_mut() {
+                log.append(r).map_err(|e| crate::Error::Context {
+                    context: format!(
+                        "saving the run {} {} seed {} failed; the grid stopped there ({} run(s) of this \
+                         invocation saved; continue with --resume)",
+                        r.experiment,
+                        r.variant,
+                        r.seed,
+                        saved.load(std::sync::atomic::Ordering::SeqCst)
+                    ),
+                    source: Box::new(crate::Error::from(e)),
+                })?;
+            }
+            saved.fetch_add(1, std::sync::atomic::Ordering::SeqCst);
+            drop(log);
+            show(GridEvent::Saved(done, total, r));
+            Ok(())
+        },
+    )?;
+    let mut report = report;
+    // a report rewritten from saved runs keeps the grid's measured wall
+    // time, and each task whose runs it did not change keeps its own
+    if let Some(previous) = std::fs::read_to_string(out.join("experiments.json"))
+        .ok()
+        .and_then(|text| serde_json::from_str::<ExperimentsReport>(&text).ok())
+    {
+        if report.keep_wall_time_of(&previous) {
+            show(GridEvent::KeptWallTime(None, report.seconds));
+        }
+        for task in report.keep_task_times_of(&previous) {
+            show(GridEvent::KeptWallTime(Some(task.as_str()), report.seconds));
+        }
+    }
+    let json = serde_json::to_string_pretty(&report)?;
+    store::replace_file(&out.join("experiments.json"), json.as_bytes())?;
+    store::replace_file(
+        &out.join("experiments.md"),
+        crate::output::grid_report::markdown(&report).as_bytes(),
+    )?;
+    for (stem, plot) in &crate::output::plot::experiment_figures(&report)? {
+        plot.write(out, stem)?;
+    }
+    Ok(report)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn part_names_are_read_strictly() {
+        let s = |k, n| Some(Some(Shard { index: k, count: n }));
+        assert_eq!(part_of("runs.jsonl", "runs", ".jsonl"), Some(None));
+        assert_eq!(part_of("runs-2-of-4.jsonl", "runs", ".jsonl"), s(2, 4));
+        assert_eq!(part_of("settings-1-of-2.json", "settings", ".json"), s(1, 2));
+        for bad in [
+            "runs-backup.jsonl",
+            "runs-02-of-4.jsonl",
+            "runs-5-of-4.jsonl",
+            "runs-0-of-4.jsonl",
+            "runs.jsonl.torn-1-2",
+        ] {
+            assert_eq!(part_of(bad, "runs", ".jsonl"), None, "{bad}");
+        }
+    }
 }

@@ -18,7 +18,7 @@
 use std::fmt::Write as _;
 use std::fs;
 use std::io;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use crate::error::ResultExt as _;
 
@@ -67,8 +67,8 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
 /// Writes one trial into `dir` (created if needed): `trial_NN.json`, the
 /// [`TrialRecord`] that [`read_trials`] reads back, and `trial_NN.csv`.
 ///
-/// Each file is written to a temporary name and then renamed, so an
-/// interrupted run never leaves a half-written record behind.
+/// Each file is replaced atomically ([`write_atomic`]), so an interrupted
+/// run never leaves a half-written record behind.
 pub fn write_trial(dir: &Path, trial: &TrialRecord) -> crate::Result<()> {
     fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
     let saving = || format!("saving trial {}", trial.index);
@@ -93,10 +93,7 @@ pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str
     };
     crate::error::ensure_data!(a < b, "{}: {end} comes before {start}", path.display());
     let new = format!("{}{start}\n{text}{}", &old[..a], &old[b..]);
-    let tmp = path.with_extension("tmp");
-    std::fs::write(&tmp, new).map_err(|e| crate::Error::io("writing", &tmp, e))?;
-    std::fs::rename(&tmp, path).map_err(|e| crate::Error::io("renaming to", path, e))?;
-    Ok(())
+    write_atomic(path, &new)
 }
 
 /// Reads back the trials [`write_trial`] wrote into `dir`: `trial_01.json`,
@@ -134,26 +131,16 @@ fn to_json<T: serde::Serialize>(value: &T) -> crate::Result<String> {
     Ok(text)
 }
 
-/// Writes `contents` to `path` through a temporary file and a rename.
-/// Writes `contents` to `path` through `path.tmp` in the same directory
-/// and a rename, so that `path` holds either its old or its new contents;
-/// on failure the temporary file is removed and the error names the file.
+/// Replaces `path` with `contents` atomically ([`store::replace_file`]): a
+/// uniquely named temporary file in the same directory, synced and
+/// renamed, so that `path` holds either its old or its new contents; a
+/// symbolic link's target is replaced and an existing file keeps its
+/// permissions.
 ///
 /// # Errors
-/// The temporary file cannot be written or renamed.
+/// A file cannot be written, synced or renamed; the error names it.
 pub fn write_atomic(path: &Path, contents: &str) -> crate::Result<()> {
-    let mut tmp: PathBuf = path.to_path_buf();
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    tmp.set_file_name(name);
-    if let Err(e) = fs::write(&tmp, contents) {
-        let _ = fs::remove_file(&tmp);
-        return Err(crate::Error::io("writing", tmp, e));
-    }
-    fs::rename(&tmp, path).map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        crate::Error::io("renaming into place", path, e)
-    })
+    Ok(store::replace_file(path, contents.as_bytes())?)
 }
 
 // ---------------------------------------------------------------- CSV

@@ -10,6 +10,10 @@
 //!   point of the resumed run's configuration; the caller's overrides may
 //!   change the trial cap only, and any other difference is refused,
 //!   naming the keys ([`config_differences`]).
+//! - [`create_manifest`]: a fresh run records, once, the task and the
+//!   settings that made it ([`MANIFEST_FILE`]); a resumed run never
+//!   rewrites it nor `config.toml`, and [`resume_config`] refuses a
+//!   `config.toml` edited since, or a run of another task.
 //! - [`lock_dir`]: one program at a time in a run's (or a grid's)
 //!   directory; a second one is refused at once instead of mixing its
 //!   files with the first one's.
@@ -25,7 +29,7 @@ fn is_run_file(name: &str) -> bool {
     let (stem, ext) = name.split_once('.').unwrap_or((name, ""));
     let known = matches!(
         stem,
-        "config" | "report" | "demonstration" | "figure3" | "learning" | "diagnostics"
+        "config" | "report" | "demonstration" | "figure3" | "learning" | "diagnostics" | "manifest" | "cartpole"
     ) || (stem.starts_with("trial_") && stem[6..].chars().all(|c| c.is_ascii_digit()));
     known
         && matches!(
@@ -98,11 +102,18 @@ pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
     if files.is_empty() {
         return Ok(());
     }
+    // the task the directory records, so a run of the other one is told why
+    let task = store::Manifest::read(&dir.join(MANIFEST_FILE))
+        .ok()
+        .flatten()
+        .map(|m| m.task)
+        .or_else(|| dir.join("cartpole.json").exists().then(|| "cartpole".to_string()));
     ensure_refused!(
         force,
-        "{} holds another run ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
+        "{} holds another run{} ({} of its files, e.g. {}); continue it with --resume, choose another --out, \
          or pass --force to delete that run's files first",
         dir.display(),
+        task.map_or(String::new(), |t| format!(", of the {t} task")),
         files.len(),
         files[0].file_name().and_then(|n| n.to_str()).unwrap_or("?")
     );
@@ -110,6 +121,31 @@ pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
         std::fs::remove_file(&f).map_err(|e| crate::Error::io("deleting", &f, e))?;
     }
     Ok(())
+}
+
+/// The manifest of a learning run's directory ([`store::Manifest`]): the
+/// program, the task (`pendulum` or `cartpole`) and the settings that
+/// made the run, written once when the run starts.
+pub const MANIFEST_FILE: &str = "manifest.json";
+
+/// The program a learning run's manifest records.
+pub const LEARN_PROGRAM: &str = "swingup learn";
+
+/// Records, in a fresh run's directory `dir`, that `task` with `settings`
+/// made it ([`MANIFEST_FILE`]; call after [`prepare_fresh`]).
+///
+/// # Errors
+/// The manifest cannot be written; the error names it.
+pub fn create_manifest(dir: &Path, task: &str, settings: &impl serde::Serialize) -> crate::Result<()> {
+    let path = dir.join(MANIFEST_FILE);
+    let m = store::Manifest::new(
+        LEARN_PROGRAM,
+        task,
+        settings,
+        &crate::experiments::sensitivity::code_version(),
+        &path,
+    )?;
+    Ok(m.write(&path)?)
 }
 
 /// The dotted keys (`planner.lambda`, `seed`) whose values differ between
@@ -160,6 +196,30 @@ pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> crate::
         ))
     })?;
     let saved: Config = toml::from_str(&text).map_err(|e| crate::Error::parse(&path, None, e))?;
+    // the settings recorded when the run was made: a config.toml edited
+    // since would report its trials under settings they were not made with
+    let manifest_path = dir.join(MANIFEST_FILE);
+    if let Some(m) = store::Manifest::read(&manifest_path)? {
+        ensure_refused!(
+            m.program == LEARN_PROGRAM && m.task == "pendulum",
+            "cannot resume {} as a pendulum run: {} records a {} run of {}; choose another --out",
+            dir.display(),
+            manifest_path.display(),
+            m.task,
+            m.program
+        );
+        let recorded: Config = serde_json::from_value(m.settings)
+            .map_err(|e| crate::Error::parse(&manifest_path, None, format_args!("not a run's settings: {e}")))?;
+        let edited = config_differences(&recorded, &saved, false);
+        ensure_refused!(
+            edited.is_empty(),
+            "{} was changed after the run was made: {} differ{} from the settings recorded in {} (its trials              were made with those); restore it, or start a fresh run in another --out",
+            path.display(),
+            edited.join(", "),
+            if edited.len() == 1 { "s" } else { "" },
+            manifest_path.display()
+        );
+    }
     let mut cfg = saved.clone();
     overrides(&mut cfg);
     let changed = config_differences(&saved, &cfg, true);

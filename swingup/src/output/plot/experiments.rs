@@ -369,6 +369,7 @@ mod tests {
             first_plan_ms: vec![],
             trial_success: vec![],
             code_version: "commit test".into(),
+            settings_digest: String::new(),
         }
     }
 

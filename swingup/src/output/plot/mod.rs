@@ -67,21 +67,16 @@ pub struct Plot {
 }
 
 impl Plot {
-    /// Writes `dir/stem.svg` and `dir/stem.png`, each to `NAME.tmp` first
-    /// and then renamed, so that an interrupted run leaves either the old
-    /// or the new figure (as [`crate::output::run_report::write_atomic`]).
+    /// Writes `dir/stem.svg` and `dir/stem.png`, each replaced atomically
+    /// ([`store::replace_file`]), so that an interrupted run leaves either
+    /// the old or the new figure.
     ///
     /// # Errors
-    /// [`PlotError::Io`] naming the file that could not be written.
+    /// [`PlotError::Store`] naming the file that could not be written.
     pub fn write(&self, dir: &Path, stem: &str) -> Result<()> {
         for (ext, bytes) in [("svg", self.svg.as_bytes()), ("png", self.png.as_slice())] {
             let path = dir.join(format!("{stem}.{ext}"));
-            let tmp = dir.join(format!("{stem}.{ext}.tmp"));
-            let written = std::fs::write(&tmp, bytes).and_then(|()| std::fs::rename(&tmp, &path));
-            if let Err(source) = written {
-                let _ = std::fs::remove_file(&tmp);
-                return Err(PlotError::Io { path, source });
-            }
+            store::replace_file(&path, bytes).map_err(|e| PlotError::Store(Box::new(e)))?;
         }
         Ok(())
     }
@@ -237,7 +232,10 @@ mod tests {
         plot.write(&dir, "empty").expect("write");
         assert!(dir.join("empty.svg").exists() && dir.join("empty.png").exists());
         let err = plot.write(&dir.join("missing"), "empty").expect_err("no directory");
-        assert!(matches!(err, PlotError::Io { ref path, .. } if path.ends_with("empty.svg")));
+        assert!(
+            matches!(err, PlotError::Store(ref e) if e.to_string().contains("empty.svg")),
+            "{err}"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -1,0 +1,369 @@
+//! The data-loss cases of issue 37 that the storage layer fixes, each as
+//! the issue reproduced it with the `swingup` program (the case number in
+//! each test's name and doc). Each failed on `main` at dd6e7f8.
+
+use std::io::Read as _;
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+
+struct Scratch(PathBuf);
+
+impl Scratch {
+    fn new(tag: &str) -> Self {
+        let p = std::env::temp_dir().join(format!("swingup-issue37-{tag}-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&p);
+        std::fs::create_dir_all(&p).expect("scratch dir");
+        Self(p)
+    }
+}
+
+impl Drop for Scratch {
+    fn drop(&mut self) {
+        let _ = std::fs::remove_dir_all(&self.0);
+    }
+}
+
+fn swingup(args: &[&str], out: &Path) -> Output {
+    swingup_env(args, out, &[])
+}
+
+fn swingup_env(args: &[&str], out: &Path, env: &[(&str, &str)]) -> Output {
+    Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .envs(env.iter().copied())
+        .output()
+        .expect("the swingup program runs")
+}
+
+fn stderr(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stderr).into_owned()
+}
+
+fn stdout(o: &Output) -> String {
+    String::from_utf8_lossy(&o.stdout).into_owned()
+}
+
+fn ok(o: &Output) {
+    assert!(o.status.success(), "{}\n{}", stdout(o), stderr(o));
+}
+
+fn refused(o: &Output, words: &[&str]) {
+    assert!(!o.status.success(), "not refused:\n{}", stdout(o));
+    let e = stderr(o);
+    for w in words {
+        assert!(e.contains(w), "{w:?} not in: {e}");
+    }
+    assert!(!e.contains("panicked"), "{e}");
+}
+
+/// The tiny grid: three lambdas, one seed, `trials` trials.
+fn grid<'a>(trials: &'a str, extra: &[&'a str]) -> Vec<&'a str> {
+    let mut v = vec![
+        "experiments",
+        "lambda",
+        "--quick",
+        "--seeds",
+        "1",
+        "--max-trials",
+        trials,
+    ];
+    v.extend_from_slice(extra);
+    v
+}
+
+fn lines(path: &Path) -> Vec<String> {
+    std::fs::read_to_string(path)
+        .expect("read")
+        .lines()
+        .map(String::from)
+        .collect()
+}
+
+/// Case 1: a refused rerun never rewrites `settings.json`, so a resume
+/// with the refused rerun's settings is refused too; a `settings.json`
+/// edited by hand to other settings than its runs' is refused.
+#[test]
+fn case_1_a_refused_rerun_never_rewrites_the_settings() {
+    let dir = Scratch::new("case1");
+    ok(&swingup(&grid("1", &[]), &dir.0));
+    let settings = std::fs::read(dir.0.join("settings.json")).expect("settings");
+    refused(&swingup(&grid("3", &[]), &dir.0), &["holds finished runs"]);
+    assert_eq!(std::fs::read(dir.0.join("settings.json")).expect("settings"), settings);
+    refused(&swingup(&grid("3", &["--resume"]), &dir.0), &["max_trials differs"]);
+    ok(&swingup(&grid("1", &["--resume"]), &dir.0));
+    // edited by hand to say 3 trials: its runs were made with 1
+    let mut v: serde_json::Value = serde_json::from_slice(&settings).expect("json");
+    v["settings"]["max_trials"] = 3.into();
+    std::fs::write(dir.0.join("settings.json"), v.to_string()).expect("edit");
+    refused(
+        &swingup(&grid("3", &["--resume", "--report-only"]), &dir.0),
+        &["runs.jsonl record 1", "other settings"],
+    );
+}
+
+/// Case 3: a torn last line of `runs.jsonl` is moved aside (named with the
+/// log in a warning), the log keeps its whole records, the run is made
+/// again, and the next resume reads the log cleanly.
+#[test]
+fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
+    let dir = Scratch::new("case3");
+    ok(&swingup(&grid("1", &[]), &dir.0));
+    let log = dir.0.join("runs.jsonl");
+    let text = std::fs::read_to_string(&log).expect("runs");
+    assert_eq!(text.lines().count(), 3);
+    // a kill in the middle of writing the last record
+    std::fs::write(&log, &text[..text.len() - 40]).expect("tear");
+    let o = swingup(&grid("1", &["--resume"]), &dir.0);
+    ok(&o);
+    let e = stderr(&o);
+    assert!(e.contains("runs.jsonl line 3") && e.contains("runs.jsonl.torn-"), "{e}");
+    let after = std::fs::read_to_string(&log).expect("runs");
+    assert!(after.ends_with('\n') && after.lines().count() == 3, "{after}");
+    let side: Vec<_> = std::fs::read_dir(&dir.0)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .filter(|e| e.file_name().to_string_lossy().starts_with("runs.jsonl.torn-"))
+        .collect();
+    assert_eq!(side.len(), 1);
+    let o = swingup(&grid("1", &["--resume"]), &dir.0);
+    ok(&o);
+    assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
+    assert_eq!(std::fs::read_to_string(&log).expect("runs"), after);
+}
+
+/// Case 4: shards keep their own settings; the merge refuses shards whose
+/// settings differ (on `main`, the last shard's settings file won and the
+/// other shard's runs were merged under it), and reads only the declared
+/// parts' files (never a `runs-backup.jsonl`, which sorted first and won).
+#[test]
+fn case_4_shards_with_other_settings_are_not_merged() {
+    let dir = Scratch::new("case4");
+    ok(&swingup(&grid("1", &["--shard", "1/2"]), &dir.0));
+    ok(&swingup(&grid("2", &["--shard", "2/2"]), &dir.0));
+    refused(
+        &swingup(&grid("2", &["--resume", "--report-only"]), &dir.0),
+        &["settings-1-of-2.json", "max_trials differs"],
+    );
+    assert!(dir.0.join("settings-2-of-2.json").exists());
+    // an edited backup of a runs file is not read
+    let dir = Scratch::new("case4-backup");
+    ok(&swingup(&grid("1", &[]), &dir.0));
+    let mut backup = lines(&dir.0.join("runs.jsonl"));
+    for l in &mut backup {
+        let mut v: serde_json::Value = serde_json::from_str(l).expect("json");
+        v["success_trial"] = 1.into();
+        *l = v.to_string();
+    }
+    std::fs::write(dir.0.join("runs-backup.jsonl"), backup.join("\n") + "\n").expect("backup");
+    ok(&swingup(&grid("1", &["--resume", "--report-only"]), &dir.0));
+    let report: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.0.join("experiments.json")).expect("report")).expect("json");
+    let runs = report["runs"].as_array().expect("runs");
+    assert_eq!(runs.len(), 3);
+    assert!(
+        runs.iter().all(|r| r["success_trial"].is_null()),
+        "the backup was merged"
+    );
+}
+
+/// Case 6: a closed stdout neither panics nor loses work: every trial and
+/// the report are saved.
+#[test]
+fn case_6_a_closed_stdout_loses_nothing() {
+    let dir = Scratch::new("case6");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(["learn", "--model", "true", "--max-trials", "2", "--out"])
+        .arg(&dir.0)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    // the reader goes away before the first line, as `| head -0` would
+    drop(child.stdout.take());
+    let mut err = String::new();
+    child
+        .stderr
+        .take()
+        .expect("stderr")
+        .read_to_string(&mut err)
+        .expect("read");
+    let status = child.wait().expect("wait");
+    assert!(status.success(), "{status}: {err}");
+    assert!(!err.contains("panicked"), "{err}");
+    for f in ["trial_01.json", "trial_02.json", "report.json", "report.md"] {
+        assert!(dir.0.join(f).exists(), "{f} lost: {err}");
+    }
+    // a grid likewise: its runs and its report
+    let dir = Scratch::new("case6-grid");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
+        .args(grid("1", &["--out"]))
+        .arg(&dir.0)
+        .stdout(Stdio::piped())
+        .stderr(Stdio::piped())
+        .spawn()
+        .expect("spawn");
+    let mut first = [0u8; 1];
+    let _ = child.stdout.as_mut().expect("stdout").read(&mut first);
+    drop(child.stdout.take());
+    let o = child.wait_with_output().expect("wait");
+    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
+    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 3);
+    assert!(dir.0.join("experiments.json").exists());
+}
+
+/// Case 7: `config.toml` is never rewritten by a resume, and one edited
+/// by hand after the run was made is refused.
+#[test]
+fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
+    let dir = Scratch::new("case7");
+    ok(&swingup(&["learn", "--model", "true", "--max-trials", "2"], &dir.0));
+    let config = dir.0.join("config.toml");
+    let saved = std::fs::read(&config).expect("config");
+    ok(&swingup(&["learn", "--resume", "--max-trials", "1"], &dir.0));
+    assert_eq!(std::fs::read(&config).expect("config"), saved, "rewritten by --resume");
+    // lambda edited by hand: the trials were made with the other one
+    let text = String::from_utf8(saved).expect("utf8");
+    let edited = text.replacen("lambda = ", "lambda = 1.0 # ", 1);
+    assert_ne!(edited, text);
+    std::fs::write(&config, edited).expect("edit");
+    refused(
+        &swingup(&["learn", "--resume", "--max-trials", "3"], &dir.0),
+        &["config.toml", "planner.lambda differs", "manifest.json"],
+    );
+    assert!(!dir.0.join("trial_03.json").exists());
+}
+
+/// Case 10: a learning run's directory records its task: a cart-pole run
+/// into a pendulum run's directory is refused, and the other way round.
+#[test]
+fn case_10_a_run_of_another_task_is_refused() {
+    let dir = Scratch::new("case10");
+    ok(&swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0));
+    refused(
+        &swingup(&["learn", "--task", "cartpole", "--max-trials", "1"], &dir.0),
+        &["holds another run, of the pendulum task", "--force"],
+    );
+    assert!(!dir.0.join("cartpole.json").exists());
+    let manifest: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(dir.0.join("manifest.json")).expect("manifest")).expect("json");
+    assert_eq!(manifest["task"], "pendulum");
+    // a cart-pole run's directory (its record, as the program writes it)
+    let dir = Scratch::new("case10-cartpole");
+    std::fs::write(dir.0.join("cartpole.json"), "{\"trials\": []}").expect("write");
+    refused(
+        &swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0),
+        &["holds another run, of the cartpole task", "--force"],
+    );
+    assert!(!dir.0.join("config.toml").exists() && !dir.0.join("trial_01.json").exists());
+    assert_eq!(
+        std::fs::read_to_string(dir.0.join("cartpole.json")).expect("kept"),
+        "{\"trials\": []}"
+    );
+}
+
+/// Case 11: the README's job array: shards started together into one
+/// directory never share a temporary file, and the merge reads the
+/// shards' files (there is no `runs.jsonl`).
+#[test]
+fn case_11_shards_started_together_and_merged() {
+    for attempt in 0..3 {
+        let dir = Scratch::new(&format!("case11-{attempt}"));
+        let children: Vec<_> = ["1/2", "2/2"]
+            .iter()
+            .map(|s| {
+                Command::new(env!("CARGO_BIN_EXE_swingup"))
+                    .args(grid("1", &["--shard", s, "--out"]))
+                    .arg(&dir.0)
+                    .stdout(Stdio::null())
+                    .stderr(Stdio::piped())
+                    .spawn()
+                    .expect("spawn")
+            })
+            .collect();
+        for c in children {
+            let o = c.wait_with_output().expect("wait");
+            assert!(o.status.success(), "attempt {attempt}: {}", stderr(&o));
+        }
+        let o = swingup(&grid("1", &["--resume", "--report-only"]), &dir.0);
+        ok(&o);
+        assert!(!dir.0.join("runs.jsonl").exists() && !dir.0.join("settings.json").exists());
+        let report: serde_json::Value =
+            serde_json::from_slice(&std::fs::read(dir.0.join("experiments.json")).expect("report")).expect("json");
+        assert_eq!(report["runs"].as_array().expect("runs").len(), 3);
+    }
+}
+
+/// Case 2 from outside (the storage layer's fault hook): a full disk
+/// during a grid stops it at the first run that cannot be saved, naming
+/// the file, with the earlier runs kept.
+#[test]
+fn case_2_a_full_disk_stops_the_program_naming_the_file() {
+    let dir = Scratch::new("case2");
+    let o = swingup_env(
+        &grid("1", &[]),
+        &dir.0,
+        &[
+            ("NPRL_STORE_FAULT", "op=write,nth=2,persist,path=runs.jsonl"),
+            ("RAYON_NUM_THREADS", "1"),
+        ],
+    );
+    refused(&o, &["runs.jsonl", "the grid stopped there"]);
+    assert_eq!(stdout(&o).matches("seed 1:").count(), 1, "{}", stdout(&o));
+    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 1);
+    ok(&swingup(&grid("1", &["--resume"]), &dir.0));
+    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 3);
+}
+
+/// Case 8, in part (the marker quoted in prose is not fixed here):
+/// `--update-readme` no longer destroys a `README.tmp` beside the README,
+/// keeps a symbolic link (replacing its target) and keeps the file's mode.
+#[cfg(unix)]
+#[test]
+fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = Scratch::new("case8");
+    let real = dir.0.join("real.md");
+    std::fs::write(&real, "intro\n<!-- t:start -->\nold\n<!-- t:end -->\n").expect("write");
+    std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).expect("chmod");
+    let readme = dir.0.join("README.md");
+    std::os::unix::fs::symlink("real.md", &readme).expect("symlink");
+    std::fs::write(dir.0.join("README.tmp"), "mine").expect("write");
+    swingup::output::run_report::update_between(&readme, "<!-- t:start -->", "<!-- t:end -->", "new\n")
+        .expect("update");
+    assert_eq!(std::fs::read_to_string(dir.0.join("README.tmp")).expect("kept"), "mine");
+    assert!(
+        std::fs::symlink_metadata(&readme)
+            .expect("link")
+            .file_type()
+            .is_symlink()
+    );
+    assert_eq!(
+        std::fs::read_to_string(&real).expect("target"),
+        "intro\n<!-- t:start -->\nnew\n<!-- t:end -->\n"
+    );
+    let mode = std::fs::metadata(&real).expect("meta").permissions().mode() & 0o777;
+    assert_eq!(mode, 0o600);
+}
+
+/// A refused resume changes nothing in the directory: a torn last record
+/// stays where it is until a resume that is not refused moves it aside.
+#[test]
+fn a_refused_resume_leaves_a_torn_record_alone() {
+    let dir = Scratch::new("refused-torn");
+    ok(&swingup(&grid("1", &[]), &dir.0));
+    let log = dir.0.join("runs.jsonl");
+    let text = std::fs::read_to_string(&log).expect("runs");
+    let torn = &text[..text.len() - 40];
+    std::fs::write(&log, torn).expect("tear");
+    refused(&swingup(&grid("2", &["--resume"]), &dir.0), &["max_trials differs"]);
+    assert_eq!(std::fs::read_to_string(&log).expect("runs"), torn);
+    let names: Vec<String> = std::fs::read_dir(&dir.0)
+        .expect("dir")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.contains(".torn-")), "{names:?}");
+}
