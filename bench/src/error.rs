@@ -95,6 +95,18 @@ pub enum BenchError {
         /// Why it cannot be read.
         reason: String,
     },
+    /// A file that could not be replaced whole (the storage layer names it).
+    #[error(transparent)]
+    Store(#[from] store::StoreError),
+    /// A `--filter` that matches no instance of the set (refused before
+    /// any run, so that no saved runs are replaced by none).
+    #[error("--filter `{filter}` matches no instance of the {set} set")]
+    NoInstance {
+        /// The filter given.
+        filter: String,
+        /// The set's name.
+        set: &'static str,
+    },
     /// Drawing a figure failed.
     #[error("figure {figure}: {reason}")]
     Plot {

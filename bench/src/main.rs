@@ -124,10 +124,8 @@ fn run(cli: Cli) -> bench::Result<()> {
         })?;
         // read again: the README may have been edited during the runs
         let updated = readme_with_summary(path, &summary)?;
-        std::fs::write(path, updated).map_err(|source| bench::BenchError::Io {
-            path: path.clone(),
-            source,
-        })?;
+        // whole or not at all; a symlinked README's target, its mode kept
+        bench::report::write(path, &updated)?;
         println!("updated the benchmark summary in {}", path.display());
     }
     if settings.set == ProblemSet::Mgh {

@@ -142,7 +142,7 @@ impl ProfileFigure<'_> {
         }
         crate::report::write(&dir.join(format!("{stem}.svg")), &svg)?;
         let png_path = dir.join(format!("{stem}.png"));
-        std::fs::write(&png_path, png_bytes).map_err(BenchError::io(png_path))
+        Ok(store::replace_file(&png_path, &png_bytes)?)
     }
 }
 

@@ -102,6 +102,18 @@ impl ProblemSet {
             })
     }
 
+    /// The names of the set's problems, without building the trajectory
+    /// set's (its learned-LWR instance runs two learning trials).
+    ///
+    /// # Errors
+    /// As [`instances`](Self::instances) for the MGH and NIST sets.
+    pub fn names(self) -> Result<Vec<String>> {
+        Ok(match self {
+            Self::Trajectory => crate::trajectory::names(),
+            _ => self.instances(None)?.into_iter().map(|i| i.problem).collect(),
+        })
+    }
+
     /// The set's instances whose problem names contain `filter` (all when
     /// `None`), in a fixed order.
     ///

@@ -229,7 +229,7 @@ impl RecordFile {
             path: path.to_path_buf(),
             source: std::io::Error::other(e),
         })?;
-        std::fs::write(path, text + "\n").map_err(BenchError::io(path))
+        crate::report::write(path, &(text + "\n"))
     }
 }
 

@@ -316,10 +316,25 @@ pub const README_END: &str = "<!-- benchmarks:end -->";
 
 /// `readme` with the text between [`README_START`] and [`README_END`]
 /// replaced by `summary`, or `None` when the two lines are not there in
-/// that order.
+/// that order. Each marker counts only as a whole line of its own (a
+/// marker quoted in prose, as `` `<!-- benchmarks:start -->` `` in a
+/// sentence, is text, not a marker).
 pub fn with_readme_summary(readme: &str, summary: &str) -> Option<String> {
-    let body = readme.find(README_START)? + README_START.len();
-    let end = body + readme[body..].find(README_END)?;
+    let start_line = README_START.trim_end();
+    let mut offset = 0;
+    let mut body = None;
+    let mut end = None;
+    for line in readme.split_inclusive('\n') {
+        let bare = line.trim_end_matches(['\n', '\r']);
+        if body.is_none() && bare == start_line {
+            body = Some(offset + line.len());
+        } else if body.is_some() && bare == README_END {
+            end = Some(offset);
+            break;
+        }
+        offset += line.len();
+    }
+    let (body, end) = (body?, end?);
     Some([&readme[..body], summary, &readme[end..]].concat())
 }
 
@@ -722,16 +737,55 @@ pub fn references_markdown(a: &Analysis) -> String {
     s
 }
 
-/// Writes `text` to `path`.
+/// Writes `text` to `path` whole or not at all (`store::replace_file`: a
+/// unique temporary in the same directory, synced and renamed over it; a
+/// symlink's target replaced, an existing file's mode kept), making the
+/// directory first.
+///
+/// # Errors
+/// [`BenchError::Io`] for the directory, [`BenchError::Store`] naming the
+/// file.
 pub fn write(path: &Path, text: &str) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(BenchError::io(dir))?;
     }
-    std::fs::write(path, text).map_err(BenchError::io(path))
+    Ok(store::replace_file(path, text.as_bytes())?)
 }
 
 #[cfg(test)]
 mod tests {
+    /// Issue 37, case 8: writing through a symlinked README replaces its
+    /// target whole, keeps the link and the file's mode, and leaves a
+    /// `README.tmp` beside it alone.
+    #[cfg(unix)]
+    #[test]
+    fn write_replaces_a_symlinks_target_whole_and_keeps_its_mode_and_neighbours() {
+        use std::os::unix::fs::PermissionsExt;
+        let dir = std::env::temp_dir().join(format!("nprl-bench-write-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let target = dir.join("real.md");
+        std::fs::write(&target, "old").expect("write");
+        std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o600)).expect("mode");
+        std::os::unix::fs::symlink(&target, dir.join("README.md")).expect("link");
+        std::fs::write(dir.join("README.tmp"), "mine").expect("write");
+        write(&dir.join("README.md"), "new").expect("written");
+        assert!(
+            std::fs::symlink_metadata(dir.join("README.md"))
+                .expect("link")
+                .file_type()
+                .is_symlink()
+        );
+        assert_eq!(std::fs::read_to_string(&target).expect("target"), "new");
+        assert_eq!(
+            std::fs::metadata(&target).expect("meta").permissions().mode() & 0o777,
+            0o600
+        );
+        assert_eq!(std::fs::read_to_string(dir.join("README.tmp")).expect("tmp"), "mine");
+        assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 3, "no temporary left");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
     use super::*;
     use crate::record::tests::run;
 
@@ -777,6 +831,16 @@ mod tests {
             with_readme_summary(&readme, "new\n").as_deref(),
             Some(format!("intro\n{README_START}new\n{README_END}\nrest\n").as_str())
         );
+        // issue 37, case 8: a marker quoted in prose is not a marker
+        let quoted = format!(
+            "Run with `{}` lines.\nintro\n{README_START}old\n{README_END}\nrest\n",
+            README_START.trim_end()
+        );
+        assert_eq!(
+            with_readme_summary(&quoted, "new\n").as_deref(),
+            Some(quoted.replace("old\n", "new\n").as_str())
+        );
+        assert_eq!(with_readme_summary(&format!("say `{README_END}`\n"), "x"), None);
         assert_eq!(
             with_readme_summary(&format!("{README_END}\n{README_START}"), "new\n"),
             None

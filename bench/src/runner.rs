@@ -94,6 +94,16 @@ impl RunnerSettings {
 /// file that cannot be written.
 pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     settings.validate()?;
+    // a filter that matches nothing is refused before anything is written
+    // (issue 37, case 5: a typo replaced the saved runs by none)
+    if let Some(filter) = &settings.filter
+        && !settings.set.names()?.iter().any(|name| name.contains(filter.as_str()))
+    {
+        return Err(BenchError::NoInstance {
+            filter: filter.clone(),
+            set: settings.set.name(),
+        });
+    }
     let load_before = Stamp::load();
     let runs_path = settings.out.join("runs.json");
     let started = std::time::Instant::now();
@@ -476,6 +486,35 @@ pub fn default_budget() -> Budget {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Issue 37, case 5: `--filter rosenbrok` (a typo) used to replace the
+    /// saved runs and reports with none and exit 0.
+    #[test]
+    fn a_filter_that_matches_nothing_is_refused_and_the_saved_runs_are_kept() {
+        let dir = std::env::temp_dir().join(format!("nprl-bench-typo-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).expect("dir");
+        let runs = dir.join("runs.json");
+        std::fs::write(&runs, "saved").expect("write");
+        for set in [ProblemSet::Mgh, ProblemSet::Nist, ProblemSet::Trajectory] {
+            let settings = RunnerSettings {
+                set,
+                solvers: vec![Solver::GaussNewton],
+                filter: Some("rosenbrok".into()),
+                budget: default_budget(),
+                repeats: 1,
+                out: dir.clone(),
+                report_dir: dir.clone(),
+                outside: vec![],
+                reuse: false,
+            };
+            let err = execute(&settings).expect_err("refused").to_string();
+            assert!(err.contains("rosenbrok") && err.contains(set.name()), "{err}");
+        }
+        assert_eq!(std::fs::read_to_string(&runs).expect("kept"), "saved");
+        assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 1, "nothing else written");
+        let _ = std::fs::remove_dir_all(&dir);
+    }
 
     #[test]
     fn the_trajectory_set_runs_every_solver_on_a_tiny_instance_and_writes_its_own_files() {
