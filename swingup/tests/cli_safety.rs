@@ -3,28 +3,14 @@
 //! only that run's files), a resume keeps the run's settings, and errors
 //! print as one message without a backtrace.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output};
 
 use swingup::config::Config;
 use swingup::output::rundir;
 
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(tag: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("swingup-cli-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).expect("scratch dir");
-        Self(p)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::Scratch;
 
 fn swingup(args: &[&str], dir: &Path) -> Output {
     Command::new(env!("CARGO_BIN_EXE_swingup"))
@@ -42,7 +28,7 @@ fn stderr(o: &Output) -> String {
 
 #[test]
 fn a_fresh_grid_never_empties_finished_runs() {
-    let dir = Scratch::new("grid");
+    let dir = Scratch::new("cli-grid");
     let saved = "{\"not\": \"checked before the refusal\"}\n";
     std::fs::write(dir.0.join("runs.jsonl"), saved).expect("write");
     let o = swingup(&["experiments", "lambda", "--quick"], &dir.0);
@@ -58,7 +44,7 @@ fn a_fresh_grid_never_empties_finished_runs() {
 
 #[test]
 fn a_resumed_grid_refuses_other_settings() {
-    let dir = Scratch::new("grid-settings");
+    let dir = Scratch::new("cli-grid-settings");
     let o = swingup(&["experiments", "lambda", "--quick", "--max-trials", "1"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
     let runs = std::fs::read_to_string(dir.0.join("runs.jsonl")).expect("runs");
@@ -78,7 +64,7 @@ fn a_resumed_grid_refuses_other_settings() {
 
 #[test]
 fn a_fresh_learning_run_never_overwrites_another() {
-    let dir = Scratch::new("learn");
+    let dir = Scratch::new("cli-learn");
     let trial = "{\"a trial\": 3}";
     std::fs::write(dir.0.join("trial_03.json"), trial).expect("write");
     std::fs::write(dir.0.join("notes.txt"), "mine").expect("write");
@@ -108,7 +94,7 @@ fn a_fresh_learning_run_never_overwrites_another() {
 /// `force` deletes those files and nothing else.
 #[test]
 fn prepare_fresh_refuses_another_run_and_force_deletes_its_files_only() {
-    let dir = Scratch::new("fresh");
+    let dir = Scratch::new("cli-fresh");
     rundir::prepare_fresh(&dir.0, false).expect("empty is fine");
     std::fs::write(dir.0.join("notes.txt"), "mine").expect("write");
     rundir::prepare_fresh(&dir.0, false).expect("other files are fine");
@@ -138,7 +124,7 @@ fn prepare_fresh_refuses_another_run_and_force_deletes_its_files_only() {
 /// a saved configuration there is nothing to resume.
 #[test]
 fn resume_config_starts_from_the_saved_settings() {
-    let dir = Scratch::new("resume");
+    let dir = Scratch::new("cli-resume");
     let e = rundir::resume_config(&dir.0, |_| {})
         .expect_err("no config")
         .to_string();
@@ -166,7 +152,7 @@ fn resume_config_starts_from_the_saved_settings() {
 /// before it writes anything; once the first is gone, it runs.
 #[test]
 fn a_second_program_in_a_busy_directory_is_refused() {
-    let dir = Scratch::new("lock");
+    let dir = Scratch::new("cli-lock");
     let held = rundir::lock_dir(&dir.0, rundir::LOCK_FILE).expect("lock");
     let o = swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0);
     assert!(!o.status.success());
@@ -193,7 +179,7 @@ fn a_second_program_in_a_busy_directory_is_refused() {
 /// the file, and leaves no temporary file behind.
 #[test]
 fn a_run_that_cannot_save_stops_at_once_and_names_the_file() {
-    let dir = Scratch::new("full");
+    let dir = Scratch::new("cli-full");
     let o = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(["learn", "--model", "true", "--max-trials", "3", "--out"])
         .arg(&dir.0)
@@ -220,7 +206,7 @@ fn a_run_that_cannot_save_stops_at_once_and_names_the_file() {
 /// planner (Powell's takes minutes) never runs without a line.
 #[test]
 fn a_learning_run_shows_its_phases() {
-    let dir = Scratch::new("phases");
+    let dir = Scratch::new("cli-phases");
     let o = swingup(&["learn", "--model", "lwr", "--max-trials", "2"], &dir.0);
     assert!(o.status.success(), "{}", stderr(&o));
     let out = String::from_utf8_lossy(&o.stdout);

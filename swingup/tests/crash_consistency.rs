@@ -10,28 +10,14 @@
 //! (`NPRL_STORE_FAULT`). The plans are limited to each test's own
 //! directory, so the tests run beside the others.
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use store::{FaultPlan, OpKind};
 use swingup::experiments::{Experiment, ExperimentSettings, ExperimentsReport, RunSummary};
 use swingup::output::grid::{GridEvent, GridMode, GridOptions, run_grid};
 
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(tag: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("swingup-crash-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).expect("scratch dir");
-        Self(p)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::Scratch;
 
 /// The smallest grid: three lambdas, one seed, one trial (the imitation).
 fn settings() -> ExperimentSettings {
@@ -101,7 +87,7 @@ fn check_directory(dir: &Path, context: &str) {
 /// faults tried.
 fn every_fault(tag: &str, baseline: &ExperimentsReport, plan: impl Fn(u64, &Path) -> FaultPlan) -> u64 {
     for n in 1.. {
-        let dir = Scratch::new(&format!("{tag}-{n}"));
+        let dir = Scratch::new(&format!("crash-{tag}-{n}"));
         let guard = store::fault::install(plan(n, &dir.0));
         let first = run_grid(&options(&dir.0, GridMode::Fresh { force: false }), &quiet);
         let fired = guard.fired();
@@ -131,7 +117,7 @@ fn every_fault(tag: &str, baseline: &ExperimentsReport, plan: impl Fn(u64, &Path
 
 #[test]
 fn a_grid_survives_a_failure_at_every_write_sync_and_rename() {
-    let base = Scratch::new("baseline");
+    let base = Scratch::new("crash-baseline");
     let baseline = run_grid(&options(&base.0, GridMode::Fresh { force: false }), &quiet).expect("baseline grid");
     check_directory(&base.0, "baseline");
     let kinds = [OpKind::Write, OpKind::Sync, OpKind::Rename];
@@ -151,7 +137,7 @@ fn a_grid_survives_a_failure_at_every_write_sync_and_rename() {
 /// are kept, and a resume completes the grid.
 #[test]
 fn a_full_disk_stops_the_grid_at_once_naming_the_file() {
-    let dir = Scratch::new("full-disk");
+    let dir = Scratch::new("crash-full-disk");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
     let saved = std::sync::atomic::AtomicUsize::new(0);
     let show = |e: GridEvent<'_>| {
@@ -210,12 +196,12 @@ fn a_learning_run_survives_a_failure_at_every_write_and_rename() {
         }
         c.output().expect("the swingup program runs")
     };
-    let base = Scratch::new("learn-baseline");
+    let base = Scratch::new("crash-learn-baseline");
     assert!(learn(&base.0, &[], None).status.success());
     let baseline = trials_of(&base.0);
     assert_eq!(baseline.len(), 2);
     for n in 1.. {
-        let dir = Scratch::new(&format!("learn-{n}"));
+        let dir = Scratch::new(&format!("crash-learn-{n}"));
         let plan = format!("op=write+rename,nth={n},path={}", dir.0.display());
         let first = learn(&dir.0, &[], Some(plan));
         let context = format!("learn: fault at operation {n}");

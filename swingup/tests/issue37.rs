@@ -3,25 +3,11 @@
 //! each test's name and doc). Each failed on `main` at dd6e7f8.
 
 use std::io::Read as _;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(tag: &str) -> Self {
-        let p = std::env::temp_dir().join(format!("swingup-issue37-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&p);
-        std::fs::create_dir_all(&p).expect("scratch dir");
-        Self(p)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
-}
+mod common;
+use common::Scratch;
 
 fn swingup(args: &[&str], out: &Path) -> Output {
     swingup_env(args, out, &[])
@@ -86,7 +72,7 @@ fn lines(path: &Path) -> Vec<String> {
 /// edited by hand to other settings than its runs' is refused.
 #[test]
 fn case_1_a_refused_rerun_never_rewrites_the_settings() {
-    let dir = Scratch::new("case1");
+    let dir = Scratch::new("issue37-case1");
     ok(&swingup(&grid("1", &[]), &dir.0));
     let settings = std::fs::read(dir.0.join("settings.json")).expect("settings");
     refused(&swingup(&grid("3", &[]), &dir.0), &["holds finished runs"]);
@@ -108,7 +94,7 @@ fn case_1_a_refused_rerun_never_rewrites_the_settings() {
 /// again, and the next resume reads the log cleanly.
 #[test]
 fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
-    let dir = Scratch::new("case3");
+    let dir = Scratch::new("issue37-case3");
     ok(&swingup(&grid("1", &[]), &dir.0));
     let log = dir.0.join("runs.jsonl");
     let text = std::fs::read_to_string(&log).expect("runs");
@@ -139,7 +125,7 @@ fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
 /// parts' files (never a `runs-backup.jsonl`, which sorted first and won).
 #[test]
 fn case_4_shards_with_other_settings_are_not_merged() {
-    let dir = Scratch::new("case4");
+    let dir = Scratch::new("issue37-case4");
     ok(&swingup(&grid("1", &["--shard", "1/2"]), &dir.0));
     ok(&swingup(&grid("2", &["--shard", "2/2"]), &dir.0));
     refused(
@@ -148,7 +134,7 @@ fn case_4_shards_with_other_settings_are_not_merged() {
     );
     assert!(dir.0.join("settings-2-of-2.json").exists());
     // an edited backup of a runs file is not read
-    let dir = Scratch::new("case4-backup");
+    let dir = Scratch::new("issue37-case4-backup");
     ok(&swingup(&grid("1", &[]), &dir.0));
     let mut backup = lines(&dir.0.join("runs.jsonl"));
     for l in &mut backup {
@@ -172,7 +158,7 @@ fn case_4_shards_with_other_settings_are_not_merged() {
 /// the report are saved.
 #[test]
 fn case_6_a_closed_stdout_loses_nothing() {
-    let dir = Scratch::new("case6");
+    let dir = Scratch::new("issue37-case6");
     let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(["learn", "--model", "true", "--max-trials", "2", "--out"])
         .arg(&dir.0)
@@ -196,7 +182,7 @@ fn case_6_a_closed_stdout_loses_nothing() {
         assert!(dir.0.join(f).exists(), "{f} lost: {err}");
     }
     // a grid likewise: its runs and its report
-    let dir = Scratch::new("case6-grid");
+    let dir = Scratch::new("issue37-case6-grid");
     let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(grid("1", &["--out"]))
         .arg(&dir.0)
@@ -218,7 +204,7 @@ fn case_6_a_closed_stdout_loses_nothing() {
 /// by hand after the run was made is refused.
 #[test]
 fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
-    let dir = Scratch::new("case7");
+    let dir = Scratch::new("issue37-case7");
     ok(&swingup(&["learn", "--model", "true", "--max-trials", "2"], &dir.0));
     let config = dir.0.join("config.toml");
     let saved = std::fs::read(&config).expect("config");
@@ -240,7 +226,7 @@ fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
 /// into a pendulum run's directory is refused, and the other way round.
 #[test]
 fn case_10_a_run_of_another_task_is_refused() {
-    let dir = Scratch::new("case10");
+    let dir = Scratch::new("issue37-case10");
     ok(&swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0));
     refused(
         &swingup(&["learn", "--task", "cartpole", "--max-trials", "1"], &dir.0),
@@ -251,7 +237,7 @@ fn case_10_a_run_of_another_task_is_refused() {
         serde_json::from_slice(&std::fs::read(dir.0.join("manifest.json")).expect("manifest")).expect("json");
     assert_eq!(manifest["task"], "pendulum");
     // a cart-pole run's directory (its record, as the program writes it)
-    let dir = Scratch::new("case10-cartpole");
+    let dir = Scratch::new("issue37-case10-cartpole");
     std::fs::write(dir.0.join("cartpole.json"), "{\"trials\": []}").expect("write");
     refused(
         &swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0),
@@ -270,7 +256,7 @@ fn case_10_a_run_of_another_task_is_refused() {
 #[test]
 fn case_11_shards_started_together_and_merged() {
     for attempt in 0..3 {
-        let dir = Scratch::new(&format!("case11-{attempt}"));
+        let dir = Scratch::new(&format!("issue37-case11-{attempt}"));
         let children: Vec<_> = ["1/2", "2/2"]
             .iter()
             .map(|s| {
@@ -301,7 +287,7 @@ fn case_11_shards_started_together_and_merged() {
 /// the file, with the earlier runs kept.
 #[test]
 fn case_2_a_full_disk_stops_the_program_naming_the_file() {
-    let dir = Scratch::new("case2");
+    let dir = Scratch::new("issue37-case2");
     let o = swingup_env(
         &grid("1", &[]),
         &dir.0,
@@ -324,7 +310,7 @@ fn case_2_a_full_disk_stops_the_program_naming_the_file() {
 #[test]
 fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
     use std::os::unix::fs::PermissionsExt as _;
-    let dir = Scratch::new("case8");
+    let dir = Scratch::new("issue37-case8");
     let real = dir.0.join("real.md");
     std::fs::write(&real, "intro\n<!-- t:start -->\nold\n<!-- t:end -->\n").expect("write");
     std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).expect("chmod");
@@ -352,7 +338,7 @@ fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
 /// stays where it is until a resume that is not refused moves it aside.
 #[test]
 fn a_refused_resume_leaves_a_torn_record_alone() {
-    let dir = Scratch::new("refused-torn");
+    let dir = Scratch::new("issue37-refused-torn");
     ok(&swingup(&grid("1", &[]), &dir.0));
     let log = dir.0.join("runs.jsonl");
     let text = std::fs::read_to_string(&log).expect("runs");
