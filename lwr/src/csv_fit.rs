@@ -67,7 +67,7 @@ mod table;
 
 pub use error::FitError;
 pub use report::{FitReport, InputScale, TargetError, TestReport};
-pub use table::Table;
+pub use table::{PROGRESS_ROWS, Table};
 
 /// Arguments of the fit tool (`lwr-fit`, `swingup fit`).
 #[derive(Debug, Clone, clap::Args)]
@@ -299,7 +299,7 @@ pub fn fit_report(args: &FitArgs) -> Result<FitReport, FitError> {
 /// As [`fit_report`].
 pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result<FitReport, FitError> {
     check_args(args)?;
-    let train = Table::read(&args.train)?;
+    let train = read_table(&args.train, progress)?;
     let target_cols = args
         .targets
         .iter()
@@ -312,8 +312,15 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
         });
     }
     check_size(&train, args.degree, input_cols.len())?;
-    for &j in &target_cols {
-        if train.rows.iter().all(|r| r[j] == train.rows[0][j]) {
+    // every column divided by a power of two near its largest magnitude
+    // (exact in floating point): the fit sees numbers near 1 whatever the
+    // data's units, so a column of 1e200 neither overflows nor looks constant
+    let column_scale = |j: usize| power_of_two_scale(train.rows.iter().map(|r| r[j]));
+    let in_scale: Vec<f64> = input_cols.iter().map(|&j| column_scale(j)).collect();
+    let out_scale: Vec<f64> = target_cols.iter().map(|&j| column_scale(j)).collect();
+    for (&j, &t) in target_cols.iter().zip(&out_scale) {
+        let (_, var) = mean_var(train.rows.iter().map(|r| r[j] / t));
+        if var.is_nan() || var.sqrt() <= CONSTANT_RELATIVE_SPREAD {
             return Err(FitError::ConstantTarget {
                 file: train.file.clone(),
                 column: j + 1,
@@ -325,19 +332,21 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
     let xs: Vec<Vec<f64>> = train
         .rows
         .iter()
-        .map(|r| input_cols.iter().map(|&j| r[j]).collect())
+        .map(|r| input_cols.iter().zip(&in_scale).map(|(&j, s)| r[j] / s).collect())
         .collect();
     let ys: Vec<Vec<f64>> = train
         .rows
         .iter()
-        .map(|r| target_cols.iter().map(|&j| r[j]).collect())
+        .map(|r| target_cols.iter().zip(&out_scale).map(|(&j, t)| r[j] / t).collect())
         .collect();
+    let duplicate_inputs = count_duplicates(&xs);
 
+    // spreads of the scaled inputs (the model's units)
     let mut spreads = Vec::with_capacity(input_cols.len());
-    for &j in &input_cols {
-        let (_, var) = mean_var(train.rows.iter().map(|r| r[j]));
+    for (i, &j) in input_cols.iter().enumerate() {
+        let (_, var) = mean_var(xs.iter().map(|x| x[i]));
         let sd = var.sqrt();
-        if !(sd > 0.0 && sd.is_finite()) {
+        if !(sd > CONSTANT_RELATIVE_SPREAD && sd.is_finite()) {
             return Err(FitError::ConstantInput {
                 file: train.file.clone(),
                 column: j + 1,
@@ -400,6 +409,16 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
             loo.press[o] / (n * var)
         })
         .collect();
+    if let Some(&value) = std::iter::once(&loo.normalized_mse)
+        .chain(&loo_nmse_per_target)
+        .find(|v| !v.is_finite())
+    {
+        return Err(FitError::NonFinite {
+            file: train.file.clone(),
+            value,
+            hint: "look for extreme values among the rows, or fit with fewer inputs or a wider --bandwidth".into(),
+        });
+    }
     let initial_loo_nmse = if initial_loo_nmse.is_nan() {
         loo.normalized_mse
     } else {
@@ -407,15 +426,17 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
     };
     let tuned = model.settings();
     let scales = tuned.scales_for(input_cols.len());
+    // back in each input's own units: spread s_j = sd * 2^k, metric m_j / 2^k
     let inputs = input_cols
         .iter()
         .zip(&spreads)
         .zip(&scales)
-        .map(|((&j, &spread), &m)| InputScale {
+        .zip(&in_scale)
+        .map(|(((&j, &spread), &m), &s)| InputScale {
             name: train.names[j].clone(),
-            spread,
+            spread: spread * s,
             scale: m * spread,
-            metric_scale: m,
+            metric_scale: m / s,
         })
         .collect();
 
@@ -435,12 +456,18 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
         test: None,
         out_file: None,
         level: args.level,
+        duplicate_inputs,
     };
 
     if let Some(test_path) = &args.test {
-        let test = Table::read(test_path)?;
+        let test = read_table(test_path, progress)?;
         progress(&format!("predicting {} test rows", test.rows.len()));
-        let (report_test, predictions) = run_test(&model, &train, &input_cols, &args.targets, &test)?;
+        let scaled = Scaled {
+            model: &model,
+            inputs: &in_scale,
+            targets: &out_scale,
+        };
+        let (report_test, predictions) = run_test(&scaled, &train, &input_cols, &args.targets, &test)?;
         if let Some(out) = &args.out {
             write_predictions(out, &args.targets, &predictions)?;
             report.out_file = Some(out.clone());
@@ -452,8 +479,74 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
 
 type RowPrediction = Result<Prediction, String>;
 
+/// The model fitted on scaled columns, with the scales that map its
+/// inputs and outputs back to the file's units.
+struct Scaled<'a> {
+    model: &'a LwrModel,
+    inputs: &'a [f64],
+    targets: &'a [f64],
+}
+
+impl Scaled<'_> {
+    /// Predictions at `queries` (in the file's units), in the file's units.
+    fn predict_batch(&self, queries: &[Vec<f64>]) -> Vec<Result<Prediction, LwrError>> {
+        let scaled: Vec<Vec<f64>> = queries
+            .iter()
+            .map(|q| q.iter().zip(self.inputs).map(|(x, s)| x / s).collect())
+            .collect();
+        let mut out = self.model.predict_batch(&scaled);
+        for p in out.iter_mut().flatten() {
+            for (o, &t) in self.targets.iter().enumerate() {
+                p.mean[o] *= t;
+                p.noise_variance[o] *= t * t;
+                p.std_error[o] *= t;
+                p.confidence_half_width[o] *= t;
+                p.prediction_half_width[o] *= t;
+            }
+        }
+        out
+    }
+}
+
+/// The table, with progress on large files.
+fn read_table(path: &Path, progress: &mut dyn FnMut(&str)) -> Result<Table, FitError> {
+    if let Ok(meta) = fs::metadata(path)
+        && meta.len() > 8 << 20
+    {
+        progress(&format!(
+            "reading {} ({:.0} MB)",
+            path.display(),
+            meta.len() as f64 / (1 << 20) as f64
+        ));
+    }
+    Table::read_with(path, &mut |rows| progress(&format!("  {rows} rows read")))
+}
+
+/// A column whose standard deviation is at most this fraction of its
+/// largest magnitude is constant: its values differ by round-off only.
+const CONSTANT_RELATIVE_SPREAD: f64 = 64.0 * f64::EPSILON;
+
+/// The power of two at or below the largest magnitude of `values` (1 when
+/// they are all 0): dividing by it is exact and brings them near 1.
+fn power_of_two_scale(values: impl Iterator<Item = f64>) -> f64 {
+    let largest = values.fold(0.0f64, |a, v| a.max(v.abs()));
+    if largest > 0.0 && largest.is_finite() {
+        2f64.powi(largest.log2().floor() as i32)
+    } else {
+        1.0
+    }
+}
+
+/// Rows whose inputs repeat an earlier row's exactly (0 and -0 alike).
+fn count_duplicates(xs: &[Vec<f64>]) -> usize {
+    let mut seen = std::collections::HashSet::with_capacity(xs.len());
+    xs.iter()
+        .filter(|x| !seen.insert(x.iter().map(|v| (v + 0.0).to_bits()).collect::<Vec<u64>>()))
+        .count()
+}
+
 fn run_test(
-    model: &LwrModel,
+    model: &Scaled<'_>,
     train: &Table,
     input_cols: &[usize],
     targets: &[String],
@@ -566,23 +659,36 @@ fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPredictio
     })
 }
 
-/// Writes `contents` to `path` through `path.tmp` in the same directory
-/// and a rename, so that `path` holds either its old or its new contents;
-/// on failure the temporary file is removed and the error names the file.
+/// Writes `contents` to `path` through a temporary file of its own in the
+/// same directory (`.NAME.PID-N.tmp`, created new: it never replaces an
+/// existing file, such as an input named like a temporary file) and a
+/// rename, so that `path` holds either its old or its new contents; on
+/// failure the temporary file is removed and the error names the file.
 ///
 /// # Errors
-/// The temporary file cannot be written or renamed.
+/// The temporary file cannot be created, written or renamed.
 pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
-    let mut tmp: PathBuf = path.to_path_buf();
-    let mut name = path.file_name().unwrap_or_default().to_os_string();
-    name.push(".tmp");
-    tmp.set_file_name(name);
+    use std::io::Write as _;
+    use std::sync::atomic::{AtomicUsize, Ordering};
+    static NEXT: AtomicUsize = AtomicUsize::new(0);
     let named =
         |e: io::Error, what: &str, file: &Path| io::Error::new(e.kind(), format!("{what} {}: {e}", file.display()));
-    if let Err(e) = fs::write(&tmp, contents) {
+    let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let (tmp, mut file) = loop {
+        let n = NEXT.fetch_add(1, Ordering::Relaxed);
+        let tmp = path.with_file_name(format!(".{name}.{}-{n}.tmp", std::process::id()));
+        match fs::OpenOptions::new().write(true).create_new(true).open(&tmp) {
+            Ok(file) => break (tmp, file),
+            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
+            Err(e) => return Err(named(e, "creating", &tmp)),
+        }
+    };
+    if let Err(e) = file.write_all(contents.as_bytes()).and_then(|()| file.sync_all()) {
+        drop(file);
         let _ = fs::remove_file(&tmp);
         return Err(named(e, "writing", &tmp));
     }
+    drop(file);
     fs::rename(&tmp, path).map_err(|e| {
         let _ = fs::remove_file(&tmp);
         named(e, "renaming into place", path)
@@ -591,18 +697,27 @@ pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
 
 /// Runs the fit tool: [`fit_report_with`] with the phases on stderr, then
 /// prints the summary on stdout as text or, with `--json`, as JSON
-/// (non-finite numbers as `null`).
+/// (non-finite numbers as `null`). The predictions file is written before
+/// anything is printed, and a closed stdout or stderr (`| head`) is not an
+/// error: the work is done and saved, and printing stops.
 ///
 /// # Errors
 /// As [`fit_report`].
 pub fn fit_command(args: &FitArgs) -> Result<(), FitError> {
-    let report = fit_report_with(args, &mut |phase: &str| eprintln!("{phase} ..."))?;
-    if args.json {
-        println!("{}", serde_json::to_string_pretty(&report)?);
+    use std::io::Write as _;
+    let report = fit_report_with(args, &mut |phase: &str| {
+        // a closed stderr loses the phase's line, never the work
+        let _ = writeln!(io::stderr(), "{phase} ...");
+    })?;
+    let text = if args.json {
+        serde_json::to_string_pretty(&report)? + "\n"
     } else {
-        print!("{report}");
+        report.to_string()
+    };
+    match io::stdout().lock().write_all(text.as_bytes()) {
+        Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(FitError::Stdout(e)),
+        _ => Ok(()),
     }
-    Ok(())
 }
 
 /// An error and its causes, joined by `": "` (what the `lwr-fit` binary

@@ -122,6 +122,7 @@ impl Degree {
 /// $m_j / h$ matters); both exist so that $h$ is a single "width" knob and
 /// $m$ a shape.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct LwrSettings {
     /// Weighting kernel.
     pub kernel: Kernel,

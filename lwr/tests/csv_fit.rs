@@ -425,17 +425,25 @@ fn progress_is_reported_and_the_predictions_replace_the_old_file() {
     let text = fs::read_to_string(&out).expect("predictions");
     assert_eq!(text.lines().count(), 8);
     assert!(text.starts_with("y_pred,y_std,y_lo,y_hi\n"));
-    assert!(!dir.path("pred.csv.tmp").exists());
+    let names: Vec<String> = fs::read_dir(&dir.0)
+        .expect("list")
+        .filter_map(|e| e.ok())
+        .map(|e| e.file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| n.ends_with(".tmp")), "{names:?}");
 
     // a file that cannot be written: a typed error naming it, nothing left
     let nowhere = dir.path("no_such_dir").join("p.csv");
     let e = write_atomic(&nowhere, "x").expect_err("no directory");
-    assert!(e.to_string().contains("p.csv.tmp"), "{e}");
+    assert!(
+        e.to_string().contains(".p.csv.") && e.to_string().contains(".tmp"),
+        "{e}"
+    );
     args.out = Some(nowhere.clone());
     let err = fit_report(&args).expect_err("cannot write");
     assert!(matches!(err, FitError::Write { .. }), "{err:?}");
     let msg = error_chain(&err);
-    assert!(msg.contains("p.csv: writing the predictions: writing"), "{msg}");
+    assert!(msg.contains("p.csv: writing the predictions: creating"), "{msg}");
     assert!(!nowhere.exists());
 }
 
@@ -465,6 +473,25 @@ fn the_binary_fits_and_reports_bad_files() {
     let value: serde_json::Value = serde_json::from_slice(&json.stdout).expect("JSON summary");
     assert_eq!(value["n_train"], 80);
 
+    // issue 37: with stdout and stderr closed (`| head`), no panic; the
+    // predictions are saved before anything is printed
+    let test = dir.write("test.csv", &data(9, 12));
+    let out = dir.path("closed.csv");
+    let mut child = std::process::Command::new(bin)
+        .args(["--train", train_arg, "--target", "y", "--tune-evals", "3", "--test"])
+        .arg(&test)
+        .arg("--out")
+        .arg(&out)
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("spawns");
+    drop(child.stdout.take());
+    drop(child.stderr.take());
+    let status = child.wait().expect("waits");
+    assert!(status.success(), "{status:?}");
+    assert_eq!(fs::read_to_string(&out).expect("predictions saved").lines().count(), 10);
+
     let bad = dir.write("bad.csv", "a,b,y\n1,2,3\n4,x,6\n");
     let failed = run(&["--train", bad.to_str().expect("utf-8 path"), "--target", "y"]);
     assert!(!failed.status.success());
@@ -486,4 +513,148 @@ fn the_readme_example_drops_the_irrelevant_input() {
     assert_eq!(report.n_train, 200);
     assert!(report.loo_nmse < 0.05, "{}", report.loo_nmse);
     assert!(scale_of(&report, "c") < 0.05 * scale_of(&report, "a"), "{report}");
+}
+
+/// Issue 37, case 9: a training file named like the predictions file's
+/// temporary (`p.csv.tmp` beside `--out p.csv`) is never touched; every
+/// write goes through a temporary file of its own, created new.
+#[test]
+fn a_training_file_named_like_a_temporary_file_is_kept() {
+    let dir = TempDir::new("tmpname");
+    let text = data(50, 21);
+    let train = dir.write("p.csv.tmp", &text);
+    let test = dir.write("test.csv", &data(5, 22));
+    let out = dir.path("p.csv");
+    let mut args = FitArgs::new(&train, &["y"]);
+    args.tune_evals = 0;
+    args.test = Some(test);
+    args.out = Some(out.clone());
+    fit_report(&args).expect("fit");
+    assert_eq!(fs::read_to_string(&train).expect("training file kept"), text);
+    assert_eq!(fs::read_to_string(&out).expect("predictions").lines().count(), 6);
+    // nor is a file named like write_atomic's own temporaries
+    let decoy = dir.write(&format!(".q.csv.{}-0.tmp", std::process::id()), "mine\n");
+    write_atomic(&dir.path("q.csv"), "new\n").expect("written");
+    assert_eq!(fs::read_to_string(&decoy).expect("decoy"), "mine\n");
+}
+
+/// `data` with column `name` multiplied by `factor`.
+fn scaled(text: &str, name: &str, factor: f64) -> String {
+    let mut lines = text.lines();
+    let header = lines.next().expect("header");
+    let j = header.split(',').position(|c| c == name).expect("column");
+    let mut out = format!("{header}\n");
+    for line in lines {
+        let cells: Vec<String> = line
+            .split(',')
+            .enumerate()
+            .map(|(i, c)| {
+                if i == j {
+                    format!("{:e}", c.parse::<f64>().expect("number") * factor)
+                } else {
+                    c.to_owned()
+                }
+            })
+            .collect();
+        out.push_str(&cells.join(","));
+        out.push('\n');
+    }
+    out
+}
+
+/// Issue 37, section 5: the fit is the same in any units. An input
+/// scaled by 1e200 is neither "constant" nor overflowing, a target scaled
+/// by 1e300 gives the same normalised error (not NaN), and the spreads
+/// and metric scales are reported in the file's units.
+#[test]
+fn the_fit_does_not_depend_on_the_columns_units() {
+    let dir = TempDir::new("units");
+    let text = data(80, 23);
+    let fit = |name: &str, body: &str| {
+        let train = dir.write(name, body);
+        let mut args = FitArgs::new(&train, &["y"]);
+        args.tune_evals = 0;
+        fit_report(&args).unwrap_or_else(|e| panic!("{name}: {}", error_chain(&e)))
+    };
+    let plain = fit("plain.csv", &text);
+    for (column, factor) in [("a", 1e200), ("c", 1e-200), ("y", 1e300), ("y", 1e-300)] {
+        let report = fit(&format!("{column}.csv"), &scaled(&text, column, factor));
+        assert!(report.loo_nmse.is_finite(), "{column} x {factor}");
+        assert!(
+            (report.loo_nmse - plain.loo_nmse).abs() <= 1e-9 * plain.loo_nmse,
+            "{column} x {factor}: {} against {}",
+            report.loo_nmse,
+            plain.loo_nmse
+        );
+        if let Some(i) = report.inputs.iter().position(|i| i.name == column) {
+            let (r, p) = (&report.inputs[i], &plain.inputs[i]);
+            assert!((r.spread / (p.spread * factor) - 1.0).abs() < 1e-9, "{column}: {r:?}");
+            assert!(
+                (r.metric_scale * factor / p.metric_scale - 1.0).abs() < 1e-9,
+                "{column}: {r:?}"
+            );
+            assert!((r.scale - p.scale).abs() < 1e-9, "{column}: {r:?}");
+        }
+    }
+}
+
+/// Issue 37, section 5: a column that varies by round-off of its
+/// magnitude only is constant, for inputs and targets alike; one that
+/// varies relative to it is not, however small its values.
+#[test]
+fn constant_columns_are_judged_relative_to_their_magnitude() {
+    let dir = TempDir::new("constant");
+    let mut body = String::from("a,b,y\n");
+    for i in 0..30 {
+        let a = i as f64 / 30.0;
+        // b: 1e6 plus a few units in its last place
+        let b = 1e6 + (i % 3) as f64 * 1e-10;
+        body.push_str(&format!("{a},{b},{}\n", a * a));
+    }
+    let train = dir.write("b.csv", &body);
+    let mut args = FitArgs::new(&train, &["y"]);
+    args.tune_evals = 0;
+    let e = fit_report(&args).expect_err("b is constant");
+    assert!(
+        matches!(&e, FitError::ConstantInput { name, .. } if name == "b"),
+        "{e:?}"
+    );
+    args.targets = vec!["b".into()];
+    let e = fit_report(&args).expect_err("b is a constant target");
+    assert!(
+        matches!(&e, FitError::ConstantTarget { name, .. } if name == "b"),
+        "{e:?}"
+    );
+    // tiny, but varying: fitted
+    let tiny = scaled(&data(40, 24), "b", 1e-300);
+    let train = dir.write("tiny.csv", &tiny);
+    let mut args = FitArgs::new(&train, &["y"]);
+    args.tune_evals = 0;
+    assert!(fit_report(&args).expect("tiny inputs fit").loo_nmse.is_finite());
+}
+
+/// Issue 37, section 5: rows whose inputs repeat make leave-one-out
+/// optimistic; they are counted and the summary warns.
+#[test]
+fn duplicated_rows_are_reported() {
+    let dir = TempDir::new("dups");
+    let text = data(40, 25);
+    let rows: Vec<&str> = text.lines().skip(1).collect();
+    let twice = format!(
+        "{}\n{}\n{}\n",
+        text.lines().next().expect("header"),
+        rows.join("\n"),
+        rows.join("\n")
+    );
+    let mut args = FitArgs::new(dir.write("twice.csv", &twice), &["y"]);
+    args.tune_evals = 0;
+    let report = fit_report(&args).expect("fit");
+    assert_eq!(report.duplicate_inputs, 40);
+    let shown = report.to_string();
+    assert!(shown.contains("warning: 40 of 80 training rows repeat"), "{shown}");
+    let mut args = FitArgs::new(dir.write("once.csv", &text), &["y"]);
+    args.tune_evals = 0;
+    let report = fit_report(&args).expect("fit");
+    assert_eq!(report.duplicate_inputs, 0);
+    assert!(!report.to_string().contains("warning"));
 }

@@ -27,7 +27,8 @@ fn main() -> ExitCode {
     match fit_command(&cli.fit) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("error: {}", error_chain(&e));
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "error: {}", error_chain(&e));
             ExitCode::FAILURE
         }
     }

@@ -110,7 +110,9 @@ pub enum FitError {
     },
     /// An input that takes one value only: it cannot be normalised and the
     /// local fit could not use it.
-    #[error("{file}: column {column} '{name}' is constant ({value}) over all rows; remove it")]
+    #[error(
+        "{file}: column {column} '{name}' is constant ({value}) over all rows, to within round-off of its magnitude; remove it"
+    )]
     ConstantInput {
         /// The file.
         file: PathBuf,
@@ -149,7 +151,9 @@ pub enum FitError {
     },
     /// A target that takes one value only: nothing to regress, and its
     /// normalised errors would divide by a zero variance.
-    #[error("{file}: the target column {column} '{name}' is {value} in every row; there is nothing to regress")]
+    #[error(
+        "{file}: the target column {column} '{name}' is {value} in every row (to within round-off of its magnitude); there is nothing to regress"
+    )]
     ConstantTarget {
         /// The file.
         file: PathBuf,
@@ -195,6 +199,25 @@ pub enum FitError {
         /// The cause.
         source: std::io::Error,
     },
+    /// The fit's leave-one-out error came out infinite or NaN: the data's
+    /// numbers overflow the fit's arithmetic (a number is never printed
+    /// silently wrong).
+    #[error(
+        "{file}: the leave-one-out error of the fit is {value}, not a number: the data overflow the fit's \
+         arithmetic ({hint})"
+    )]
+    NonFinite {
+        /// The training file.
+        file: PathBuf,
+        /// The value.
+        value: f64,
+        /// What to try.
+        hint: String,
+    },
+    /// The summary could not be printed (other than on a closed pipe,
+    /// which ends the printing quietly).
+    #[error("printing the summary on stdout")]
+    Stdout(#[source] std::io::Error),
     /// The summary could not be written as JSON.
     #[error("cannot write the summary as JSON")]
     Json(#[from] serde_json::Error),

@@ -102,6 +102,10 @@ pub struct FitReport {
     pub out_file: Option<PathBuf>,
     /// Level of the prediction intervals.
     pub level: f64,
+    /// Training rows whose inputs repeat an earlier row's exactly: leaving
+    /// one out keeps its copies, so the leave-one-out error is optimistic
+    /// where there are many (reported, with a warning, when not 0).
+    pub duplicate_inputs: usize,
 }
 
 fn fmt_num(v: f64) -> String {
@@ -142,6 +146,14 @@ impl fmt::Display for FitReport {
             fmt_num(self.loo_nmse),
             fmt_num(self.initial_loo_nmse)
         )?;
+        if self.duplicate_inputs > 0 {
+            writeln!(
+                s,
+                "warning: {} of {} training rows repeat an earlier row's inputs exactly; leaving one out keeps \
+                 its copies, so the leave-one-out error is optimistic (check it on a test file)",
+                self.duplicate_inputs, self.n_train
+            )?;
+        }
         if self.targets.len() > 1 {
             for (t, e) in self.targets.iter().zip(&self.loo_nmse_per_target) {
                 writeln!(s, "  {t}: {}", fmt_num(*e))?;
