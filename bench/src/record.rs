@@ -175,6 +175,23 @@ pub struct RecordFile {
     pub source: String,
     /// The runs.
     pub runs: Vec<RunRecord>,
+    /// The code and budget that made the runs, for `nprl-bench`'s own
+    /// files (`None` in the outside scripts' files and in files written
+    /// before it was recorded): a report judged later from the saved runs
+    /// (`--reuse`) is stamped with these, not with the judging binary's.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub made_by: Option<MadeBy>,
+}
+
+/// What made a file of runs ([`RecordFile::made_by`]).
+#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+pub struct MadeBy {
+    /// The code version of the binary that ran them ([`store::code_version`]).
+    pub code_version: String,
+    /// Its evaluation budget per run, in simplex gradients ($n + 1$).
+    pub budget_simplex_gradients: u64,
+    /// Its time budget per run, seconds.
+    pub budget_time_s: f64,
 }
 
 impl RecordFile {
@@ -184,6 +201,7 @@ impl RecordFile {
             format: FORMAT.into(),
             source: source.into(),
             runs,
+            made_by: None,
         }
     }
 

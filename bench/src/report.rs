@@ -20,9 +20,11 @@ use crate::profiles::Profile;
 /// the saved reports against their records).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct Stamp {
-    /// `git rev-parse HEAD`, or `unknown`.
+    /// The commit the runs' binary was built from ([`store::code_version`],
+    /// recorded with the runs: [`crate::record::RecordFile::made_by`]), or
+    /// `unknown`.
     pub commit: String,
-    /// Whether tracked files outside `results/` differed from the commit.
+    /// Whether that binary's code differed from the commit.
     pub dirty: bool,
     /// Cores available to the process.
     pub cores: usize,
@@ -36,9 +38,10 @@ pub struct Stamp {
     pub runs: usize,
     /// Times each of our solves was timed (the median is reported).
     pub repeats: u32,
-    /// The evaluation budget per run, in simplex gradients ($n + 1$).
+    /// The evaluation budget per run the runs were made with, in simplex
+    /// gradients ($n + 1$).
     pub budget_simplex_gradients: u64,
-    /// The time budget per run, seconds.
+    /// Their time budget per run, seconds.
     pub budget_time_s: f64,
     /// The sources of the records merged (ours and the outside scripts').
     pub sources: Vec<String>,
@@ -57,30 +60,18 @@ impl Stamp {
             .ok()
     }
 
-    /// The commit and dirty flag of the repository around the working
-    /// directory, and the date.
-    pub fn git() -> (String, bool, String) {
-        let out = |args: &[&str]| {
-            Command::new(args[0])
-                .args(&args[1..])
-                .output()
-                .ok()
-                .filter(|o| o.status.success())
-                .map(|o| String::from_utf8_lossy(&o.stdout).trim().to_string())
-        };
-        let commit = out(&["git", "rev-parse", "HEAD"]).unwrap_or_else(|| "unknown".into());
-        let dirty = out(&[
-            "git",
-            "status",
-            "--porcelain",
-            "--untracked-files=no",
-            "--",
-            ".",
-            ":!results",
-        ])
-        .is_none_or(|s| !s.is_empty());
-        let date = out(&["date", "-u", "+%Y-%m-%dT%H:%M:%SZ"]).unwrap_or_else(|| "unknown".into());
-        (commit, dirty, date)
+    /// The UTC date and time now, `YYYY-MM-DDTHH:MM:SSZ` (from `date -u`),
+    /// or `unknown`.
+    pub fn date() -> String {
+        Command::new("date")
+            .args(["-u", "+%Y-%m-%dT%H:%M:%SZ"])
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .map_or_else(
+                || "unknown".into(),
+                |o| String::from_utf8_lossy(&o.stdout).trim().to_string(),
+            )
     }
 }
 
@@ -320,22 +311,7 @@ pub const README_END: &str = "<!-- benchmarks:end -->";
 /// marker quoted in prose, as `` `<!-- benchmarks:start -->` `` in a
 /// sentence, is text, not a marker).
 pub fn with_readme_summary(readme: &str, summary: &str) -> Option<String> {
-    let start_line = README_START.trim_end();
-    let mut offset = 0;
-    let mut body = None;
-    let mut end = None;
-    for line in readme.split_inclusive('\n') {
-        let bare = line.trim_end_matches(['\n', '\r']);
-        if body.is_none() && bare == start_line {
-            body = Some(offset + line.len());
-        } else if body.is_some() && bare == README_END {
-            end = Some(offset);
-            break;
-        }
-        offset += line.len();
-    }
-    let (body, end) = (body?, end?);
-    Some([&readme[..body], summary, &readme[end..]].concat())
+    store::with_block(readme, README_START, README_END, summary)
 }
 
 /// The summary as a Markdown table (task, ours, reference, ratio, runs).

@@ -31,7 +31,7 @@ use crate::error::{BenchError, Result};
 use crate::minima::{self, Reference};
 use crate::plot::ProfileFigure;
 use crate::problems::{Budget, ProblemSet};
-use crate::record::{RecordFile, RunRecord};
+use crate::record::{MadeBy, RecordFile, RunRecord};
 use crate::report::{self, Stamp};
 use crate::solvers::Solver;
 
@@ -112,7 +112,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     } else {
         let runs = run_all(settings)?;
         std::fs::create_dir_all(&settings.out).map_err(BenchError::io(&settings.out))?;
-        let file = RecordFile::new(
+        let mut file = RecordFile::new(
             format!(
                 "nprl-bench {} ({:.1} s for the runs)",
                 env!("CARGO_PKG_VERSION"),
@@ -120,9 +120,21 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
             ),
             runs,
         );
+        file.made_by = Some(MadeBy {
+            code_version: store::code_version().to_string(),
+            budget_simplex_gradients: settings.budget.simplex_gradients,
+            budget_time_s: settings.budget.time.as_secs_f64(),
+        });
         file.save(&runs_path)?;
         file
     };
+    // the code and budget that made the runs; for records saved before they
+    // were recorded, this binary's and the command line's
+    let made_by = ours.made_by.clone().unwrap_or_else(|| MadeBy {
+        code_version: store::code_version().to_string(),
+        budget_simplex_gradients: settings.budget.simplex_gradients,
+        budget_time_s: settings.budget.time.as_secs_f64(),
+    });
     let elapsed_s = if settings.reuse {
         0.0
     } else {
@@ -137,18 +149,18 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         &settings.out,
         &settings.outside,
     )?;
-    let (commit, dirty, date) = Stamp::git();
+    let (commit, dirty) = store::parse_code_version(&made_by.code_version);
     let stamp = Stamp {
-        commit,
+        commit: commit.unwrap_or("unknown").to_string(),
         dirty,
         cores: std::thread::available_parallelism().map_or(1, usize::from),
         load_before,
         load_after: Stamp::load(),
-        date,
+        date: Stamp::date(),
         runs: analysis.runs.iter().flatten().flatten().count(),
         repeats,
-        budget_simplex_gradients: settings.budget.simplex_gradients,
-        budget_time_s: settings.budget.time.as_secs_f64(),
+        budget_simplex_gradients: made_by.budget_simplex_gradients,
+        budget_time_s: made_by.budget_time_s,
         sources,
         elapsed_s,
     };
@@ -578,6 +590,36 @@ mod tests {
         for file in ["benchmarks.md", "benchmarks.json", "benchmarks_summary.md"] {
             assert!(!dir.join(file).exists(), "{file} written");
         }
+        // issue 37: the runs record the binary's build and their budget, and
+        // a report judged later from them (--reuse, another budget on the
+        // command line, another binary) is stamped with those
+        let runs_path = dir.join("benchmarks/trajectory/runs.json");
+        let saved = RecordFile::load(&runs_path).expect("runs");
+        let made_by = saved.made_by.clone().expect("made_by recorded");
+        assert_eq!(made_by.code_version, store::code_version());
+        assert_eq!(made_by.budget_simplex_gradients, 3);
+        let (commit, dirty) = store::parse_code_version(store::code_version());
+        assert_eq!(
+            (stamp.commit.as_str(), stamp.dirty),
+            (commit.unwrap_or("unknown"), dirty)
+        );
+        let mut other = saved;
+        other.made_by = Some(MadeBy {
+            code_version: "commit abcdef0".into(),
+            ..made_by
+        });
+        other.save(&runs_path).expect("save");
+        let reuse = RunnerSettings {
+            reuse: true,
+            budget: Budget {
+                simplex_gradients: 99,
+                time: Duration::from_secs(1),
+            },
+            ..settings
+        };
+        let (_, again) = execute(&reuse).expect("reused");
+        assert_eq!((again.commit.as_str(), again.dirty), ("abcdef0", false));
+        assert_eq!((again.budget_simplex_gradients, again.budget_time_s), (3, 5.0));
         let md = std::fs::read_to_string(dir.join("benchmarks_trajectory.md")).expect("md");
         assert!(
             md.contains("pendulum-h50-lambda1e2") && md.contains("rolled out"),

@@ -39,16 +39,40 @@
 #![deny(missing_docs)]
 
 mod append;
+pub mod block;
 pub mod error;
 pub mod fault;
 mod manifest;
 mod replace;
 
 pub use append::{AppendLog, LogContents, TornTail, read_log};
+pub use block::with_block;
 pub use error::{Result, StoreError};
 pub use fault::{FaultGuard, FaultPlan, OpKind};
 pub use manifest::{Manifest, ManifestStatus, differing_keys, digest};
 pub use replace::{is_temporary, replace_file};
+
+/// The commit the workspace's code was built from, as results name it:
+/// `commit <hash>` (7 hex digits), with `-dirty` when a tracked code file
+/// (`*.rs`, `Cargo.toml`, `Cargo.lock`, the compiled-in data) differed from
+/// that commit, or `an unknown commit` (built outside the workspace's git
+/// checkout). Set at build time (`store/build.rs`): neither the directory a
+/// program runs in nor a later commit changes it.
+pub fn code_version() -> &'static str {
+    env!("NPRL_CODE_VERSION")
+}
+
+/// [`code_version`] split into the commit's hash (`None` when unknown) and
+/// whether the code was dirty.
+pub fn parse_code_version(version: &str) -> (Option<&str>, bool) {
+    match version.strip_prefix("commit ") {
+        Some(rest) => match rest.strip_suffix("-dirty") {
+            Some(hash) => (Some(hash), true),
+            None => (Some(rest), false),
+        },
+        None => (None, false),
+    }
+}
 
 #[cfg(test)]
 mod test_support {
@@ -80,3 +104,37 @@ mod test_support {
 #[cfg(doctest)]
 #[doc = include_str!("../README.md")]
 struct ReadmeDoctests;
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// The stamp names the checkout's commit (this test is built from it;
+    /// `-dirty` when edited since), or says it is unknown without git.
+    #[test]
+    fn code_version_names_the_commit_built_from() {
+        let v = code_version();
+        assert_eq!(parse_code_version(v).0.is_some(), v != "an unknown commit");
+        let head = std::process::Command::new("git")
+            .args(["rev-parse", "--short=7", "HEAD"])
+            .current_dir(env!("CARGO_MANIFEST_DIR"))
+            .output()
+            .ok()
+            .filter(|o| o.status.success())
+            .and_then(|o| String::from_utf8(o.stdout).ok());
+        match head {
+            Some(head) => {
+                let want = format!("commit {}", head.trim());
+                assert!(v == want || v == format!("{want}-dirty"), "{v} against HEAD {head}");
+            }
+            None => assert_eq!(v, "an unknown commit"),
+        }
+    }
+
+    #[test]
+    fn code_versions_parse() {
+        assert_eq!(parse_code_version("commit abc1234"), (Some("abc1234"), false));
+        assert_eq!(parse_code_version("commit abc1234-dirty"), (Some("abc1234"), true));
+        assert_eq!(parse_code_version("an unknown commit"), (None, false));
+    }
+}

@@ -1,4 +1,6 @@
-//! Numbers as the reports print them.
+//! Numbers as the reports print them, and as configuration files give them.
+
+use serde::Deserialize as _;
 
 /// A number with about four significant digits, `—` if not finite.
 pub fn num(x: f64) -> String {
@@ -14,4 +16,12 @@ pub fn num(x: f64) -> String {
     } else {
         format!("{x:.3e}")
     }
+}
+
+/// A fixed-length array of a configuration file, refused unless it has
+/// exactly `N` elements (`toml` would drop extra ones silently).
+pub fn exact_array<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Result<[f64; N], D::Error> {
+    let v = Vec::<f64>::deserialize(d)?;
+    <[f64; N]>::try_from(v.as_slice())
+        .map_err(|_| serde::de::Error::invalid_length(v.len(), &format!("an array of exactly {N} numbers").as_str()))
 }

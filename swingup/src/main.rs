@@ -275,6 +275,26 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         SensitivityReport, code_version, default_perturbations, learned_model_error, open_loop_tolerance,
         with_successful_data,
     };
+    // every size and path is checked before the work, which takes minutes
+    let most = swingup::experiments::MAX_SEEDS;
+    for (name, n) in [
+        ("--seeds", args.seeds),
+        ("--model-seeds", args.model_seeds),
+        ("--success-seeds", args.success_seeds),
+    ] {
+        anyhow::ensure!((1..=most).contains(&n), "{name} must be 1 to {most}, got {n}");
+    }
+    let trials = swingup::config::limits::MAX_TRIALS;
+    for (name, n) in [
+        ("--model-trials", args.model_trials),
+        ("--success-trials", args.success_trials),
+    ] {
+        anyhow::ensure!((1..=trials).contains(&n), "{name} must be 1 to {trials}, got {n}");
+    }
+    swingup::output::check_out_dir(&args.out)?;
+    if let Some(readme) = &args.update_readme {
+        run_report::with_markers(readme, "<!-- sensitivity:start -->", "<!-- sensitivity:end -->", "")?;
+    }
     let perturbations = default_perturbations();
     say!(
         "planning with {} perturbed exact models, each run on the robot over {} seeds",
@@ -297,7 +317,6 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
         args.success_trials
     );
     let successful_data = with_successful_data(&cfg, args.success_seeds, args.success_trials)?;
-    std::fs::create_dir_all(&args.out).with_context(|| format!("creating {}", args.out.display()))?;
     let report = SensitivityReport {
         version,
         tolerance: rows,
@@ -362,20 +381,8 @@ fn apply_options(args: &LearnArgs, file: Option<&Config>, cfg: &mut Config) {
         cfg.controller = controller;
     }
 }
-
-/// `runs/swingup-NNN`: the latest existing one (`latest`), or the first free one.
-fn run_dir(latest: bool) -> anyhow::Result<PathBuf> {
-    let dir = |n: usize| PathBuf::from(format!("runs/swingup-{n:03}"));
-    let first_free = (1..100_000)
-        .find(|&n| !dir(n).exists())
-        .ok_or_else(|| anyhow::anyhow!("runs/ holds 100000 runs; pass --out"))?;
-    if latest {
-        anyhow::ensure!(first_free > 1, "no run in runs/ to resume; pass --out");
-        Ok(dir(first_free - 1))
-    } else {
-        Ok(dir(first_free))
-    }
-}
+/// Where `learn` numbers its run directories when no `--out` is given.
+const RUNS_ROOT: &str = "runs";
 
 /// Which task `learn` runs.
 #[derive(Debug, Clone, Copy, Default, PartialEq, Eq, clap::ValueEnum)]
@@ -403,16 +410,18 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
             && args.lambda.is_none(),
         "--task cartpole takes --seed, --max-trials, --out and --force only (its settings are PILCO's, see swingup::cartpole)"
     );
-    let out = &match &args.out {
-        Some(out) => out.clone(),
-        None => run_dir(false)?,
-    };
-    let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
-    let file = out.join("cartpole.json");
     let mut settings = swingup::cartpole::CartPoleSettings::default();
     if let Some(n) = args.max_trials {
         settings.max_trials = n;
     }
+    // refused before any directory is touched
+    settings.validate()?;
+    let out = &match &args.out {
+        Some(out) => out.clone(),
+        None => swingup::output::rundir::numbered_run_dir(Path::new(RUNS_ROOT), false)?,
+    };
+    let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
+    let file = out.join("cartpole.json");
     let seed = args.seed.unwrap_or(1);
     // a directory holding a run (of either task) is refused unless --force,
     // which deletes that run's files only; the run records its task
@@ -463,26 +472,32 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         return learn_cartpole(args);
     }
     let file = config_file(args)?;
+    // a fresh run's settings are checked before any directory is touched
+    let fresh = if args.resume {
+        None
+    } else {
+        let mut cfg = Config::default();
+        apply_options(args, file.as_ref(), &mut cfg);
+        cfg.validate()?;
+        Some(cfg)
+    };
     let out = &match &args.out {
         Some(out) => out.clone(),
-        None => run_dir(args.resume)?,
+        None => swingup::output::rundir::numbered_run_dir(Path::new(RUNS_ROOT), args.resume)?,
     };
     // one program at a time in a run's directory
     let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
     // a resumed run continues with the settings that made it; a fresh one
     // never writes over another run's files
-    let cfg = if args.resume {
-        swingup::output::rundir::resume_config(out, |c| apply_options(args, file.as_ref(), c))?
-    } else {
-        let mut cfg = Config::default();
-        apply_options(args, file.as_ref(), &mut cfg);
-        cfg.validate()?;
+    let cfg = if let Some(cfg) = fresh {
         swingup::output::rundir::prepare_fresh(out, args.force)?;
         // written once: the task and settings that made the run, and the
         // configuration, never rewritten by a resume
         swingup::output::rundir::create_manifest(out, "pendulum", &cfg)?;
         write_atomic(&out.join("config.toml"), &toml::to_string(&cfg)?)?;
         cfg
+    } else {
+        swingup::output::rundir::resume_config(out, |c| apply_options(args, file.as_ref(), c))?
     };
     let previous = if args.resume {
         let trials = run_report::read_trials(out)?;
@@ -583,6 +598,15 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
                 "--variant {v:?} names no variant of {which:?}; they are: {}",
                 names.join(", ")
             );
+        }
+    }
+    // the README's markers are checked before the grid, which takes hours
+    if let Some(readme) = &args.update_readme {
+        if which.iter().any(|e| *e != Experiment::Mpc) {
+            run_report::with_markers(readme, "<!-- claims:start -->", "<!-- claims:end -->", "")?;
+        }
+        if which.contains(&Experiment::Mpc) {
+            run_report::with_markers(readme, "<!-- mpc:start -->", "<!-- mpc:end -->", "")?;
         }
     }
     let out = &args.out;

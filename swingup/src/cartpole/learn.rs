@@ -58,6 +58,7 @@ use crate::record::quantile;
 /// | `replan` | 10 iterations, no time budget | per replan |
 /// | `cold_iterations` | 30 | per continuation stage of a trial's first replan |
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CartPoleSettings {
     /// The plant.
     pub plant: CartPoleParams,
@@ -180,6 +181,28 @@ impl CartPoleSettings {
             "cartpole.episode ({} s) must be longer than cartpole.success_hold ({} s)",
             self.episode,
             self.success_hold
+        );
+        crate::error::ensure_config!(
+            "cartpole.max_trials",
+            (1..=crate::config::limits::MAX_TRIALS).contains(&self.max_trials),
+            "cartpole.max_trials must be 1 to {}, got {}",
+            crate::config::limits::MAX_TRIALS,
+            self.max_trials
+        );
+        crate::error::ensure_config!(
+            "cartpole.episode",
+            self.steps() <= crate::config::limits::BALANCE,
+            "cartpole.episode ({} s) must be at most {} control periods ({} s)",
+            self.episode,
+            crate::config::limits::BALANCE,
+            crate::config::limits::BALANCE as f64 * self.plant.dt
+        );
+        crate::error::ensure_config!(
+            "cartpole.window",
+            self.window <= crate::config::limits::HORIZON,
+            "cartpole.window must be at most {} control periods, got {}",
+            crate::config::limits::HORIZON,
+            self.window
         );
         crate::error::ensure_config!(
             "cartpole.replan_iterations",

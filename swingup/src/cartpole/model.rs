@@ -62,6 +62,7 @@ pub struct Transition {
 /// with the least data (the figures are in the session's report on issue 22).
 /// | `tune_evals` | 150 | leave-one-out evaluations per retune (0: no tuning) |
 #[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CartPoleModelSettings {
     /// The LWR's settings (its `scales` are overwritten by one over each
     /// input's spread at every refit).

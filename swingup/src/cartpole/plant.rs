@@ -36,6 +36,7 @@ use serde::{Deserialize, Serialize};
 /// | `substeps` | 20 | RK4 steps per control period (ours) |
 /// | `sensor_noise` | 0.01 | `settings_cp.m`: `plant.noise = diag(ones(1,4)*0.01.^2)` |
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct CartPoleParams {
     /// Cart mass $M$ \[kg\].
     pub cart_mass: f64,

@@ -50,6 +50,7 @@ pub fn pilco_cost(plant: &CartPole, s: &[f64; 4]) -> f64 {
 /// | `terminal_factor` | 10 |
 /// | `bound_weight` ($w_b$) | 10 |
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct TaskWeights {
     /// $q_d$ on the squared tip distance.
     pub tip: f64,

@@ -38,6 +38,13 @@ pub use claims::demonstration_worth;
 mod jobs;
 use jobs::jobs;
 
+mod summary;
+pub use summary::{
+    BLOW_UP_NORM, CARTPOLE_VARIANT, Claim, ExperimentsReport, LEFT_DATA_SUPPORT, Rollout, RunSummary, TaskTime,
+    VariantSummary, is_cartpole, task_of,
+};
+pub(crate) use summary::{median, summarise};
+
 /// Which experiments to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -59,6 +66,7 @@ pub enum Experiment {
 
 /// The grid's size.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ExperimentSettings {
     /// Seeds per variant of the lambda, planners and beyond experiments (1, 2, ...).
     pub seeds: u64,
@@ -91,11 +99,60 @@ pub struct ExperimentSettings {
     pub cartpole: CartPoleSettings,
 }
 
+/// The most seeds a grid's variant may run ([`ExperimentSettings::validate`]).
+pub const MAX_SEEDS: u64 = 10_000;
+
 fn twenty() -> u64 {
     20
 }
 
 impl ExperimentSettings {
+    /// Checks every size: seeds 1 to [`MAX_SEEDS`] per variant (0 for the
+    /// optional variants), trials 1 to [`limits::MAX_TRIALS`](crate::config::limits::MAX_TRIALS),
+    /// Powell's budget 1 to 10⁹, at least one finite nonnegative lambda,
+    /// and the cart-pole's settings ([`CartPoleSettings::validate`]).
+    ///
+    /// # Errors
+    /// [`Error::Config`](crate::Error::Config) naming the first setting
+    /// out of its range, with its value.
+    pub fn validate(&self) -> crate::Result<()> {
+        use crate::error::ensure_config;
+        for (key, n, least) in [
+            ("seeds", self.seeds, 1),
+            ("learning_seeds", self.learning_seeds, 1),
+            ("wavelet_seeds", self.wavelet_seeds, 0),
+            ("powell_seeds", self.powell_seeds, 0),
+            ("derivative_free_seeds", self.derivative_free_seeds, 0),
+            ("mpc_seeds", self.mpc_seeds, 1),
+        ] {
+            ensure_config!(
+                key,
+                (least..=MAX_SEEDS).contains(&n),
+                "{key} must be {least} to {MAX_SEEDS}, got {n}"
+            );
+        }
+        let max_trials = crate::config::limits::MAX_TRIALS;
+        ensure_config!(
+            "max_trials",
+            (1..=max_trials).contains(&self.max_trials),
+            "max_trials must be 1 to {max_trials}, got {}",
+            self.max_trials
+        );
+        ensure_config!(
+            "powell_evals",
+            (1..=1_000_000_000).contains(&self.powell_evals),
+            "powell_evals must be 1 to 1e9, got {}",
+            self.powell_evals
+        );
+        ensure_config!(
+            "lambdas",
+            !self.lambdas.is_empty() && self.lambdas.iter().all(|l| l.is_finite() && *l >= 0.0),
+            "lambdas must hold at least one value, each finite and nonnegative, got {:?}",
+            self.lambdas
+        );
+        self.cartpole.validate()
+    }
+
     /// A fingerprint of the settings (16 hex digits, [`store::digest`] of
     /// their JSON), which every run made with them carries
     /// ([`RunSummary::settings_digest`]).
@@ -142,279 +199,6 @@ impl ExperimentSettings {
                 ..CartPoleSettings::default()
             },
         }
-    }
-}
-
-/// How far forward integration of a model learned after `after_trial`
-/// trials gets under the next trial's planned commands (C8).
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Rollout {
-    /// Trials the model was learned from.
-    pub after_trial: usize,
-    /// Samples integrated before a state became non-finite or left the
-    /// data (support below [`LEFT_DATA_SUPPORT`]); `None`: never.
-    pub left_data_at: Option<usize>,
-    /// Samples integrated before a state became non-finite or exceeded
-    /// [`BLOW_UP_NORM`] in some component; `None`: never.
-    pub blew_up_at: Option<usize>,
-    /// Largest angle error against what the robot did under the same commands (rad).
-    #[serde(with = "crate::record::nullable")]
-    pub max_angle_error: f64,
-}
-
-/// Support (effective number of data points) below which a state has left the data.
-pub const LEFT_DATA_SUPPORT: f64 = 1e-3;
-
-/// A state component beyond this has blown up.
-pub const BLOW_UP_NORM: f64 = 100.0;
-
-/// One learning run's outcome.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct RunSummary {
-    /// Experiment name.
-    pub experiment: String,
-    /// Variant within it.
-    pub variant: String,
-    /// Seed.
-    pub seed: u64,
-    /// First successful trial.
-    pub success_trial: Option<usize>,
-    /// Trials run.
-    pub trials: usize,
-    /// Seconds of robot data up to success (or all).
-    pub robot_seconds: f64,
-    /// Largest pendulum angle per trial (rad).
-    pub max_angles: Vec<f64>,
-    /// Planner status per planned trial.
-    pub plan_statuses: Vec<String>,
-    /// Final Eq. 3 criterion per planned trial (empty for runs saved
-    /// before it was recorded).
-    #[serde(default)]
-    pub plan_costs: Vec<f64>,
-    /// Per planned trial, the criterion Gauss-Newton reaches on the same
-    /// problem, where the run compared it
-    /// ([`PlannerConfig::compare_gauss_newton`](crate::config::PlannerConfig::compare_gauss_newton)).
-    #[serde(default)]
-    pub plan_gauss_newton_costs: Vec<Option<f64>>,
-    /// Failure per trial (empty on success); DDP trials add the failure class.
-    pub failures: Vec<String>,
-    /// Tuned metric per planned trial (relative to each input's spread).
-    pub scales: Vec<Vec<f64>>,
-    /// Model rollouts (C8), `learning` GN/B-spline runs only.
-    pub rollouts: Vec<Rollout>,
-    /// Wall time (s).
-    pub seconds: f64,
-    /// Per trial run under model-predictive control: the median and the
-    /// 99th percentile of its replan times (ms, [`quantile`]); empty otherwise.
-    #[serde(default)]
-    pub replan_ms: Vec<[f64; 2]>,
-    /// Per cart-pole MPC trial: the wall time of its first plan (ms), a
-    /// cold start not counted in `replan_ms`; empty for the pendulum,
-    /// whose first plan is timed with the trial's planning.
-    #[serde(default)]
-    pub first_plan_ms: Vec<f64>,
-    /// Whether each trial succeeded, in order (empty for runs saved before
-    /// it was recorded).
-    #[serde(default)]
-    pub trial_success: Vec<bool>,
-    /// The code that made the run (`git describe` of the working
-    /// directory, see [`crate::experiments::sensitivity::code_version`]); empty for runs
-    /// saved before it was recorded.
-    #[serde(default)]
-    pub code_version: String,
-    /// The fingerprint of the grid's settings the run was made with
-    /// ([`ExperimentSettings::digest`]), so that a run is never read back
-    /// under other settings; empty for runs saved before it was recorded.
-    #[serde(default, skip_serializing_if = "String::is_empty")]
-    pub settings_digest: String,
-}
-
-/// Aggregate of one variant over its seeds.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct VariantSummary {
-    /// Experiment name.
-    pub experiment: String,
-    /// Variant.
-    pub variant: String,
-    /// Runs.
-    pub runs: usize,
-    /// Runs that succeeded.
-    pub successes: usize,
-    /// Median trial of success over the successful runs.
-    pub median_trials: Option<f64>,
-    /// Smallest and largest trial of success.
-    pub trial_range: Option<(usize, usize)>,
-    /// Median seconds of robot data to success over the successful runs.
-    pub median_robot_seconds: Option<f64>,
-}
-
-/// One row of the claims table.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct Claim {
-    /// C1..C8.
-    pub id: String,
-    /// What the paper says.
-    pub paper: String,
-    /// What we found.
-    pub ours: String,
-    /// yes / no / partly / not run.
-    pub reproduced: String,
-}
-
-/// Everything `swingup experiments` found.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct ExperimentsReport {
-    /// The grid.
-    pub settings: ExperimentSettings,
-    /// Experiments run.
-    pub experiments: Vec<Experiment>,
-    /// Every run.
-    pub runs: Vec<RunSummary>,
-    /// Per variant.
-    pub variants: Vec<VariantSummary>,
-    /// The claims table.
-    pub claims: Vec<Claim>,
-    /// Wall time of the invocation that wrote the report (s): with
-    /// `--resume`, of its part of the grid only.
-    pub seconds: f64,
-    /// Worker threads of that invocation.
-    #[serde(default)]
-    pub threads: usize,
-    /// Runs that invocation made (the others were read back from the runs
-    /// file: `--resume`, `--report-only`); `None` in reports written
-    /// before this was recorded, whose wall time is that of the invocation
-    /// that wrote them, whatever part of the grid it ran.
-    #[serde(default)]
-    pub ran: Option<usize>,
-    /// The wall time of each task's runs ([`task_of`]): of the invocation
-    /// that made them, kept across reports written from saved runs while
-    /// the task's runs stay the same (empty in
-    /// reports written before it was recorded: see
-    /// [`ExperimentsReport::task_times_or_legacy`]).
-    #[serde(default)]
-    pub task_times: Vec<TaskTime>,
-}
-
-/// The wall time of the invocation that made (some of) one task's runs.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
-pub struct TaskTime {
-    /// The task ([`task_of`]).
-    pub task: String,
-    /// Runs of the task that invocation made; `None`: not recorded (a
-    /// report written before this was, whatever part of the grid its
-    /// invocation ran).
-    pub ran: Option<usize>,
-    /// Runs that invocation made in all (of this task and others).
-    pub invocation_ran: Option<usize>,
-    /// Its wall time (s).
-    pub seconds: f64,
-    /// Its worker threads.
-    pub threads: usize,
-}
-
-/// The variant of the `mpc` experiment's cart-pole runs: PILCO's
-/// cart-pole learned from scratch with the pure LWR and MPC.
-pub const CARTPOLE_VARIANT: &str = "cartpole/mpc/lwr";
-
-/// Whether a run is a cart-pole run ([`CARTPOLE_VARIANT`] and any later
-/// cart-pole variant).
-pub fn is_cartpole(r: &RunSummary) -> bool {
-    r.variant.starts_with("cartpole/")
-}
-
-/// The task of a run, `pendulum` or `cartpole`: the parts of a grid whose
-/// provenance (which code made the runs, in how much wall time) is
-/// reported, and timed, apart.
-pub fn task_of(r: &RunSummary) -> &'static str {
-    if is_cartpole(r) { "cartpole" } else { "pendulum" }
-}
-
-/// The (experiment, variant, seed, code version) of each run of `part`, sorted.
-fn task_keys(runs: &[RunSummary], part: &str) -> Vec<(String, String, u64, String)> {
-    let mut k: Vec<_> = runs
-        .iter()
-        .filter(|r| task_of(r) == part)
-        .map(|r| (r.experiment.clone(), r.variant.clone(), r.seed, r.code_version.clone()))
-        .collect();
-    k.sort();
-    k
-}
-
-impl ExperimentsReport {
-    /// Carries the measured wall time (and its thread count) of `previous`
-    /// over to this report when this one ran nothing itself (`--report-only`,
-    /// or `--resume` with the grid complete) and both cover exactly the same
-    /// runs: the same experiment, variant, seed and code version, each once.
-    /// Regenerating a report from saved runs then keeps the grid's measured
-    /// wall time instead of losing it. Returns whether it did.
-    pub fn keep_wall_time_of(&mut self, previous: &ExperimentsReport) -> bool {
-        let keys = |r: &ExperimentsReport| {
-            let mut k: Vec<(String, String, u64, String)> = r
-                .runs
-                .iter()
-                .map(|s| (s.experiment.clone(), s.variant.clone(), s.seed, s.code_version.clone()))
-                .collect();
-            k.sort();
-            k
-        };
-        let same = self.ran == Some(0) && previous.ran != Some(0) && keys(self) == keys(previous);
-        if same {
-            self.seconds = previous.seconds;
-            self.threads = previous.threads;
-            self.ran = previous.ran;
-        }
-        same
-    }
-
-    /// The task times of this report, or for a report written before they
-    /// were recorded, the ones its whole-report wall time implies: each
-    /// task it holds timed by the invocation that wrote it (with its
-    /// share of the task's runs when recorded, `ran`).
-    pub fn task_times_or_legacy(&self) -> Vec<TaskTime> {
-        if !self.task_times.is_empty() || self.ran == Some(0) {
-            return self.task_times.clone();
-        }
-        let mut parts: Vec<&str> = self.runs.iter().map(task_of).collect();
-        parts.sort_unstable();
-        parts.dedup();
-        parts
-            .into_iter()
-            .map(|part| TaskTime {
-                task: part.to_string(),
-                // a legacy report that ran every one of its runs ran each task's
-                ran: self
-                    .ran
-                    .filter(|&n| n == self.runs.len())
-                    .map(|_| self.runs.iter().filter(|r| task_of(r) == part).count()),
-                invocation_ran: self.ran,
-                seconds: self.seconds,
-                threads: self.threads,
-            })
-            .collect()
-    }
-
-    /// Carries over from `previous` (the report this one replaces) the
-    /// wall time of every task this report's invocation ran nothing of,
-    /// when that task's runs (experiment, variant, seed and code version)
-    /// are exactly the ones `previous` held. A task run again, or whose
-    /// runs changed, keeps no old wall time. Returns the tasks carried over.
-    pub fn keep_task_times_of(&mut self, previous: &ExperimentsReport) -> Vec<String> {
-        let mut kept = Vec::new();
-        for old in previous.task_times_or_legacy() {
-            let mine = self.task_times.iter().any(|p| p.task == old.task);
-            let here = self.runs.iter().any(|r| task_of(r) == old.task);
-            if !mine && here && task_keys(&self.runs, &old.task) == task_keys(&previous.runs, &old.task) {
-                kept.push(old.task.clone());
-                self.task_times.push(old);
-            }
-        }
-        self.task_times.sort_by(|a, b| a.task.cmp(&b.task));
-        kept
-    }
-
-    /// The wall time of `task`'s runs, if measured.
-    pub fn task_time(&self, task: &str) -> Option<&TaskTime> {
-        self.task_times.iter().find(|p| p.task == task)
     }
 }
 
@@ -772,50 +556,6 @@ pub fn rollouts(cfg: &Config, record: &RunRecord) -> crate::Result<Vec<Rollout>>
     Ok(out)
 }
 
-fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
-}
-
-pub(crate) fn summarise(runs: &[RunSummary]) -> Vec<VariantSummary> {
-    let mut keys: Vec<(String, String)> = runs.iter().map(|r| (r.experiment.clone(), r.variant.clone())).collect();
-    keys.dedup();
-    keys.into_iter()
-        .map(|(experiment, variant)| {
-            let mine: Vec<&RunSummary> = runs
-                .iter()
-                .filter(|r| r.experiment == experiment && r.variant == variant)
-                .collect();
-            let ok: Vec<&RunSummary> = mine.iter().copied().filter(|r| r.success_trial.is_some()).collect();
-            let mut trials: Vec<f64> = ok.iter().filter_map(|r| r.success_trial).map(|t| t as f64).collect();
-            let mut secs: Vec<f64> = ok.iter().map(|r| r.robot_seconds).collect();
-            let range = ok
-                .iter()
-                .filter_map(|r| r.success_trial)
-                .fold(None, |acc: Option<(usize, usize)>, t| {
-                    Some(acc.map_or((t, t), |(a, b)| (a.min(t), b.max(t))))
-                });
-            VariantSummary {
-                experiment,
-                variant,
-                runs: mine.len(),
-                successes: ok.len(),
-                median_trials: median(&mut trials),
-                trial_range: range,
-                median_robot_seconds: median(&mut secs),
-            }
-        })
-        .collect()
-}
-
 #[cfg(test)]
 pub(crate) mod tests {
     use super::*;
@@ -933,5 +673,75 @@ pub(crate) mod tests {
         assert_eq!((with.successes, with.runs), (1, 1));
         assert_eq!((without.successes, without.runs), (1, 2));
         assert_eq!(without.median_robot_seconds, Some(22.0));
+    }
+
+    /// Issue 37: a grid's settings with a key this code does not know, an
+    /// array element too many, or a size beyond its bound are refused,
+    /// naming it; the committed grid's settings are accepted.
+    #[test]
+    fn settings_refuse_unknown_keys_extra_elements_and_sizes() {
+        for s in [ExperimentSettings::full(), ExperimentSettings::quick()] {
+            s.validate().expect("the grid's own settings");
+        }
+        let committed = std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/../results/settings.json"))
+            .expect("results/settings.json");
+        let value: serde_json::Value = serde_json::from_str(&committed).expect("json");
+        // a manifest holds the settings under a key; older files are bare
+        let bare = value.get("settings").cloned().unwrap_or(value);
+        let saved: ExperimentSettings = serde_json::from_value(bare.clone()).expect("committed settings read back");
+        saved.validate().expect("committed settings valid");
+        let text = serde_json::to_string(&ExperimentSettings::full()).expect("json");
+        for (from, to, word) in [
+            ("\"seeds\":6", "\"seeds\":6,\"seedz\":1", "seedz"),
+            ("\"episode\":", "\"episodes\":4.0,\"episode\":", "episodes"),
+            ("\"bandwidth\":", "\"bandwith\":1.0,\"bandwidth\":", "bandwith"),
+        ] {
+            assert!(text.contains(from), "{from}");
+            let edited = text.replacen(from, to, 1);
+            let e = serde_json::from_str::<ExperimentSettings>(&edited)
+                .expect_err(word)
+                .to_string();
+            assert!(e.contains(word), "{word}: {e}");
+        }
+        // every fixed-length array of the settings refuses an extra element
+        let mut value: serde_json::Value = serde_json::from_str(&text).expect("json");
+        let mut arrays = Vec::new();
+        fn walk(v: &serde_json::Value, path: String, out: &mut Vec<String>) {
+            match v {
+                serde_json::Value::Object(m) => m.iter().for_each(|(k, v)| walk(v, format!("{path}/{k}"), out)),
+                serde_json::Value::Array(_) => out.push(path),
+                _ => {}
+            }
+        }
+        walk(&value, String::new(), &mut arrays);
+        assert!(arrays.len() >= 2, "{arrays:?}");
+        for path in arrays
+            .iter()
+            .filter(|p| !p.ends_with("/lambdas") && !p.ends_with("/scales"))
+        {
+            let original = value.pointer(path).cloned().expect("array");
+            if let Some(a) = value.pointer_mut(path).and_then(|v| v.as_array_mut()) {
+                a.push(serde_json::json!(1.0));
+            }
+            assert!(
+                serde_json::from_value::<ExperimentSettings>(value.clone()).is_err(),
+                "an extra element of {path} was accepted"
+            );
+            *value.pointer_mut(path).expect("array") = original;
+        }
+        let mut big = ExperimentSettings::quick();
+        big.seeds = 1_000_000_000;
+        assert!(big.validate().expect_err("seeds").to_string().contains("seeds"));
+        let mut big = ExperimentSettings::quick();
+        big.cartpole.max_trials = 1_000_000;
+        assert!(
+            big.validate()
+                .expect_err("cartpole")
+                .to_string()
+                .contains("cartpole.max_trials")
+        );
+        let mut none = ExperimentSettings::quick();
+        none.lambdas.clear();
+        assert!(none.validate().expect_err("lambdas").to_string().contains("lambdas"));
     }
 }

@@ -686,36 +686,16 @@ fn readme_tables(rows: &[SensitivityRow], model_error: &ModelErrorReport) -> Str
 /// The code version for stamping generated results: the commit this
 /// binary's code was built from, `commit <hash>`, with `-dirty` when its code
 /// differed from that commit, or `an unknown commit` (built outside this
-/// workspace's git checkout); set at build time by `swingup/build.rs`, so
-/// that neither the directory a run starts in nor a later commit changes it.
+/// workspace's git checkout); [`store::code_version`], set at build time,
+/// so that neither the directory a run starts in nor a later commit
+/// changes it.
 pub fn code_version() -> String {
-    env!("NPRL_CODE_VERSION").to_string()
+    store::code_version().to_string()
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    /// The stamp names the checkout's commit (this test is built from it;
-    /// `-dirty` when edited since), or says it is unknown without git.
-    #[test]
-    fn code_version_names_the_commit_built_from() {
-        let v = code_version();
-        let head = std::process::Command::new("git")
-            .args(["rev-parse", "--short=7", "HEAD"])
-            .current_dir(env!("CARGO_MANIFEST_DIR"))
-            .output()
-            .ok()
-            .filter(|o| o.status.success())
-            .and_then(|o| String::from_utf8(o.stdout).ok());
-        match head {
-            Some(head) => {
-                let want = format!("commit {}", head.trim());
-                assert!(v == want || v == format!("{want}-dirty"), "{v} against HEAD {head}");
-            }
-            None => assert_eq!(v, "an unknown commit"),
-        }
-    }
 
     /// The exact model's plan succeeds on every seed; a model whose
     /// pendulum is 10 % longer fails on every seed (its plan pumps too much

@@ -370,6 +370,8 @@ pub enum GridEvent<'a> {
 /// A refusal or a file error of [`open_grid`], a run that failed, or a
 /// file that cannot be written (named).
 pub fn run_grid(opts: &GridOptions, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> crate::Result<ExperimentsReport> {
+    // refused before the directory is touched
+    opts.settings.validate()?;
     let out = &opts.out;
     let log_name = runs_file_name(opts.shard);
     // one program at a time per runs file (shards of one grid may share the directory)

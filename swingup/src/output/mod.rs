@@ -8,3 +8,19 @@ pub mod grid_report;
 pub mod plot;
 pub mod run_report;
 pub mod rundir;
+
+/// Checks that `dir` can take a program's output before its work starts:
+/// creates it if needed and writes and removes a probe file of its own.
+///
+/// # Errors
+/// [`Error::Io`](crate::Error::Io) naming the directory or the probe file.
+pub fn check_out_dir(dir: &std::path::Path) -> crate::Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    let probe = dir.join(format!(".swingup-probe-{}", std::process::id()));
+    std::fs::OpenOptions::new()
+        .write(true)
+        .create_new(true)
+        .open(&probe)
+        .map_err(|e| crate::Error::io("writing a file into", dir, e))?;
+    std::fs::remove_file(&probe).map_err(|e| crate::Error::io("removing", &probe, e))
+}

@@ -79,21 +79,29 @@ pub fn write_trial(dir: &Path, trial: &TrialRecord) -> crate::Result<()> {
 }
 
 /// Replaces the text between the lines `start` and `end` of the file
-/// `path` with `text`.
+/// `path` with `text` ([`store::with_block`]: each marker counts only as a
+/// whole line of its own, so a marker quoted in prose is left alone).
 ///
 /// # Errors
 /// The file cannot be read or written, or lacks the marker lines.
 pub fn update_between(path: &std::path::Path, start: &str, end: &str, text: &str) -> crate::Result<()> {
-    let old = std::fs::read_to_string(path).map_err(|e| crate::Error::io("reading", path, e))?;
-    let (Some(a), Some(b)) = (old.find(start), old.find(end)) else {
-        return Err(crate::Error::data(format!(
-            "{} has no {start} ... {end} lines",
-            path.display()
-        )));
-    };
-    crate::error::ensure_data!(a < b, "{}: {end} comes before {start}", path.display());
-    let new = format!("{}{start}\n{text}{}", &old[..a], &old[b..]);
+    let new = with_markers(path, start, end, text)?;
     write_atomic(path, &new)
+}
+
+/// The file `path` as [`update_between`] would write it, without writing:
+/// checks the file before the work whose result goes into it.
+///
+/// # Errors
+/// The file cannot be read, or lacks the marker lines.
+pub fn with_markers(path: &std::path::Path, start: &str, end: &str, text: &str) -> crate::Result<String> {
+    let old = std::fs::read_to_string(path).map_err(|e| crate::Error::io("reading", path, e))?;
+    store::with_block(&old, start, end, text).ok_or_else(|| {
+        crate::Error::data(format!(
+            "{} has no line {start} followed by a line {end} (each on a line of its own)",
+            path.display()
+        ))
+    })
 }
 
 /// Reads back the trials [`write_trial`] wrote into `dir`: `trial_01.json`,

@@ -53,6 +53,45 @@ pub fn run_files(dir: &Path) -> Vec<PathBuf> {
     files
 }
 
+/// The numbered run directories `root/swingup-NNN` (`NNN` from 001):
+/// with `latest`, the highest-numbered one that exists (the run `learn
+/// --resume` continues when no `--out` is given); otherwise the one after
+/// it (`root/swingup-001` when there is none), so that the newest run is
+/// always the highest-numbered, whatever gaps older ones left.
+///
+/// # Errors
+/// `latest` with no run in `root`, or `root` that exists but cannot be
+/// listed, each naming it.
+pub fn numbered_run_dir(root: &Path, latest: bool) -> crate::Result<PathBuf> {
+    let highest = match std::fs::read_dir(root) {
+        Ok(entries) => entries
+            .filter_map(|e| e.ok())
+            .filter(|e| e.file_type().is_ok_and(|t| t.is_dir()))
+            .filter_map(|e| {
+                let name = e.file_name();
+                let digits = name.to_str()?.strip_prefix("swingup-")?.to_owned();
+                if digits.is_empty() || !digits.bytes().all(|b| b.is_ascii_digit()) {
+                    return None;
+                }
+                digits.parse::<u64>().ok()
+            })
+            .max(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
+        Err(e) => return Err(crate::Error::io("listing", root, e)),
+    };
+    let dir = |n: u64| root.join(format!("swingup-{n:03}"));
+    if latest {
+        highest.map(dir).ok_or_else(|| {
+            crate::Error::Refused(format!(
+                "no run in {} to resume (no swingup-NNN directory); pass --out",
+                root.display()
+            ))
+        })
+    } else {
+        Ok(dir(highest.map_or(1, |n| n.saturating_add(1))))
+    }
+}
+
 /// The lock file a learning run holds in its directory ([`lock_dir`]); a
 /// grid holds one per runs file (`.runs.jsonl.lock`, and one per shard).
 pub const LOCK_FILE: &str = ".swingup.lock";
@@ -233,4 +272,35 @@ pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> crate::
     );
     cfg.validate()?;
     Ok(cfg)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// `learn` without `--out` numbers runs after the highest existing one
+    /// and resumes that one, whatever gaps lie below it (issue 37).
+    #[test]
+    fn numbered_runs_resume_the_highest_and_skip_past_gaps() {
+        let root = std::env::temp_dir().join(format!("swingup-numbered-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&root);
+        assert_eq!(numbered_run_dir(&root, false).expect("fresh"), root.join("swingup-001"));
+        let e = numbered_run_dir(&root, true)
+            .expect_err("nothing to resume")
+            .to_string();
+        assert!(e.contains("no run") && e.contains("--out"), "{e}");
+        for n in ["swingup-001", "swingup-003", "swingup-x", "other-009"] {
+            std::fs::create_dir_all(root.join(n)).expect("mkdir");
+        }
+        // a file with a run's name is not a run
+        std::fs::write(root.join("swingup-007"), "").expect("file");
+        assert_eq!(numbered_run_dir(&root, true).expect("latest"), root.join("swingup-003"));
+        assert_eq!(numbered_run_dir(&root, false).expect("next"), root.join("swingup-004"));
+        std::fs::create_dir_all(root.join("swingup-1000")).expect("mkdir");
+        assert_eq!(
+            numbered_run_dir(&root, true).expect("latest"),
+            root.join("swingup-1000")
+        );
+        let _ = std::fs::remove_dir_all(&root);
+    }
 }

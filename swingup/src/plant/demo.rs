@@ -42,11 +42,12 @@ impl Demonstration {
 
 /// Parameters of the human's energy-pumping swing-up.
 #[derive(Debug, Clone, Copy, PartialEq, Serialize, Deserialize)]
-#[serde(deny_unknown_fields)]
+#[serde(deny_unknown_fields, default)]
 pub struct HumanSwingup {
     /// Energy gain $k_E$ (1/(m s)).
     pub energy_gain: f64,
     /// Hand centring gains $k_x$, $k_v$.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub centring: [f64; 2],
     /// Smoothing $\epsilon$ of the sign (rad/s).
     pub smoothing: f64,

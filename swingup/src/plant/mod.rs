@@ -65,29 +65,89 @@ impl PlantParams {
         }
     }
 
-    /// Checks every field.
+    /// Checks every field against its range:
+    ///
+    /// | field | range |
+    /// |---|---|
+    /// | `gravity` | (0, 1000] m/s² |
+    /// | `length` | (0, 100] m |
+    /// | `damping` | [0, 1000] 1/s |
+    /// | `lag` | [0, 10] s |
+    /// | `dt` | (0, 1] s |
+    /// | `substeps` | 1 to [`MAX_SUBSTEPS`] |
+    /// | `x_limit` | (0, 100] m |
+    /// | `u_limit` | (0, 10⁴] m/s² |
+    ///
+    /// The upper bounds are far beyond any pendulum a hand swings; they
+    /// keep the simulation's numbers finite.
+    ///
+    /// # Errors
+    /// The first field out of its range, named (without the plant's
+    /// table: the caller prefixes `human.` or `robot.`), with its value.
     pub fn validate(&self) -> Result<(), String> {
-        let positive = [
-            ("gravity", self.gravity),
-            ("length", self.length),
-            ("dt", self.dt),
-            ("x_limit", self.x_limit),
-            ("u_limit", self.u_limit),
+        let ranges = [
+            ("gravity", self.gravity, false, 1e3),
+            ("length", self.length, false, 1e2),
+            ("damping", self.damping, true, 1e3),
+            ("lag", self.lag, true, 10.0),
+            ("dt", self.dt, false, 1.0),
+            ("x_limit", self.x_limit, false, 1e2),
+            ("u_limit", self.u_limit, false, 1e4),
         ];
-        for (name, v) in positive {
-            if !(v.is_finite() && v > 0.0) {
-                return Err(format!("plant {name} must be finite and positive, got {v}"));
+        for (name, v, zero_ok, max) in ranges {
+            let low_ok = if zero_ok { v >= 0.0 } else { v > 0.0 };
+            if !(v.is_finite() && low_ok && v <= max) {
+                let low = if zero_ok { "[0" } else { "(0" };
+                return Err(format!("{name} must be in {low}, {max}], got {v}"));
             }
         }
-        for (name, v) in [("damping", self.damping), ("lag", self.lag)] {
-            if !(v.is_finite() && v >= 0.0) {
-                return Err(format!("plant {name} must be finite and nonnegative, got {v}"));
-            }
-        }
-        if self.substeps == 0 {
-            return Err("plant substeps must be at least 1".into());
+        if !(1..=MAX_SUBSTEPS).contains(&self.substeps) {
+            return Err(format!("substeps must be 1 to {MAX_SUBSTEPS}, got {}", self.substeps));
         }
         Ok(())
+    }
+}
+
+/// The most RK4 steps per sample a plant may take ([`PlantParams::validate`]).
+pub const MAX_SUBSTEPS: usize = 1_000;
+
+/// [`PlantParams`] with every field optional: a `[human]` or `[robot]`
+/// table of a configuration file that sets some fields, the others keeping
+/// the plant's defaults ([`PlantPatch::over`]).
+#[derive(Debug, Clone, Copy, Default, PartialEq, Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlantPatch {
+    /// [`PlantParams::gravity`].
+    pub gravity: Option<f64>,
+    /// [`PlantParams::length`].
+    pub length: Option<f64>,
+    /// [`PlantParams::damping`].
+    pub damping: Option<f64>,
+    /// [`PlantParams::lag`].
+    pub lag: Option<f64>,
+    /// [`PlantParams::dt`].
+    pub dt: Option<f64>,
+    /// [`PlantParams::substeps`].
+    pub substeps: Option<usize>,
+    /// [`PlantParams::x_limit`].
+    pub x_limit: Option<f64>,
+    /// [`PlantParams::u_limit`].
+    pub u_limit: Option<f64>,
+}
+
+impl PlantPatch {
+    /// `base` with the fields this patch sets replaced.
+    pub fn over(self, base: PlantParams) -> PlantParams {
+        PlantParams {
+            gravity: self.gravity.unwrap_or(base.gravity),
+            length: self.length.unwrap_or(base.length),
+            damping: self.damping.unwrap_or(base.damping),
+            lag: self.lag.unwrap_or(base.lag),
+            dt: self.dt.unwrap_or(base.dt),
+            substeps: self.substeps.unwrap_or(base.substeps),
+            x_limit: self.x_limit.unwrap_or(base.x_limit),
+            u_limit: self.u_limit.unwrap_or(base.u_limit),
+        }
     }
 }
 

@@ -6,11 +6,12 @@
 use lwr::{Degree, Kernel};
 use serde::{Deserialize, Serialize};
 
-use crate::error::ensure_config;
-
-use crate::plant::PlantParams;
 use crate::plant::demo::{Demonstration, HumanSwingup, demonstrate};
 use crate::plant::lqr::Lqr;
+
+mod checks;
+use crate::plant::{PlantParams, PlantPatch};
+pub use checks::{Workload, limits};
 
 /// Everything a learning run depends on. `swingup config` prints the
 /// defaults as TOML; `--config FILE` reads one (missing fields keep their
@@ -22,9 +23,13 @@ pub struct Config {
     pub seed: u64,
     /// Trials before giving up (the first one imitates).
     pub max_trials: usize,
-    /// The human who demonstrates.
+    /// The human who demonstrates (a `[human]` table may set some fields;
+    /// the others keep [`PlantParams::human`]'s).
+    #[serde(deserialize_with = "human_plant")]
     pub human: PlantParams,
-    /// The robot that learns.
+    /// The robot that learns (a `[robot]` table may set some fields; the
+    /// others keep [`PlantParams::robot`]'s).
+    #[serde(deserialize_with = "robot_plant")]
     pub robot: PlantParams,
     /// The human's swing-up strategy.
     pub human_swingup: HumanSwingup,
@@ -33,11 +38,13 @@ pub struct Config {
     /// Samples of balancing after the window.
     pub balance: usize,
     /// Standard deviations of the robot's sensor noise on $(\theta, \dot\theta, x, \dot x)$.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub sensor_noise: [f64; 4],
     /// Gains $(k_p, k_d)$ of the robot's hand servo, which adds
     /// $k_p (x^{plan} - x) + k_d (\dot x^{plan} - \dot x)$ to the planned
     /// acceleration so that the hand follows the planned hand trajectory
     /// (as a robot arm's own servo would); the pendulum is not fed back.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub hand_servo: [f64; 2],
     /// Feedback along the plan, $(q_\theta, q_{\dot\theta}, q_x, q_{\dot x}, r)$:
     /// the robot executes a plan with the time-varying LQR of these weights
@@ -48,6 +55,7 @@ pub struct Config {
     /// fewer seeds learned (1 of 8 and 0 of 8 against 3 of 8 open loop):
     /// gains computed on an inaccurate model push the hand out of its
     /// workspace.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub feedback: [f64; 5],
     /// The LQR takes over within this angle of upright (rad)...
     pub catch_angle: f64,
@@ -72,6 +80,16 @@ pub struct Config {
     pub controller: Controller,
     /// The receding-horizon controller's settings (with `controller = "mpc"`).
     pub mpc: MpcConfig,
+}
+
+/// A `[human]` table over the human's defaults.
+fn human_plant<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PlantParams, D::Error> {
+    PlantPatch::deserialize(d).map(|p| p.over(PlantParams::human()))
+}
+
+/// A `[robot]` table over the robot's defaults.
+fn robot_plant<'de, D: serde::Deserializer<'de>>(d: D) -> Result<PlantParams, D::Error> {
+    PlantPatch::deserialize(d).map(|p| p.over(PlantParams::robot()))
 }
 
 /// How the robot executes a trial's plan.
@@ -310,10 +328,12 @@ pub struct PlannerConfig {
     /// Cubic B-spline coefficients for the control.
     pub control_coeffs: usize,
     /// Diagonal of $Q$ on $(\theta, \dot\theta, x, \dot x)$ (tracking the demonstration).
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub state_weights: [f64; 4],
     /// Weight $r$ on $(u - u^d)^2$.
     pub control_weight: f64,
     /// Diagonal of the terminal weight on reaching upright at rest.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub terminal_weights: [f64; 4],
     /// Weight of the penalty fixing the initial state (hanging at rest).
     pub initial_state_weight: f64,
@@ -364,6 +384,7 @@ pub struct PlannerConfig {
     pub support_full: f64,
     /// Scales of the data support's metric on
     /// $(\theta, \dot\theta, x, \dot x, u)$, relative to each input's spread.
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub support_scales: [f64; 5],
 }
 
@@ -452,6 +473,7 @@ pub struct ModelConfig {
     pub cutoff: f64,
     /// Initial metric scales relative to each input's spread (0 leaves an
     /// input out of the distance; tuning starts from these).
+    #[serde(deserialize_with = "crate::format::exact_array")]
     pub input_scales: [f64; 5],
 }
 
@@ -496,150 +518,6 @@ impl Config {
     /// fails for the robot's plant.
     pub fn robot_catch(&self) -> crate::Result<Lqr> {
         Lqr::design(&self.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })
-    }
-
-    /// Checks the configuration.
-    pub fn validate(&self) -> crate::Result<()> {
-        self.human.validate().map_err(|e| crate::Error::config("human", e))?;
-        self.robot.validate().map_err(|e| crate::Error::config("robot", e))?;
-        ensure_config!("max_trials", self.max_trials >= 1, "max_trials must be at least 1");
-        ensure_config!(
-            "model.cv_blocks",
-            !self.model.select_inputs || self.model.cv_blocks >= 2,
-            "model.cv_blocks must be at least 2 when model.select_inputs is on"
-        );
-        ensure_config!("horizon", self.horizon >= 10, "horizon must be at least 10 samples");
-        let p = &self.planner;
-        ensure_config!(
-            "horizon",
-            self.horizon >= p.control_coeffs && self.horizon + 1 >= p.state_coeffs,
-            "horizon ({}) must be at least planner.control_coeffs ({}) and planner.state_coeffs - 1 ({}): \
-             the plan's B-splines are fitted to the horizon's samples",
-            self.horizon,
-            p.control_coeffs,
-            p.state_coeffs.saturating_sub(1)
-        );
-        // every scalar setting that must be finite and positive, or nonnegative, by its key
-        let positive = [
-            ("catch_angle", self.catch_angle),
-            ("catch_rate", self.catch_rate),
-            ("success_angle", self.success_angle),
-            ("success_seconds", self.success_seconds),
-            ("planner.confidence_full", p.confidence_full),
-            ("planner.tol_cost", p.tol_cost),
-            ("planner.u_max", p.u_max),
-            ("planner.x_max", p.x_max),
-            ("model.cutoff", self.model.cutoff),
-            ("model.bandwidth", self.model.bandwidth),
-            ("planner.support_bandwidth", p.support_bandwidth),
-            ("planner.support_full", p.support_full),
-        ];
-        for (key, v) in positive {
-            ensure_config!(
-                key,
-                v.is_finite() && v > 0.0,
-                "{key} must be finite and positive, got {v}"
-            );
-        }
-        let nonnegative = [
-            ("planner.lambda_start", p.lambda_start),
-            ("planner.confidence_floor", p.confidence_floor),
-            ("planner.control_weight", p.control_weight),
-            ("planner.initial_state_weight", p.initial_state_weight),
-            ("planner.bound_weight", p.bound_weight),
-            ("model.ridge", self.model.ridge),
-            ("model.slope_ridge", self.model.slope_ridge),
-            ("model.prior_weight", self.model.prior_weight),
-            ("planner.lambda", p.lambda),
-            ("planner.support_weight", p.support_weight),
-            ("exploration", self.exploration),
-        ];
-        for (key, v) in nonnegative {
-            ensure_config!(
-                key,
-                v.is_finite() && v >= 0.0,
-                "{key} must be finite and nonnegative, got {v}"
-            );
-        }
-        let arrays: [(&str, &[f64]); 5] = [
-            ("sensor_noise", &self.sensor_noise),
-            ("feedback", &self.feedback),
-            ("hand_servo", &self.hand_servo),
-            ("planner.state_weights", &p.state_weights),
-            ("planner.terminal_weights", &p.terminal_weights),
-        ];
-        for (key, v) in arrays {
-            ensure_config!(
-                key,
-                v.iter().all(|x| x.is_finite() && *x >= 0.0),
-                "{key} must be finite and nonnegative, got {v:?}"
-            );
-        }
-        ensure_config!(
-            "planner.max_iters",
-            p.max_iters >= 1 && p.powell_evals >= 1,
-            "planner.max_iters and planner.powell_evals must be at least 1, got {} and {}",
-            p.max_iters,
-            p.powell_evals
-        );
-        ensure_config!(
-            "balance",
-            self.balance as f64 * self.robot.dt >= self.success_seconds,
-            "balance ({} samples, {} s) must cover success_seconds ({} s): success is judged on the balancing",
-            self.balance,
-            self.balance as f64 * self.robot.dt,
-            self.success_seconds
-        );
-        ensure_config!(
-            "planner.lambda_growth",
-            self.planner.lambda_growth.is_finite()
-                && self.planner.lambda_growth > 0.0
-                && (self.planner.lambda * self.planner.lambda_growth.powi(self.max_trials as i32)).is_finite(),
-            "lambda_growth must be positive and keep lambda finite over max_trials"
-        );
-        ensure_config!(
-            "planner.state_coeffs",
-            self.planner.state_coeffs >= 4 && self.planner.control_coeffs >= 4,
-            "need at least 4 B-spline coefficients per channel"
-        );
-        let m = &self.mpc;
-        ensure_config!(
-            "mpc.window",
-            m.control_coeffs >= 4
-                && m.state_coeffs >= 4
-                && m.window >= m.control_coeffs
-                && m.window + 1 >= m.state_coeffs,
-            "mpc.window ({}) must be at least mpc.control_coeffs ({}) and mpc.state_coeffs - 1 ({}), \
-             and each at least 4",
-            m.window,
-            m.control_coeffs,
-            m.state_coeffs.saturating_sub(1)
-        );
-        ensure_config!(
-            "mpc.every",
-            m.every >= 1 && m.iterations >= 1,
-            "mpc.every and mpc.iterations must be at least 1, got {} and {}",
-            m.every,
-            m.iterations
-        );
-        ensure_config!(
-            "mpc.budget_ms",
-            m.budget_ms.is_finite() && m.budget_ms >= 0.0,
-            "mpc.budget_ms must be finite and nonnegative, got {}",
-            m.budget_ms
-        );
-        // metric scales: nonnegative, and at least one input in the distance
-        for (key, v) in [
-            ("model.input_scales", &self.model.input_scales),
-            ("planner.support_scales", &p.support_scales),
-        ] {
-            ensure_config!(
-                key,
-                v.iter().all(|m| m.is_finite() && *m >= 0.0) && v.iter().any(|m| *m > 0.0),
-                "{key} must be finite and nonnegative, and not all 0, got {v:?}"
-            );
-        }
-        Ok(())
     }
 }
 
@@ -689,5 +567,132 @@ mod tests {
         let mut cfg = Config::default();
         cfg.planner.support_scales = [0.0; 5];
         assert!(cfg.validate().expect_err("zero").to_string().contains("support_scales"));
+    }
+
+    /// Issue 37: sizes that would exhaust memory or never finish, and
+    /// ranges that make a result meaningless, are refused by name before
+    /// any work (each of these once aborted, hung or reported a success).
+    #[test]
+    fn sizes_and_meaningless_ranges_are_refused_with_the_estimate() {
+        type Set = Box<dyn Fn(&mut Config)>;
+        let cases: Vec<(Set, &str, &str)> = vec![
+            (Box::new(|c| c.balance = 1_000_000_000), "balance", "at most 100000"),
+            (Box::new(|c| c.horizon = 100_000_000), "horizon", "at most 10000"),
+            (Box::new(|c| c.robot.substeps = 4_000_000_000), "robot", "substeps"),
+            (Box::new(|c| c.human.gravity = 1e300), "human", "gravity"),
+            (Box::new(|c| c.max_trials = 1_000_000), "max_trials", "1 to 1000"),
+            (
+                Box::new(|c| {
+                    c.catch_angle = 4.0;
+                    c.success_angle = 4.0
+                }),
+                "catch_angle",
+                "pi/2",
+            ),
+            (Box::new(|c| c.success_angle = 2.0), "success_angle", "pi/2"),
+            (
+                Box::new(|c| c.sensor_noise = [1e300, 0.0, 0.0, 0.0]),
+                "sensor_noise",
+                "at most 1",
+            ),
+            (
+                Box::new(|c| c.human_swingup.energy_gain = f64::NAN),
+                "energy_gain",
+                "[0, 1e4]",
+            ),
+            // each within its own bound, together beyond the memory limit
+            (
+                Box::new(|c| {
+                    c.balance = 100_000;
+                    c.max_trials = 1_000
+                }),
+                "balance",
+                "GiB",
+            ),
+            (
+                Box::new(|c| {
+                    c.balance = 100_000;
+                    c.max_trials = 30;
+                    c.robot.substeps = 1_000;
+                    c.human.substeps = 1_000
+                }),
+                "robot.substeps",
+                "RK4 steps",
+            ),
+            (
+                Box::new(|c| {
+                    c.controller = Controller::Mpc;
+                    c.balance = 50_000;
+                    c.mpc.window = 10_000;
+                    c.max_trials = 10
+                }),
+                "mpc.window",
+                "linearised samples",
+            ),
+        ];
+        for (set, key, words) in cases {
+            let mut cfg = Config::default();
+            set(&mut cfg);
+            let e = cfg.validate().expect_err(key).to_string();
+            assert!(e.contains(key) && e.contains(words), "{key}: {e}");
+        }
+        // the defaults and the largest single sizes are inside the estimates
+        let w = Config::default().workload();
+        assert_eq!(w.data_points, 330.0 * 8.0);
+        assert_eq!(w.plant_steps, 330.0 * (8.0 * 10.0 + 10.0));
+        assert_eq!(w.replan_samples, 0.0);
+        let cfg = Config {
+            horizon: limits::HORIZON,
+            ..Config::default()
+        };
+        assert!(cfg.validate().is_ok(), "{:?}", cfg.validate());
+    }
+
+    /// Issue 37: a `[robot]` or `[human]` table that sets some keys keeps
+    /// each plant's own defaults for the others, as the docs say; unknown
+    /// keys and arrays of the wrong length are refused, naming them.
+    #[test]
+    fn partial_tables_keep_their_defaults_and_bad_keys_are_refused() {
+        let cfg: Config = toml::from_str(
+            "horizon = 120\n[robot]\ngravity = 9.0\n[human]\nlength = 0.4\n[human_swingup]\npush = 6.0\n",
+        )
+        .expect("partial tables");
+        assert_eq!(
+            cfg.robot,
+            PlantParams {
+                gravity: 9.0,
+                ..PlantParams::robot()
+            }
+        );
+        assert_eq!(
+            cfg.human,
+            PlantParams {
+                length: 0.4,
+                ..PlantParams::human()
+            }
+        );
+        assert_eq!(
+            cfg.human_swingup,
+            HumanSwingup {
+                push: 6.0,
+                ..HumanSwingup::default()
+            }
+        );
+        assert_eq!(cfg.horizon, 120);
+        assert_eq!(cfg.planner, PlannerConfig::default());
+        for (text, word) in [
+            ("[robot]\ngravty = 9.0\n", "gravty"),
+            ("[human_swingup]\npussh = 1.0\n", "pussh"),
+            ("sensor_noise = [0.1, 0.1, 0.1, 0.1, 0.1]\n", "sensor_noise"),
+            ("sensor_noise = [0.1, 0.1]\n", "sensor_noise"),
+            ("[planner]\nsupport_scales = [1.0]\n", "support_scales"),
+            ("horizn = 3\n", "horizn"),
+        ] {
+            let e = toml::from_str::<Config>(text).expect_err(text).to_string();
+            assert!(e.contains(word), "{text}: {e}");
+        }
+        // and the defaults, printed and read back, are the defaults
+        let printed = toml::to_string(&Config::default()).expect("print");
+        assert_eq!(toml::from_str::<Config>(&printed).expect("read"), Config::default());
     }
 }

@@ -1,8 +1,9 @@
-//! Stamps the `swingup` library and program with the commit their code was
-//! built from (`NPRL_CODE_VERSION`), so that the results a binary writes name
-//! the code that made them, wherever it is run from and whatever the
-//! checkout's HEAD has become since (a runtime `git describe` in the working
-//! directory named neither reliably).
+//! Stamps the storage layer, and through it every program of the workspace
+//! that writes results (`swingup`, `nprl-bench`), with the commit their code
+//! was built from (`NPRL_CODE_VERSION`, read by `store::code_version`), so
+//! that the results a binary writes name the code that made them, wherever
+//! it is run from and whatever the checkout's HEAD has become since (a
+//! runtime `git describe` in the working directory named neither reliably).
 //!
 //! The stamp is `commit <hash>`, with `-dirty` when a tracked code file of
 //! the workspace (`*.rs`, `Cargo.toml`, `Cargo.lock`, `swingup/assets`)
@@ -46,6 +47,7 @@ fn main() {
                     ":(glob)**/Cargo.toml",
                     "Cargo.lock",
                     "swingup/assets",
+                    "bench/data",
                 ],
             );
             let dirty = changed.is_none_or(|s| !s.is_empty());
@@ -65,7 +67,10 @@ fn main() {
         "ddp",
         "swingup/src",
         "swingup/assets",
-        "swingup/build.rs",
+        "bench/src",
+        "bench/data",
+        "store/src",
+        "store/build.rs",
         "Cargo.toml",
         "Cargo.lock",
     ] {
