@@ -358,6 +358,9 @@ pub struct PlannerConfig {
     /// continuation stage) and DDP.
     pub max_iters: usize,
     /// Cost-evaluation budget of Powell's method (per continuation stage).
+    /// Powell evaluates Eq. 3 term by term ([`trajopt::powell::BandTerms`]:
+    /// a trial point re-evaluates only the time steps its changed
+    /// coefficients touch); every evaluation counts, partial or not.
     pub powell_evals: usize,
     /// Relative cost-decrease tolerance of Gauss-Newton: a stage ends
     /// (`ConvergedCost`) once an accepted step lowers the criterion by less
