@@ -355,7 +355,11 @@ pub struct PlannerConfig {
     /// costs a second solve, not counted in the plan's time).
     pub compare_gauss_newton: bool,
     /// Iteration cap of Gauss-Newton and the derivative-free mode (per
-    /// continuation stage) and DDP.
+    /// continuation stage) and DDP. 1000: at the earlier 200, 15 of 249
+    /// derivative-free and 11 of 227 Gauss-Newton plans of the pure LWR's
+    /// learning runs (seeds 1-40, commit 2421dec,
+    /// `results/derivative-free`) stopped at the cap, still descending; a
+    /// plan that converges stops long before it.
     pub max_iters: usize,
     /// Cost-evaluation budget of Powell's method (per continuation stage).
     /// Powell evaluates Eq. 3 term by term ([`trajopt::powell::BandTerms`]:
@@ -414,7 +418,7 @@ impl Default for PlannerConfig {
             differences: Differences::Elements,
             difference_kind: DifferenceKind::Forward,
             compare_gauss_newton: false,
-            max_iters: 200,
+            max_iters: 1000,
             powell_evals: 200_000,
             tol_cost: 1e-6,
             support_weight: 0.0,
