@@ -56,8 +56,8 @@ use crate::planning::eq3::window_cost;
 use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
-use crate::plant::demo::{Demonstration, near_upright};
-use crate::plant::lqr::Lqr;
+use crate::plant::basin::Catch;
+use crate::plant::demo::Demonstration;
 use crate::plant::{Plant, PlantState, from_upright};
 use crate::record::{ModelSummary, MpcTrace, PlanSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
 use faer::Mat;
@@ -247,7 +247,7 @@ pub fn observed_window(trial: &TrialRecord, horizon: usize) -> crate::Result<Dem
 pub fn execute(
     cfg: &Config,
     robot: &Plant,
-    lqr: &Lqr,
+    lqr: &Catch,
     commands: &[f64],
     reference: &[[f64; 4]],
     gains: Option<&[[f64; 4]]>,
@@ -281,7 +281,7 @@ fn servo(cfg: &Config, r: &[f64; 4], obs: &[f64; 4]) -> f64 {
 fn rollout<E>(
     cfg: &Config,
     robot: &Plant,
-    lqr: &Lqr,
+    lqr: &Catch,
     index: usize,
     kind: TrialKind,
     mut policy: impl FnMut(usize, &[[f64; 4]], &[f64]) -> Result<f64, E>,
@@ -302,7 +302,7 @@ fn rollout<E>(
     let mut caught_at = None;
     for k in 0..cfg.horizon + cfg.balance {
         let obs = observed[k];
-        if caught_at.is_none() && near_upright(&obs, cfg.catch_angle, cfg.catch_rate) {
+        if caught_at.is_none() && lqr.holds(&obs) {
             caught_at = Some(k);
         }
         let u = if caught_at.is_some() {
@@ -362,7 +362,7 @@ fn rollout<E>(
 fn execute_mpc<G: PendulumRegression>(
     cfg: &Config,
     robot: &Plant,
-    lqr: &Lqr,
+    lqr: &Catch,
     model: &mut KnownHand<G>,
     reference: &Demonstration,
     initial: &PlanSummary,
@@ -428,7 +428,7 @@ struct PlannedTrial<'a> {
     cfg: &'a Config,
     demo: &'a Demonstration,
     robot: &'a Plant,
-    lqr: &'a Lqr,
+    lqr: &'a Catch,
     support: Option<Arc<DataSupport>>,
     support_seconds: f64,
     index: usize,

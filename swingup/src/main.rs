@@ -91,6 +91,24 @@ enum Command {
     /// against that budget, and how it plans once it has a successful
     /// swing-up's data; writes sensitivity.json and sensitivity.md.
     Sensitivity(SensitivityArgs),
+    /// The balancing controller's region of attraction: calibrates the
+    /// level of `catch = "basin"` by simulation on the robot, maps the basin
+    /// around upright against the box rule; writes basin.json and basin.md.
+    Basin(BasinArgs),
+}
+
+#[derive(Debug, Clone, clap::Args)]
+struct BasinArgs {
+    /// A configuration file (the robot, its noise, the balancing phase and
+    /// the box rule's limits are read from it).
+    #[arg(long)]
+    config: Option<PathBuf>,
+    /// States simulated per calibration round.
+    #[arg(long, default_value_t = 2000)]
+    samples: usize,
+    /// Output directory.
+    #[arg(long, default_value = "runs/basin")]
+    out: PathBuf,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -267,7 +285,34 @@ fn run_command() -> anyhow::Result<()> {
         Command::Fit(args) => Ok(swingup::fit_cmd::fit_command(&args)?),
         Command::Experiments(args) => experiments(&args),
         Command::Sensitivity(args) => sensitivity(&args),
+        Command::Basin(args) => basin(&args),
     }
+}
+
+fn basin(args: &BasinArgs) -> anyhow::Result<()> {
+    use swingup::experiments::basin::basin_report;
+    use swingup::plant::basin::BasinSettings;
+    let cfg = match &args.config {
+        Some(path) => {
+            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?
+        }
+        None => Config::default(),
+    };
+    cfg.validate()?;
+    swingup::output::check_out_dir(&args.out)?;
+    let settings = BasinSettings {
+        samples: args.samples,
+        ..BasinSettings::default()
+    };
+    say!("calibrating the catch over {} states per round ...", args.samples);
+    let report = basin_report(&cfg, &settings)?;
+    let md = report.markdown();
+    write_atomic(&args.out.join("basin.json"), &serde_json::to_string_pretty(&report)?)?;
+    write_atomic(&args.out.join("basin.md"), &md)?;
+    say!("{}", md.trim_end());
+    say!("written: {}", args.out.join("basin.md").display());
+    Ok(())
 }
 
 fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {

@@ -111,6 +111,13 @@ impl Config {
                 std::f64::consts::FRAC_PI_2
             );
         }
+        if let Some(level) = self.catch_level {
+            ensure_config!(
+                "catch_level",
+                level.is_finite() && level > 0.0,
+                "catch_level must be finite and > 0, got {level}"
+            );
+        }
         ensure_config!(
             "sensor_noise",
             self.sensor_noise.iter().all(|x| *x <= 1.0),

@@ -6,6 +6,7 @@
 use lwr::{Degree, Kernel};
 use serde::{Deserialize, Serialize};
 
+use crate::plant::basin::{BalanceTest, Basin, BasinSettings, Catch, CatchRule, calibrate};
 use crate::plant::demo::{Demonstration, HumanSwingup, demonstrate};
 use crate::plant::lqr::Lqr;
 
@@ -57,10 +58,19 @@ pub struct Config {
     /// workspace.
     #[serde(deserialize_with = "crate::format::exact_array")]
     pub feedback: [f64; 5],
+    /// When the balancing LQR takes over from the swing-up: the box of
+    /// `catch_angle` and `catch_rate` (the default) or the controller's
+    /// calibrated region of attraction ([`CatchKind::Basin`]).
+    pub catch: CatchKind,
     /// The LQR takes over within this angle of upright (rad)...
     pub catch_angle: f64,
-    /// ...and below this angular speed (rad/s).
+    /// ...and below this angular speed (rad/s) (with `catch = "box"`).
     pub catch_rate: f64,
+    /// With `catch = "basin"`: the level $c$ of the LQR's cost to go
+    /// $e^\top P e$ below which it takes over; absent, it is calibrated by
+    /// simulation at the start of every run
+    /// ([`crate::plant::basin::calibrate`], deterministic).
+    pub catch_level: Option<f64>,
     /// Success: within this angle of upright (rad)...
     pub success_angle: f64,
     /// ...over the last this many seconds.
@@ -159,6 +169,21 @@ impl Default for MpcConfig {
     }
 }
 
+/// When the balancing controller takes over ([`Config::catch`]).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, Serialize, Deserialize, clap::ValueEnum)]
+#[serde(rename_all = "kebab-case")]
+pub enum CatchKind {
+    /// Within `catch_angle` of upright and below `catch_rate`: a box that
+    /// holds states the LQR cannot balance (moving away from upright) and
+    /// misses states it can (`swingup basin` maps both).
+    #[default]
+    Box,
+    /// Where the LQR's cost to go $e^\top P e$ is below a level calibrated
+    /// so that at least 99 % of the states below it are balanced
+    /// ([`crate::plant::basin`]).
+    Basin,
+}
+
 /// Where learning starts.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
@@ -188,8 +213,10 @@ impl Default for Config {
             sensor_noise: [0.005, 0.02, 0.002, 0.01],
             hand_servo: [40.0, 10.0],
             feedback: [0.0, 0.0, 0.0, 0.0, 0.1],
+            catch: CatchKind::Box,
             catch_angle: 0.3,
             catch_rate: 2.0,
+            catch_level: None,
             success_angle: 0.2,
             success_seconds: 2.0,
             planner: PlannerConfig::default(),
@@ -518,13 +545,58 @@ impl Config {
             .ok_or(crate::Error::Controller { plant: "human" })
     }
 
-    /// The robot's LQR catch near upright, with the weights every run uses.
+    /// The robot's balancing LQR, with the weights every run uses, and
+    /// when it takes over ([`Config::catch`]; with the basin rule and no
+    /// `catch_level`, the level is calibrated here).
+    ///
+    /// # Errors
+    /// [`Error::Controller`](crate::Error::Controller) when the design
+    /// fails for the robot's plant; [`Error::Data`](crate::Error::Data) when
+    /// no basin can be calibrated.
+    pub fn robot_catch(&self) -> crate::Result<Catch> {
+        let lqr = self.robot_lqr()?;
+        let rule = match self.catch {
+            CatchKind::Box => CatchRule::Box {
+                angle: self.catch_angle,
+                rate: self.catch_rate,
+            },
+            CatchKind::Basin => CatchRule::Basin {
+                level: match self.catch_level {
+                    Some(level) => level,
+                    None => self.robot_basin(&lqr, &BasinSettings::default())?.level,
+                },
+            },
+        };
+        Ok(Catch { lqr, rule })
+    }
+
+    /// The robot's balancing LQR.
     ///
     /// # Errors
     /// [`Error::Controller`](crate::Error::Controller) when the design
     /// fails for the robot's plant.
-    pub fn robot_catch(&self) -> crate::Result<Lqr> {
+    pub fn robot_lqr(&self) -> crate::Result<Lqr> {
         Lqr::design(&self.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })
+    }
+
+    /// A run's balancing phase on the robot, as [`crate::plant::basin`] simulates it.
+    pub fn balance_test(&self) -> BalanceTest {
+        BalanceTest {
+            plant: self.robot,
+            sensor_noise: self.sensor_noise,
+            steps: self.balance,
+            success_angle: self.success_angle,
+            tail: ((self.success_seconds / self.robot.dt).round() as usize).min(self.balance),
+        }
+    }
+
+    /// The calibrated region of attraction of `lqr` on the robot.
+    ///
+    /// # Errors
+    /// [`Error::Data`](crate::Error::Data) naming why no level was found.
+    pub fn robot_basin(&self, lqr: &Lqr, settings: &BasinSettings) -> crate::Result<Basin> {
+        calibrate(lqr, &self.balance_test(), settings)
+            .map_err(|e| crate::Error::Data(format!("calibrating the catch (catch = \"basin\"): {e}")))
     }
 }
 

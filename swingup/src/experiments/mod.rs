@@ -16,6 +16,7 @@
 //! run is a [`crate::cartpole::run`] with the grid's
 //! [`ExperimentSettings::cartpole`].
 
+pub mod basin;
 pub mod sensitivity;
 
 use std::sync::Mutex;

@@ -15,6 +15,10 @@ use crate::plant::{Plant, PlantParams, PlantState, from_upright};
 pub struct Lqr {
     /// Gain $K$ on $(\theta - \pi, \dot\theta, x, \dot x)$.
     pub gain: [f64; 4],
+    /// The Riccati matrix $P$ (row-major): the cost to go of the linearised
+    /// closed loop from $e$ is $e^\top P e$, the level sets of which
+    /// [`crate::plant::basin`] calibrates as the catch.
+    pub riccati: [[f64; 4]; 4],
 }
 
 impl Lqr {
@@ -66,7 +70,7 @@ impl Lqr {
                 return None;
             }
             if change <= 1e-13 * size {
-                return k.iter().all(|g| g.is_finite()).then_some(Self { gain: k });
+                return k.iter().all(|g| g.is_finite()).then_some(Self { gain: k, riccati: p });
             }
         }
         None
@@ -74,9 +78,25 @@ impl Lqr {
 
     /// The command for state `s`.
     pub fn control(&self, s: &[f64; 4]) -> f64 {
-        let e = [from_upright(s[0]), s[1], s[2], s[3]];
+        let e = error(s);
         -(0..4).map(|i| self.gain[i] * e[i]).sum::<f64>()
     }
+
+    /// The quadratic form $e^\top P e$ of the Riccati matrix at state `s`,
+    /// $e = (\theta - \pi, \dot\theta, x, \dot x)$ with the angle from
+    /// upright: the linearised closed loop's cost to go, which decreases
+    /// along its trajectories.
+    pub fn value(&self, s: &[f64; 4]) -> f64 {
+        let e = error(s);
+        (0..4)
+            .map(|i| e[i] * (0..4).map(|c| self.riccati[i][c] * e[c]).sum::<f64>())
+            .sum()
+    }
+}
+
+/// The state's offset from upright at rest with the hand home.
+fn error(s: &[f64; 4]) -> [f64; 4] {
+    [from_upright(s[0]), s[1], s[2], s[3]]
 }
 
 /// One step of the Riccati difference equation: the gain

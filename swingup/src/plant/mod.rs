@@ -10,6 +10,7 @@
 //! $\dot a = (u - a) / \tau$. The equations are integrated by classic RK4
 //! with `substeps` steps per sample.
 
+pub mod basin;
 pub mod demo;
 pub mod lqr;
 
