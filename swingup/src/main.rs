@@ -12,7 +12,7 @@ use swingup::experiments::{Experiment, ExperimentSettings};
 use swingup::learn::run;
 use swingup::output::grid::{GridEvent, GridMode, GridOptions};
 use swingup::output::run_report;
-use swingup::record::{TrialKind, TrialRecord};
+use swingup::record::TrialRecord;
 
 /// Set once stdout is found closed (a pipe whose reader is gone, as in
 /// `swingup ... | head -1`): output is dropped from then on, and the work
@@ -292,13 +292,7 @@ fn run_command() -> anyhow::Result<()> {
 fn basin(args: &BasinArgs) -> anyhow::Result<()> {
     use swingup::experiments::basin::basin_report;
     use swingup::plant::basin::BasinSettings;
-    let cfg = match &args.config {
-        Some(path) => {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))?
-        }
-        None => Config::default(),
-    };
+    let cfg = args.config.as_deref().map(read_config).transpose()?.unwrap_or_default();
     cfg.validate()?;
     swingup::output::check_out_dir(&args.out)?;
     let settings = BasinSettings {
@@ -390,13 +384,13 @@ fn sensitivity(args: &SensitivityArgs) -> anyhow::Result<()> {
 
 /// The configuration file of `--config`, if given.
 fn config_file(args: &LearnArgs) -> anyhow::Result<Option<Config>> {
-    args.config
-        .as_ref()
-        .map(|path| {
-            let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-            toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))
-        })
-        .transpose()
+    args.config.as_deref().map(read_config).transpose()
+}
+
+/// A configuration file, parsed (missing keys keep their defaults).
+fn read_config(path: &Path) -> anyhow::Result<Config> {
+    let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
+    toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))
 }
 
 /// The command-line options over `cfg` (a `--config` file replaces it first).
@@ -783,44 +777,5 @@ fn value_name(v: impl clap::ValueEnum) -> String {
 }
 
 fn print_trial(t: &TrialRecord) {
-    let what = match t.kind {
-        TrialKind::Imitation => "imitation".to_string(),
-        TrialKind::Exploration => "exploration".to_string(),
-        TrialKind::Planned => match (&t.plan, &t.model) {
-            (Some(p), Some(m)) => format!(
-                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}{}{}",
-                p.status,
-                p.iterations,
-                p.seconds,
-                p.cost,
-                p.task,
-                p.inconsistency,
-                m.n_points,
-                m.loo_nmse,
-                if m.lwr_vs_prior.is_finite() {
-                    format!(", LWR/prior error {:.3}", m.lwr_vs_prior)
-                } else {
-                    String::new()
-                },
-                if m.dropped.is_empty() {
-                    String::new()
-                } else {
-                    format!(", inputs left out: {}", m.dropped.join(", "))
-                }
-            ),
-            _ => "planned".to_string(),
-        },
-    };
-    let outcome = if t.success {
-        "SUCCESS".to_string()
-    } else {
-        format!("failed: {}", t.failure)
-    };
-    say!(
-        "trial {:>2}: max angle {:>4.0} deg, {} | {}",
-        t.index,
-        t.max_angle.to_degrees(),
-        outcome,
-        what
-    );
+    say!("{}", run_report::trial_line(t));
 }

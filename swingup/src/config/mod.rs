@@ -384,9 +384,9 @@ pub struct PlannerConfig {
     /// Iteration cap of Gauss-Newton and the derivative-free mode (per
     /// continuation stage) and DDP. 1000: at the earlier 200, 15 of 249
     /// derivative-free and 11 of 227 Gauss-Newton plans of the pure LWR's
-    /// learning runs (seeds 1-40, commit 2421dec,
-    /// `results/derivative-free`) stopped at the cap, still descending; a
-    /// plan that converges stops long before it.
+    /// learning runs (seeds 1-40, made at 2421dec; `git show
+    /// 10efb54:results/derivative-free/runs.jsonl`) stopped at the cap, still
+    /// descending; a plan that converges stops long before it.
     pub max_iters: usize,
     /// Cost-evaluation budget of Powell's method (per continuation stage).
     /// Powell evaluates Eq. 3 term by term ([`trajopt::powell::BandTerms`]:

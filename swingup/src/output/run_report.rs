@@ -410,3 +410,48 @@ pub fn markdown(run: &RunRecord) -> String {
     let _ = writeln!(md, "\n![Figure 3](figure3.svg)\n\n![Learning](learning.svg)");
     md
 }
+
+/// One line of progress for a finished trial: its index, largest angle,
+/// outcome and, for a planned trial, the plan's and the model's summary.
+pub fn trial_line(t: &TrialRecord) -> String {
+    let what = match t.kind {
+        TrialKind::Imitation => "imitation".to_string(),
+        TrialKind::Exploration => "exploration".to_string(),
+        TrialKind::Planned => match (&t.plan, &t.model) {
+            (Some(p), Some(m)) => format!(
+                "plan {} in {} it ({:.2} s), cost {:.3e} (task {:.3e}, inconsistency {:.3e}); model {} points, LOO nMSE {:.3}{}{}",
+                p.status,
+                p.iterations,
+                p.seconds,
+                p.cost,
+                p.task,
+                p.inconsistency,
+                m.n_points,
+                m.loo_nmse,
+                if m.lwr_vs_prior.is_finite() {
+                    format!(", LWR/prior error {:.3}", m.lwr_vs_prior)
+                } else {
+                    String::new()
+                },
+                if m.dropped.is_empty() {
+                    String::new()
+                } else {
+                    format!(", inputs left out: {}", m.dropped.join(", "))
+                }
+            ),
+            _ => "planned".to_string(),
+        },
+    };
+    let outcome = if t.success {
+        "SUCCESS".to_string()
+    } else {
+        format!("failed: {}", t.failure)
+    };
+    format!(
+        "trial {:>2}: max angle {:>4.0} deg, {} | {}",
+        t.index,
+        t.max_angle.to_degrees(),
+        outcome,
+        what
+    )
+}
