@@ -53,7 +53,7 @@ use crate::models::learned::{learn_model, true_model_summary};
 use crate::models::truth::TrueRegression;
 use crate::models::{KnownHand, PendulumRegression};
 use crate::planning::eq3::window_cost;
-use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
+use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, bounded, replan, shifted};
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
 use crate::plant::basin::Catch;
@@ -405,6 +405,11 @@ fn execute_mpc<G: PendulumRegression>(
                 &obs,
                 cfg.planner.initial_state_weight,
             )?;
+            let problem = if m.hard_bounds {
+                bounded(problem, cfg.planner.x_max, cfg.planner.u_max)?
+            } else {
+                problem
+            };
             let r = replan(&window, &problem, &shifted(&plan, k - planned_at), &obs, &settings)?;
             trace.replans += 1;
             trace.iterations += r.iterations;

@@ -153,6 +153,12 @@ pub struct MpcConfig {
     /// Insert each observed transition into the model during the trial
     /// (models that learn online: the LWR).
     pub online: bool,
+    /// Hard bounds in every replan (issue 35): the hand's position within
+    /// `planner.x_max` and the command within `planner.u_max` at every
+    /// sample of the window, enforced by Gauss-Newton's bounded (QP) step
+    /// ([`trajopt::Eq3Problem::with_state_bounds`]) on top of the soft
+    /// bounds of the task cost. Off by default: it is there to measure.
+    pub hard_bounds: bool,
 }
 
 impl Default for MpcConfig {
@@ -165,6 +171,7 @@ impl Default for MpcConfig {
             state_coeffs: 25,
             control_coeffs: 20,
             online: true,
+            hard_bounds: false,
         }
     }
 }

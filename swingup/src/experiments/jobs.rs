@@ -56,6 +56,31 @@ pub(super) fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                     c.planner.lambda_start = 0.0;
                     c.planner.compare_gauss_newton = true;
                 });
+                // the paper's way to make Powell converge: fewer coefficients
+                // (issue 33), with Gauss-Newton on the same basis beside it
+                let paper_basis = |c: &mut Config| {
+                    (c.planner.state_coeffs, c.planner.control_coeffs) = PAPER_BASIS;
+                };
+                over_seeds(
+                    &mut out,
+                    "learning",
+                    "powell/paper-basis".into(),
+                    s.paper_basis_seeds,
+                    &|c| {
+                        paper_basis(c);
+                        c.planner.solver = Solver::Powell;
+                        c.planner.lambda_start = 0.0;
+                        c.planner.powell_evals = PAPER_BASIS_POWELL_EVALS;
+                        c.planner.compare_gauss_newton = true;
+                    },
+                );
+                over_seeds(
+                    &mut out,
+                    "learning",
+                    "gauss-newton/paper-basis".into(),
+                    s.paper_basis_seeds,
+                    &paper_basis,
+                );
                 // derivative-free least squares, each plan checked against Gauss-Newton's
                 over_seeds(
                     &mut out,

@@ -150,6 +150,31 @@ impl Window {
     }
 }
 
+/// `problem` with hard bounds at every sample of the window (issue 35):
+/// the hand's position $x$ (state channel 2 of the pendulum's
+/// $(\theta, \dot\theta, x, \dot x)$) within $\pm$`x_max` and the
+/// command within $\pm$`u_max`, enforced by Gauss-Newton's bounded (QP)
+/// step, so a replan never plans the hand out of its workspace whatever
+/// the learned model predicts there.
+///
+/// # Errors
+/// A problem that is not the pendulum's (4 states, 1 control), or limits
+/// that are not finite and positive.
+pub fn bounded<M: trajopt::Model, C: StageCost>(
+    problem: Eq3Problem<M, C>,
+    x_max: f64,
+    u_max: f64,
+) -> crate::Result<Eq3Problem<M, C>> {
+    crate::error::ensure_data!(
+        x_max.is_finite() && x_max > 0.0 && u_max.is_finite() && u_max > 0.0,
+        "the hard bounds must be finite and positive, got x_max = {x_max}, u_max = {u_max}"
+    );
+    let inf = f64::INFINITY;
+    Ok(problem
+        .with_state_bounds(&[-inf, -inf, -x_max, -inf], &[inf, inf, x_max, inf])?
+        .with_control_bounds(&[-u_max], &[u_max])?)
+}
+
 /// A plan over the window: `samples + 1` states and `samples` controls,
 /// one row per sample.
 #[derive(Debug, Clone, PartialEq)]
@@ -391,6 +416,97 @@ mod tests {
             again.costs,
             first.costs
         );
+    }
+
+    /// With [`bounded`], a replan keeps the hand within `x_max` and the
+    /// command within `u_max` at every sample, though the cost pulls the
+    /// hand to twice `x_max` (which the same replan without bounds plans).
+    #[test]
+    fn bounded_replans_never_leave_the_bounds() {
+        let dt = 1.0 / 60.0;
+        let samples = 60;
+        // (theta, theta_dot, x, x_dot) with the hand's acceleration u
+        // driving x and, reversed, theta
+        let a = Mat::from_fn(4, 4, |i, j| match (i, j) {
+            (0, 0) | (1, 1) | (2, 2) | (3, 3) => 1.0,
+            (0, 1) | (2, 3) => dt,
+            _ => 0.0,
+        });
+        let b = Mat::from_fn(4, 1, |i, _| match i {
+            0 => -0.5 * dt * dt,
+            1 => -dt,
+            2 => 0.5 * dt * dt,
+            _ => dt,
+        });
+        let model = LinearModel::new(a, b).expect("model");
+        let (x_max, u_max) = (0.7, 12.0);
+        let cost = TrackingCost::new(
+            Mat::from_fn(samples + 1, 4, |_, i| if i == 2 { 2.0 * x_max } else { 0.0 }),
+            Mat::zeros(samples, 1),
+            &[0.0, 0.0, 1.0, 0.1],
+            &[1e-6],
+            &[0.0, 0.0, 1e3, 1e2],
+        )
+        .expect("cost");
+        let window = Window::new(samples, dt, 12, 10).expect("window");
+        let x0 = [0.0; 4];
+        let settings = ReplanSettings {
+            max_iterations: 50,
+            ..ReplanSettings::default()
+        };
+        let cold = WindowPlan {
+            states: Mat::zeros(samples + 1, 4),
+            controls: Mat::zeros(samples, 1),
+        };
+        let free = window.problem(&model, cost.clone(), 1e3, &x0, 1e4).expect("problem");
+        let r = replan(&window, &free, &cold, &x0, &settings).expect("replan");
+        let reach = (0..=samples).map(|k| r.plan.states[(k, 2)]).fold(0.0, f64::max);
+        assert!(reach > 1.2 * x_max, "the unbounded replan stays inside anyway: {reach}");
+        let problem = bounded(
+            window.problem(&model, cost, 1e3, &x0, 1e4).expect("problem"),
+            x_max,
+            u_max,
+        )
+        .expect("bounds");
+        let r = replan(&window, &problem, &cold, &x0, &settings).expect("replan");
+        assert!(matches!(r.status, ReplanStatus::Solved(_)), "{:?}", r.status);
+        for k in 0..=samples {
+            assert!(
+                r.plan.states[(k, 2)].abs() <= x_max + 1e-6,
+                "x at {k}: {}",
+                r.plan.states[(k, 2)]
+            );
+        }
+        for k in 0..samples {
+            assert!(
+                r.plan.controls[(k, 0)].abs() <= u_max + 1e-6,
+                "u at {k}: {}",
+                r.plan.controls[(k, 0)]
+            );
+        }
+        let reach = (0..=samples).map(|k| r.plan.states[(k, 2)]).fold(0.0, f64::max);
+        assert!(
+            reach > 0.9 * x_max,
+            "the bounded replan does not go to its bound: {reach}"
+        );
+        // limits that cannot bound anything are refused
+        let again = window
+            .problem(
+                &model,
+                TrackingCost::new(
+                    Mat::zeros(samples + 1, 4),
+                    Mat::zeros(samples, 1),
+                    &[1.0; 4],
+                    &[1.0],
+                    &[1.0; 4],
+                )
+                .expect("cost"),
+                1e3,
+                &x0,
+                1e4,
+            )
+            .expect("problem");
+        assert!(bounded(again, f64::NAN, u_max).is_err());
     }
 
     /// Over the time budget the previous plan stays, exactly.
