@@ -18,7 +18,8 @@
 //! counts), when it matches the paper's $f^*$ to the paper's printed
 //! precision; else the lowest of that and the paper's $f^*$.
 //!
-//! `cargo run --release -p nprl-trajopt --example powell_mgh [honesty|effort] [--list]`
+//! `cargo run --release -p nprl-trajopt --example powell_mgh [honesty|effort] [--list] [--principal-axes=N]`
+//! (`--principal-axes=N`: the effort table with `principal_axes: N`).
 
 use std::cell::Cell;
 
@@ -192,7 +193,7 @@ impl trajopt::powell::Objective for Reach<'_> {
     }
 }
 
-fn effort(list: bool) -> Result<(), TrajoptError> {
+fn effort(list: bool, principal_axes: usize) -> Result<(), TrajoptError> {
     let mut counts = Vec::new();
     let mut reached = 0;
     if list {
@@ -207,6 +208,7 @@ fn effort(list: bool) -> Result<(), TrajoptError> {
             tol_x: 0.0,
             max_cost_evals: Some(budget),
             max_iterations: Some(usize::MAX),
+            principal_axes,
             ..PowellSettings::default()
         })?;
         let objective = Reach {
@@ -253,6 +255,17 @@ fn effort(list: bool) -> Result<(), TrajoptError> {
 fn main() -> Result<(), TrajoptError> {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let list = args.iter().any(|a| a == "--list");
+    // `--principal-axes=N`: the effort mode with Brent's principal axes every N iterations
+    let principal_axes = args
+        .iter()
+        .find_map(|a| a.strip_prefix("--principal-axes="))
+        .map(|v| v.parse::<usize>())
+        .transpose()
+        .map_err(|e| TrajoptError::InvalidParameter {
+            name: "--principal-axes",
+            reason: e.to_string(),
+        })?
+        .unwrap_or(0);
     let which: Vec<&str> = args
         .iter()
         .filter(|a| !a.starts_with("--"))
@@ -262,7 +275,7 @@ fn main() -> Result<(), TrajoptError> {
         honesty(list)?;
     }
     if which.is_empty() || which.contains(&"effort") {
-        effort(list)?;
+        effort(list, principal_axes)?;
     }
     Ok(())
 }

@@ -400,6 +400,10 @@ pub struct PlannerConfig {
     /// a trial point re-evaluates only the time steps its changed
     /// coefficients touch); every evaluation counts, partial or not.
     pub powell_evals: usize,
+    /// Powell's principal-axes period ([`trajopt::PowellSettings::principal_axes`]):
+    /// every this many iterations its direction set becomes the principal
+    /// axes of its quadratic model (Brent's PRAXIS); 0 never.
+    pub powell_principal_axes: usize,
     /// Relative cost-decrease tolerance of Gauss-Newton: a stage ends
     /// (`ConvergedCost`) once an accepted step lowers the criterion by less
     /// than this fraction of it. The criterion is only as accurate as the
@@ -454,6 +458,7 @@ impl Default for PlannerConfig {
             compare_gauss_newton: false,
             max_iters: 1000,
             powell_evals: 200_000,
+            powell_principal_axes: 0,
             tol_cost: 1e-6,
             support_weight: 0.0,
             support_bandwidth: 0.3,

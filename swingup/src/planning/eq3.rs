@@ -295,6 +295,7 @@ fn solve<M: trajopt::Model>(
     })?;
     let powell = Powell::new(PowellSettings {
         max_cost_evals: Some(p.powell_evals),
+        principal_axes: p.powell_principal_axes,
         ..PowellSettings::default()
     })?;
     let mut lambda = if start.is_none() && p.lambda_start > 0.0 && p.lambda_start < p.lambda {

@@ -32,6 +32,8 @@ pub(super) struct Engine {
     tol_f: f64,
     tol_line: f64,
     initial_step: f64,
+    /// `settings.principal_axes`.
+    principal_axes: usize,
     /// A stopping test fired on the last sweep and the direction set was
     /// reset: the next sweep confirms (or refutes) the convergence.
     confirming: bool,
@@ -111,6 +113,7 @@ impl Engine {
             tol_f: settings.tol_f,
             tol_line: settings.tol_line,
             initial_step: settings.initial_step,
+            principal_axes: settings.principal_axes,
             confirming: false,
             new_curvature: f64::NAN,
             stop_cost: settings.stop_cost.unwrap_or(f64::NEG_INFINITY),
@@ -209,6 +212,9 @@ impl Engine {
             None => {
                 self.confirming = false;
                 self.replace_direction(f_start, delta, biggest, eval)?;
+                if self.principal_axes > 0 && self.iters.is_multiple_of(self.principal_axes) {
+                    self.reset_to_principal_axes();
+                }
             }
         }
         self.last_decrease = f_start - self.fx;
@@ -288,6 +294,46 @@ impl Engine {
         Ok(())
     }
 
+    /// Replaces the direction set by the principal axes of the quadratic
+    /// model it implies (Brent 1973, PRAXIS). If the directions $u_i$ are
+    /// conjugate with curvatures $c_i = u_i^\top H u_i$ (the last line
+    /// searches' $\phi''$), then $H^{-1} = \sum_i u_i u_i^\top / c_i = M M^\top$
+    /// with $M = [u_i / \sqrt{c_i}]$; the singular value decomposition
+    /// $M = U S W^\top$ gives $H^{-1} = U S^2 U^\top$, so the new directions
+    /// are $s_i U_i$, orthogonal, each of curvature 1 in the model (the
+    /// line search's first parabola). Returns false, and keeps the set,
+    /// while a curvature is unknown or not positive.
+    fn reset_to_principal_axes(&mut self) -> bool {
+        let n = self.n;
+        if !self.curvatures.iter().all(|c| c.is_finite() && *c > 0.0) {
+            return false;
+        }
+        let m = faer::Mat::from_fn(n, n, |r, i| self.dirs[i * n + r] / self.curvatures[i].sqrt());
+        let Ok(svd) = m.svd() else {
+            return false;
+        };
+        let (u, s) = (svd.U(), svd.S().column_vector());
+        let largest = (0..n).map(|i| s[i]).fold(0.0, f64::max);
+        if !(largest.is_finite() && largest > 0.0) {
+            return false;
+        }
+        for i in 0..n {
+            // a (nearly) null axis: the set had lost a dimension; search it
+            // anew at the scale of the others, its curvature unknown
+            let (scale, curvature) = if s[i] > 1e-8 * largest {
+                (s[i], 1.0)
+            } else {
+                (1e-8 * largest, f64::NAN)
+            };
+            for r in 0..n {
+                self.dirs[i * n + r] = u[(r, i)] * scale;
+            }
+            self.curvatures[i] = curvature;
+            self.steps[i] = 1.0;
+        }
+        true
+    }
+
     /// Resets the direction set to the initial (coordinate) directions and
     /// the first trials to 1.
     fn restart(&mut self) {
@@ -335,6 +381,36 @@ impl Engine {
 mod tests {
     use super::*;
     use crate::error::Result;
+
+    /// On a quadratic $\tfrac12 x^\top H x$, a set of conjugate directions
+    /// with their exact curvatures becomes $H$'s principal axes: orthogonal,
+    /// each of curvature 1, and conjugate; a set with an unknown curvature
+    /// is kept.
+    #[test]
+    fn principal_axes_of_a_conjugate_set_are_the_hessians_axes() {
+        // H = [[4, 1], [1, 2]]: conjugate pair u1 = e1, u2 = (-1/4, 1)
+        let h = [[4.0, 1.0], [1.0, 2.0]];
+        let quad =
+            |u: &[f64], v: &[f64]| -> f64 { (0..2).map(|i| (0..2).map(|j| u[i] * h[i][j] * v[j]).sum::<f64>()).sum() };
+        let mut eval = |x: &Vec<f64>| -> Result<f64> { Ok(0.5 * quad(x, x)) };
+        let mut engine = Engine::start(&PowellSettings::default(), &[1.0, 1.0], &mut eval).expect("start");
+        let (u1, u2) = ([1.0, 0.0], [-0.25, 1.0]);
+        assert!(quad(&u1, &u2).abs() < 1e-15);
+        engine.dirs = vec![u1[0], u1[1], u2[0], u2[1]];
+        engine.curvatures = vec![f64::NAN, quad(&u2, &u2)];
+        let before = engine.dirs.clone();
+        assert!(!engine.reset_to_principal_axes());
+        assert_eq!(engine.dirs, before);
+        engine.curvatures = vec![quad(&u1, &u1), quad(&u2, &u2)];
+        assert!(engine.reset_to_principal_axes());
+        let (a, b) = (&engine.dirs[..2], &engine.dirs[2..]);
+        assert!((a[0] * b[0] + a[1] * b[1]).abs() < 1e-12, "not orthogonal: {a:?} {b:?}");
+        assert!(quad(a, b).abs() < 1e-12, "not conjugate: {a:?} {b:?}");
+        for d in [a, b] {
+            assert!((quad(d, d) - 1.0).abs() < 1e-12, "curvature {} along {d:?}", quad(d, d));
+        }
+        assert_eq!(engine.curvatures, vec![1.0, 1.0]);
+    }
 
     #[test]
     fn first_trials_are_the_last_accepted_steps() {
