@@ -419,6 +419,19 @@ proptest! {
         prop_assert!(result.x.iter().all(|v| v.abs() <= half_width));
     }
 
+    /// With the principal-axes resets (every 1 to 5 iterations), a
+    /// converged status on a random convex quadratic means its minimum: the
+    /// minimum value is 0 at c, and the status must say converged.
+    #[test]
+    fn principal_axes_converge_at_the_minimum((b, c, x0) in quadratic_problem(), every in 1usize..6) {
+        let settings = PowellSettings { principal_axes: every, ..PowellSettings::default() };
+        let f = |x: &[f64]| -> trajopt::Result<f64> { Ok(quadratic(&b, &c, x)) };
+        let result = Powell::new(settings).expect("settings").solve(&f, &x0).expect("solve");
+        prop_assert!(result.status.is_converged(), "{:?} at {}", result.status, result.cost);
+        let start = quadratic(&b, &c, &x0);
+        prop_assert!(result.cost <= 1e-8 * (1.0 + start), "{} from {}", result.cost, start);
+    }
+
     #[test]
     fn nan_regions_are_survived((b, c, x0) in quadratic_problem(), cut in -5.0..5.0f64) {
         // NaN on one side of a random hyperplane through the cut
