@@ -83,8 +83,9 @@ pub struct ExperimentSettings {
     pub derivative_free_seeds: u64,
     /// Seeds for the paper-basis variants ([`PAPER_BASIS`]: Powell and
     /// Gauss-Newton on a smaller basis; 0 in the full grid, settings saved
-    /// before they existed read back with 0).
-    #[serde(default)]
+    /// before they existed read back with 0, and 0 is not written, so the
+    /// fingerprint of a grid without them is the one it had before).
+    #[serde(default, skip_serializing_if = "is_zero")]
     pub paper_basis_seeds: u64,
     /// Trial cap of every run.
     pub max_trials: usize,
@@ -110,6 +111,10 @@ pub const MAX_SEEDS: u64 = 10_000;
 
 fn twenty() -> u64 {
     20
+}
+
+fn is_zero(n: &u64) -> bool {
+    *n == 0
 }
 
 impl ExperimentSettings {
