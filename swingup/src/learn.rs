@@ -52,7 +52,7 @@ use crate::config::{Config, Controller, ModelKind, Start};
 use crate::models::learned::{learn_model, true_model_summary};
 use crate::models::truth::TrueRegression;
 use crate::models::{KnownHand, PendulumRegression};
-use crate::planning::eq3::window_cost;
+use crate::planning::eq3::{confidence_lambda, window_cost};
 use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, bounded, replan, shifted};
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
@@ -405,12 +405,24 @@ fn execute_mpc<G: PendulumRegression>(
                 &obs,
                 cfg.planner.initial_state_weight,
             )?;
-            let problem = if m.hard_bounds {
+            let mut problem = if m.hard_bounds {
                 bounded(problem, cfg.planner.x_max, cfg.planner.u_max)?
             } else {
                 problem
             };
-            let r = replan(&window, &problem, &shifted(&plan, k - planned_at), &obs, &settings)?;
+            let warm = shifted(&plan, k - planned_at);
+            if cfg.planner.confidence_floor > 0.0 {
+                // the model's confidence along the warm start, as the planner's
+                let weights = confidence_lambda(
+                    &cfg.planner,
+                    problem.model(),
+                    &warm.states,
+                    &warm.controls,
+                    cfg.planner.lambda,
+                );
+                problem.set_lambda(weights)?;
+            }
+            let r = replan(&window, &problem, &warm, &obs, &settings)?;
             trace.replans += 1;
             trace.iterations += r.iterations;
             trace.replan_ms.push(r.seconds * 1e3);

@@ -352,7 +352,8 @@ pub struct PlannerConfig {
     /// Per-point consistency weight from the model's confidence (beyond the
     /// paper): $\lambda_k = \lambda \max(\epsilon, \min(1, n_k / n_{full}))$
     /// with $n_k$ the model's support at the plan's $(x_k, u_k)$, re-evaluated
-    /// at each continuation stage, $n_{full}$ = `confidence_full` and
+    /// at each continuation stage (and under MPC at each replan, along
+    /// its warm start), $n_{full}$ = `confidence_full` and
     /// $\epsilon$ this value; 0 turns it off (constant $\lambda$). Models without
     /// a support (parametric, true) get the constant.
     pub confidence_floor: f64,

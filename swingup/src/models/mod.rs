@@ -232,6 +232,57 @@ mod tests {
     /// Inside the data, at the edge (where the weight of the data falls
     /// against the intercept ridge) and beyond: the Jacobians match central
     /// differences.
+    /// The per-point lambda of the planner and the MPC's replans
+    /// ([`crate::planning::eq3::confidence_lambda`]) follows the LWR's
+    /// support at each step: full inside the data, the floor far outside
+    /// it, never above lambda; and it rises where observed transitions are
+    /// inserted online.
+    #[test]
+    fn confidence_lambda_follows_the_support() {
+        use crate::planning::eq3::confidence_lambda;
+        let mut model = model_of(400, 1.0, Kernel::Gaussian);
+        // fully trusted at half the support at the centre of the data
+        let centre = model.regression.support(&[0.0; 5]).expect("the LWR has a support");
+        let p = crate::config::PlannerConfig {
+            confidence_floor: 0.01,
+            confidence_full: 0.5 * centre,
+            ..crate::config::PlannerConfig::default()
+        };
+        let lambda = 1e3;
+        // inside the data, at its edge, far outside it
+        let states = faer::Mat::from_fn(3, 4, |k, i| {
+            [[0.0, 0.0, 0.0, 0.0], [0.9, 4.0, 0.4, 1.5], [3.0, 40.0, 0.6, 10.0]][k][i]
+        });
+        let controls = faer::Mat::from_fn(3, 1, |k, _| [0.0, 8.0, 60.0][k]);
+        let weights = |model: &LearnedModel| match confidence_lambda(&p, model, &states, &controls, lambda) {
+            trajopt::Lambda::PerStep(w) => w,
+            other => panic!("not per step: {other:?}"),
+        };
+        let w = weights(&model);
+        for k in 0..3 {
+            let n = model
+                .regression
+                .support(&[
+                    states[(k, 0)],
+                    states[(k, 1)],
+                    states[(k, 2)],
+                    states[(k, 3)],
+                    controls[(k, 0)],
+                ])
+                .expect("the LWR has a support");
+            assert_eq!(w[k], lambda * (n / p.confidence_full).clamp(0.01, 1.0), "step {k}");
+            assert!(w[k] <= lambda && w[k] >= 0.01 * lambda);
+        }
+        assert_eq!(w[0], lambda, "inside the data: {w:?}");
+        assert_eq!(w[2], 0.01 * lambda, "far outside: {w:?}");
+        // data observed at the far point raise its weight
+        let far = [3.0, 40.0, 0.6, 10.0, 60.0];
+        for _ in 0..20 {
+            model.regression.observe(&far, 0.0).expect("insert");
+        }
+        assert!(weights(&model)[2] > w[2], "{:?} -> {:?}", w, weights(&model));
+    }
+
     /// An observed transition joins the LWR at once: one more point, and
     /// the prediction there moves towards the observed value (a local fit
     /// through it); a non-finite transition is refused and changes nothing.

@@ -124,8 +124,13 @@ pub fn markdown(report: &ExperimentsReport) -> String {
             s.cartpole.max_trials,
         ));
     } else {
+        let paper_basis = if s.paper_basis_seeds > 0 {
+            format!(", {} on the paper's basis", s.paper_basis_seeds)
+        } else {
+            String::new()
+        };
         md.push_str(&format!(
-            "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell, {} per variant elsewhere; at most {} trials each. Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
+            "{} runs; seeds: {} for learning with Gauss-Newton and B-splines, {} with wavelets, {} with Powell{paper_basis}, {} per variant elsewhere; at most {} trials each. Regenerate with `cargo run --release -p swingup -- experiments`.\n\n",
             report.runs.len(),
             s.learning_seeds,
             s.wavelet_seeds,

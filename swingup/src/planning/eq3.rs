@@ -249,6 +249,25 @@ pub fn plan_from<M: trajopt::Model>(
     Ok(plan)
 }
 
+/// The per-point consistency weight of
+/// [`PlannerConfig::confidence_floor`](crate::config::PlannerConfig::confidence_floor)
+/// along `states` and `controls`: $\lambda_k = \lambda \max(\epsilon,
+/// \min(1, n_k / n_{full}))$, with $n_k$ the model's support at step $k$
+/// ($\lambda$ where the model has none).
+pub fn confidence_lambda<M: trajopt::Model>(
+    p: &crate::config::PlannerConfig,
+    model: &M,
+    states: &Mat<f64>,
+    controls: &Mat<f64>,
+    lambda: f64,
+) -> Lambda {
+    let full = p.confidence_full;
+    let floor = p.confidence_floor.min(1.0);
+    Lambda::from_confidence(model, states, controls, lambda, |n| {
+        lambda * (n / full).clamp(floor, 1.0)
+    })
+}
+
 /// The derivative-free planner's kind of differences.
 fn difference_of(cfg: &Config) -> Difference {
     match cfg.planner.difference_kind {
@@ -310,11 +329,7 @@ fn solve<M: trajopt::Model>(
     let (status, cost) = loop {
         let weights = if p.confidence_floor > 0.0 {
             let (xs, us) = problem.trajectory(&theta)?;
-            let full = p.confidence_full;
-            let floor = p.confidence_floor.min(1.0);
-            Lambda::from_confidence(problem.model(), &xs, &us, lambda, |n| {
-                lambda * (n / full).clamp(floor, 1.0)
-            })
+            confidence_lambda(p, problem.model(), &xs, &us, lambda)
         } else {
             Lambda::Constant(lambda)
         };
