@@ -157,9 +157,8 @@ pub struct MpcConfig {
     /// `planner.x_max` and the command within `planner.u_max` at every
     /// sample of the window, enforced by Gauss-Newton's bounded (QP) step
     /// ([`trajopt::Eq3Problem::with_state_bounds`]) on top of the soft
-    /// bounds of the task cost. Off by default: with the pure LWR it did
-    /// not make MPC learn in any of 20 seeds, as without it (the swings
-    /// die out inside the workspace; runs in the closing note of issue 35).
+    /// bounds of the task cost. Off by default: a first check with the
+    /// pure LWR found no gain (issue 35's closing note; no saved grid yet).
     pub hard_bounds: bool,
 }
 
@@ -406,11 +405,11 @@ pub struct PlannerConfig {
     /// Powell's principal-axes period ([`trajopt::PowellSettings::principal_axes`]):
     /// every this many iterations its direction set becomes the principal
     /// axes of its quadratic model (Brent's PRAXIS); 0 never. 5: on the
-    /// pure LWR's trial-2 plans of two seeds (138 coefficients, one stage
+    /// pure LWR's trial-2 plans of two seeds (120 coefficients, one stage
     /// at the final $\lambda$, 100,000 evaluations) it ended at criteria
-    /// several times lower than without it, below Gauss-Newton's; at the
-    /// claims grid's 10,000 evaluations it changes little (runs in the
-    /// closing note of issue 33).
+    /// several times lower than without it, below Gauss-Newton's
+    /// (`results/derivative-free/README.md`); the claims grid's Powell
+    /// rows, at 10,000 evaluations, have not been rerun with it.
     pub powell_principal_axes: usize,
     /// Relative cost-decrease tolerance of Gauss-Newton: a stage ends
     /// (`ConvergedCost`) once an accepted step lowers the criterion by less

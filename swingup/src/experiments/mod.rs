@@ -243,9 +243,8 @@ pub(crate) const MAIN_VARIANT: &str = "gauss-newton/bspline";
 /// paper's way to make it converge (issue 33).
 pub const PAPER_BASIS: (usize, usize) = (10, 8);
 
-/// Powell's evaluation budget per plan in the paper-basis variant: at 48
-/// coefficients a plan converges in a few hundred sweeps of about a
-/// hundred evaluations.
+/// Powell's evaluation budget per plan in the paper-basis variant (how
+/// many of its plans converge within it: `results/derivative-free/paper-basis`).
 pub const PAPER_BASIS_POWELL_EVALS: usize = 50_000;
 
 /// The learning experiment's derivative-free least-squares variant.
