@@ -28,6 +28,8 @@
 pub mod analysis;
 pub mod compare;
 pub mod error;
+pub mod files;
+pub mod instance;
 pub mod minima;
 pub mod nist;
 pub mod plot;

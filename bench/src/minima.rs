@@ -30,9 +30,9 @@
 
 use trajopt::problems::mgh::{self, MghProblem};
 
-use crate::problems::Instance;
+use crate::instance::Instance;
+use crate::instance::{cost_at, start_cost};
 use crate::record::RunRecord;
-use crate::solvers::{cost_at, start_cost};
 
 /// The relative part $\epsilon$ of the absolute criterion
 /// $f \le f^* + \epsilon (1 + \lvert f^* \rvert)$.

@@ -26,10 +26,8 @@ use trajopt::{
 };
 
 use crate::error::{BenchError, Result};
+pub use crate::instance::{Instance, SharedProblem};
 use crate::profiles::ConvergenceTest;
-
-/// A problem for the runner: a least-squares problem any solver here can use.
-pub type SharedProblem = Arc<dyn LeastSquaresProblem + Send + Sync>;
 
 /// A named set of benchmark problems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -56,7 +54,7 @@ impl ProblemSet {
     pub fn name(self) -> &'static str {
         match self {
             Self::Mgh => "mgh",
-            Self::Trajectory => crate::trajectory::SET,
+            Self::Trajectory => crate::instance::TRAJECTORY_SET,
             Self::Nist => crate::nist::SET,
         }
     }
@@ -157,43 +155,6 @@ impl ProblemSet {
                 .filter(keep)
                 .collect(),
         })
-    }
-}
-
-/// One problem from one starting point.
-#[derive(Clone)]
-pub struct Instance {
-    /// The set's name.
-    pub set: &'static str,
-    /// The problem's name within the set (`24_penalty2`).
-    pub problem: String,
-    /// The start's scale.
-    pub scale: f64,
-    /// The starting point.
-    pub start: Vec<f64>,
-    /// The published optimal value, if any.
-    pub f_star: Option<f64>,
-    /// Number of residuals.
-    pub residuals: usize,
-    /// The problem.
-    pub least_squares: SharedProblem,
-    /// The trajectory set's two forms of the problem, by which its runs
-    /// are scored ([`crate::trajectory::rollout_cost`]) and on which the
-    /// DDP solvers run; `None` when runs are scored by the problem's own
-    /// $f$.
-    pub rollout: Option<Arc<crate::trajectory::Forms>>,
-}
-
-impl std::fmt::Debug for Instance {
-    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        write!(f, "{}/{} x{}", self.set, self.problem, self.scale)
-    }
-}
-
-impl Instance {
-    /// Number of parameters.
-    pub fn n(&self) -> usize {
-        self.start.len()
     }
 }
 

@@ -247,7 +247,7 @@ impl RecordFile {
             path: path.to_path_buf(),
             source: std::io::Error::other(e),
         })?;
-        crate::report::write(path, &(text + "\n"))
+        crate::files::write(path, &(text + "\n"))
     }
 }
 

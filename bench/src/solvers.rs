@@ -30,7 +30,7 @@
 
 use std::time::Instant;
 
-use argmin::core::{CostFunction, Executor, Gradient};
+use argmin::core::{CostFunction, Executor, Gradient, TerminationReason, TerminationStatus};
 use argmin::solver::linesearch::MoreThuenteLineSearch;
 use argmin::solver::neldermead::NelderMead;
 use argmin::solver::quasinewton::LBFGS;
@@ -41,9 +41,10 @@ use trajopt::{
 };
 
 use crate::error::{BenchError, Result};
+use crate::instance::{TRAJECTORY_SET, finite, rollout_cost};
+pub use crate::instance::{cost_at, start_cost};
 use crate::problems::{Budget, Counted, Instance};
 use crate::record::{RunRecord, thin_trace};
-use crate::trajectory::{self, rollout_cost};
 
 /// A solver of the runner; see the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -109,7 +110,7 @@ impl Solver {
     pub fn applies_to(self, instance: &Instance) -> bool {
         match self {
             Self::Ilqr | Self::FullDdp => instance.rollout.is_some(),
-            Self::NelderMead => instance.set != trajectory::SET,
+            Self::NelderMead => instance.set != TRAJECTORY_SET,
             _ => !instance.start.is_empty(),
         }
     }
@@ -360,7 +361,7 @@ impl Solver {
                 let run = Executor::new(ArgminView(counted), solver)
                     .configure(|s| s.max_iters(u64::MAX))
                     .run();
-                Outcome::from_argmin(run.map(|r| r.state.termination_status.to_string()))
+                Outcome::from_argmin(run.map(|r| r.state.termination_status))
             }
             Self::Lbfgs => {
                 let solver = LBFGS::new(MoreThuenteLineSearch::new(), 7)
@@ -370,7 +371,7 @@ impl Solver {
                 let run = Executor::new(ArgminView(counted), solver)
                     .configure(|s| s.param(x0.to_vec()).max_iters(u64::MAX))
                     .run();
-                Outcome::from_argmin(run.map(|r| r.state.termination_status.to_string()))
+                Outcome::from_argmin(run.map(|r| r.state.termination_status))
             }
             Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
         })
@@ -411,38 +412,10 @@ enum End {
     Controls(Vec<Vec<f64>>),
 }
 
-/// $f(x_0) = \lVert r(x_0) \rVert^2$ of the instance's own problem,
-/// uncounted; NaN where it cannot be evaluated or overflows (the records
-/// hold finite values or NaN).
-pub fn start_cost(instance: &Instance) -> f64 {
-    cost_at(instance, &instance.start)
-        .filter(|f| f.is_finite())
-        .unwrap_or(f64::NAN)
-}
-
-/// $f(x) = \lVert r(x) \rVert^2$ of the instance's own problem, uncounted
-/// (`None`: `x` of the wrong length, or the residuals failed); may be
-/// infinite.
-pub fn cost_at(instance: &Instance, x: &[f64]) -> Option<f64> {
-    let problem = instance.least_squares.as_ref();
-    if x.len() != problem.n_params() {
-        return None;
-    }
-    let mut r = vec![0.0; problem.n_residuals()];
-    problem.residuals(x, &mut r).ok()?;
-    Some(r.iter().map(|v| v * v).sum())
-}
-
 /// The median of the timings (0 when there are none).
 fn median_time(mut times: Vec<f64>) -> f64 {
     times.sort_by(f64::total_cmp);
     times.get(times.len() / 2).copied().unwrap_or(0.0)
-}
-
-/// A figure of merit for the records, which hold finite values: a
-/// rollout that blew up (infinite cost) is recorded as `f64::MAX`.
-pub(crate) fn finite(f: f64) -> f64 {
-    if f.is_finite() { f } else { f64::MAX }
 }
 
 /// The trace of a run whose figure of merit is known only at its end
@@ -470,12 +443,16 @@ impl Outcome {
         Self::Stopped { status, converged }
     }
 
-    /// argmin's termination status: converged unless it hit the iteration cap.
-    fn from_argmin(run: std::result::Result<String, argmin::core::Error>) -> Self {
+    /// argmin's termination status, classified by its reason (not by its
+    /// text): converged only when the solver's own test passed.
+    fn from_argmin(run: std::result::Result<TerminationStatus, argmin::core::Error>) -> Self {
         match run {
             Ok(status) => {
-                let converged = !status.contains("Maximum") && !status.contains("Not terminated");
-                Self::stopped(status, converged)
+                let converged = matches!(
+                    status,
+                    TerminationStatus::Terminated(TerminationReason::SolverConverged)
+                );
+                Self::stopped(status.to_string(), converged)
             }
             Err(e) => Self::Failed(e.to_string()),
         }

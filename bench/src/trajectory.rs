@@ -22,49 +22,18 @@
 use std::sync::Arc;
 
 use ddp::problems as ddp_problems;
-use ddp::{DdpProblem, models::QuadraticCost};
-use trajopt::problems::trajectory::{self as eq3_problems, SwingUpProblem};
+
+use trajopt::problems::trajectory as eq3_problems;
 
 use crate::error::{BenchError, Result};
-use crate::problems::Instance;
+pub use crate::instance::{DdpSwingUp, Forms, Instance, rollout_cost};
+use crate::instance::{TRAJECTORY_SET, cost_at, finite};
 
 /// The set's name in the records.
-pub const SET: &str = "trajectory";
+pub const SET: &str = TRAJECTORY_SET;
 
 /// The name of the learned-LWR instance.
 pub const LWR_INSTANCE: &str = "pendulum-lwr";
-
-/// The DDP form of a registry swing-up.
-pub type DdpSwingUp = DdpProblem<ddp_problems::SwingUpModel, QuadraticCost>;
-
-/// The two forms of one registry instance: the Eq. 3 problem (to read the
-/// controls of a point) and the DDP problem (to roll them out, and for the
-/// DDP solvers).
-#[derive(Debug)]
-pub struct Forms {
-    /// The Eq. 3 form.
-    pub eq3: Arc<SwingUpProblem>,
-    /// The DDP form (exact dynamics, task cost).
-    pub ddp: DdpSwingUp,
-}
-
-/// The task cost of the controls of `theta` (a point of `forms.eq3`)
-/// rolled out from the start through the exact dynamics: the DDP form's
-/// stage and terminal costs, infinite when the rollout is not finite. The
-/// states of `theta` are ignored.
-///
-/// # Errors
-/// A `theta` of the wrong length or not finite, or a failed step.
-pub fn rollout_cost(forms: &Forms, theta: &[f64]) -> Result<f64> {
-    let (_, controls) = forms.eq3.trajectory(theta).map_err(|e| model_error(e.to_string()))?;
-    let controls: Vec<Vec<f64>> = (0..controls.nrows())
-        .map(|k| (0..controls.ncols()).map(|j| controls[(k, j)]).collect())
-        .collect();
-    forms
-        .ddp
-        .rollout_cost(&controls)
-        .map_err(|e| model_error(e.to_string()))
-}
 
 /// The figure of merit of a stored final point of `instance`: the
 /// rollout cost of its controls ([`rollout_cost`] for a point of the Eq. 3
@@ -74,7 +43,7 @@ pub fn rollout_cost(forms: &Forms, theta: &[f64]) -> Result<f64> {
 /// for a point of neither length.
 pub fn figure_of_merit(instance: &Instance, x: &[f64]) -> Option<f64> {
     let Some(forms) = &instance.rollout else {
-        return crate::solvers::cost_at(instance, x).map(crate::solvers::finite);
+        return cost_at(instance, x).map(finite);
     };
     let m = forms.ddp.initial_controls().first().map_or(0, Vec::len);
     let f = if x.len() == instance.n() {
@@ -85,7 +54,7 @@ pub fn figure_of_merit(instance: &Instance, x: &[f64]) -> Option<f64> {
     } else {
         return None;
     };
-    Some(crate::solvers::finite(f))
+    Some(finite(f))
 }
 
 /// Replaces every trajectory record's `f0` by the figure of merit of its
