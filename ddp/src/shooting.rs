@@ -93,6 +93,7 @@ impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
 
 /// The single-shooting cost $J(U)$ for argmin's solvers (parameters: the
 /// stacked controls; see [`DdpProblem::shooting_cost`]).
+#[cfg(feature = "argmin")]
 impl<D: Dynamics, C: Cost> argmin::core::CostFunction for DdpProblem<D, C> {
     type Param = Vec<f64>;
     type Output = f64;
@@ -103,6 +104,7 @@ impl<D: Dynamics, C: Cost> argmin::core::CostFunction for DdpProblem<D, C> {
 }
 
 /// The adjoint gradient $\nabla_U J$ for argmin's solvers.
+#[cfg(feature = "argmin")]
 impl<D: Dynamics, C: Cost> argmin::core::Gradient for DdpProblem<D, C> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;

@@ -7,6 +7,7 @@ use crate::error::{LwrError, Result};
 use crate::loo::{BOUND_MARGIN, Objective};
 use crate::model::LwrModel;
 use crate::settings::LwrSettings;
+use solve::{Interrupt, Termination, Watch};
 
 /// Smallest relative decrease of the objective that counts as a move.
 const MIN_IMPROVEMENT: f64 = 1e-9;
@@ -119,6 +120,40 @@ pub enum TuneStatus {
     Converged,
     /// The evaluation budget ran out.
     MaxEvals,
+    /// The [`Watch`]'s time limit passed (checked before every
+    /// evaluation).
+    TimeLimit,
+    /// An observer of the [`Watch`] stopped the search (after a sweep).
+    Stopped,
+}
+
+impl TuneStatus {
+    fn interrupted(why: Interrupt) -> Self {
+        match why {
+            Interrupt::TimeLimit => Self::TimeLimit,
+            Interrupt::Observer => Self::Stopped,
+        }
+    }
+}
+
+impl solve::Status for TuneStatus {
+    fn termination(&self) -> Termination {
+        match self {
+            Self::Converged => Termination::Converged,
+            Self::MaxEvals => Termination::MaxEvaluations,
+            Self::TimeLimit => Termination::TimeLimit,
+            Self::Stopped => Termination::Stopped,
+        }
+    }
+}
+
+/// Why the search must stop before its next evaluation, if it must: the
+/// evaluation budget, then the watch's time limit.
+fn halted(evals: usize, tune: &TuneSettings, watch: &Watch<'_>) -> Option<TuneStatus> {
+    if evals >= tune.max_evals {
+        return Some(TuneStatus::MaxEvals);
+    }
+    watch.out_of_time().map(TuneStatus::interrupted)
 }
 
 /// One evaluated point of the search.
@@ -209,6 +244,20 @@ impl LwrModel {
     /// # Ok::<(), lwr::LwrError>(())
     /// ```
     pub fn tune(&self, tune: &TuneSettings) -> Result<TuneResult> {
+        self.tune_watched(tune, &mut Watch::new())
+    }
+
+    /// [`tune`](Self::tune) under a [`Watch`]: its observers see every
+    /// sweep (the evaluations so far, the best objective, the point
+    /// $(h, m_1, \dots, m_d)$) and may stop the search
+    /// ([`TuneStatus::Stopped`]); its time limit is checked before every
+    /// evaluation ([`TuneStatus::TimeLimit`]). Either way the result holds
+    /// the best settings so far (with [`TuneSettings::search_points`] the
+    /// check of the end over every point still follows).
+    ///
+    /// # Errors
+    /// As [`tune`](Self::tune).
+    pub fn tune_watched(&self, tune: &TuneSettings, watch: &mut Watch<'_>) -> Result<TuneResult> {
         tune.validate()?;
         let d = self.database().n_inputs();
         let base = self.settings().clone();
@@ -280,12 +329,12 @@ impl LwrModel {
         }
         let mut factor = tune.initial_factor;
         let mut status = TuneStatus::Converged;
-        let budget_left = |history: &Vec<TuneStep>| history.len() < tune.max_evals;
+        let mut sweeps = 0;
         'search: while factor >= tune.min_factor {
             let mut improved = false;
             for &c in &coords {
-                if !budget_left(&history) {
-                    status = TuneStatus::MaxEvals;
+                if let Some(why) = halted(history.len(), tune, watch) {
+                    status = why;
                     break 'search;
                 }
                 if x[c] == 0.0 {
@@ -306,8 +355,8 @@ impl LwrModel {
                 let mut moved = false;
                 for dir in [factor, 1.0 / factor] {
                     loop {
-                        if !budget_left(&history) {
-                            status = TuneStatus::MaxEvals;
+                        if let Some(why) = halted(history.len(), tune, watch) {
+                            status = why;
                             break 'search;
                         }
                         let mut y = x.clone();
@@ -330,8 +379,8 @@ impl LwrModel {
                 }
                 improved |= moved;
                 if c > 0 && tune.try_zero {
-                    if !budget_left(&history) {
-                        status = TuneStatus::MaxEvals;
+                    if let Some(why) = halted(history.len(), tune, watch) {
+                        status = why;
                         break 'search;
                     }
                     let mut y = x.clone();
@@ -350,6 +399,14 @@ impl LwrModel {
             }
             if !improved {
                 factor = factor.sqrt();
+            }
+            sweeps += 1;
+            // reported only when the search goes on (a last sweep converged)
+            if factor >= tune.min_factor
+                && let Some(why) = watch.iteration("lwr-tune", sweeps, history.len(), f, &x)
+            {
+                status = TuneStatus::interrupted(why);
+                break;
             }
         }
         let evals = history.len();

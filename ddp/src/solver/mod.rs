@@ -25,6 +25,7 @@ use crate::error::Result;
 use crate::problem::{Cost, DdpProblem, Dynamics};
 use forward::Rollout;
 use regularization::Schedule;
+use solve::Watch;
 use work::{History, Work};
 
 /// Differential dynamic programming (Jacobson and Mayne 1970) / iLQR.
@@ -100,13 +101,47 @@ impl Ddp {
     /// dynamics return) when a step of the warm start's rollout fails: there
     /// is no trajectory to improve on.
     pub fn solve<D: Dynamics, C: Cost>(&self, problem: &DdpProblem<D, C>) -> Result<DdpResult> {
+        self.solve_watched(problem, &mut Watch::new())
+    }
+
+    /// [`solve`](Self::solve) under a [`Watch`]: its observers see every
+    /// iteration (the cost, the rollouts so far, the controls flattened)
+    /// and may stop the solve ([`DdpStatus::Stopped`]); its time limit is
+    /// checked at every iteration and before every trial rollout
+    /// ([`DdpStatus::TimeLimit`]). Either way the result holds the last
+    /// accepted trajectory with the policy at it (one more backward pass).
+    ///
+    /// ```
+    /// use solve::{Control, Progress, Watch};
+    /// use ddp::{Ddp, DdpSettings, DdpStatus};
+    /// use ddp::problems::pendulum_swingup;
+    ///
+    /// let problem = pendulum_swingup(100)?;
+    /// let mut once = |_: &Progress<'_>| Control::Stop;
+    /// let mut watch = Watch::new().with_observer(&mut once);
+    /// let r = Ddp::new(DdpSettings::default())?.solve_watched(&problem, &mut watch)?;
+    /// assert_eq!((r.status, r.iterations), (DdpStatus::Stopped, 1));
+    /// assert_eq!(r.gains.len(), 100);
+    /// # Ok::<(), ddp::DdpError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_watched<D: Dynamics, C: Cost>(
+        &self,
+        problem: &DdpProblem<D, C>,
+        watch: &mut Watch<'_>,
+    ) -> Result<DdpResult> {
         let start = Instant::now();
         let mut w = Work::new(problem, &self.settings);
-        let mut result = w.run()?;
+        let mut result = w.run(watch)?;
         result.solve_time = start.elapsed();
         Ok(result)
     }
 }
+
+/// The solver's name in [`solve::Progress`].
+const NAME: &str = "ddp";
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// The outer loop: linearise, backward pass (raising $\mu$ until it
@@ -114,7 +149,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     ///
     /// # Errors
     /// A failed step of the dynamics in the warm start's rollout.
-    fn run(&mut self) -> Result<DdpResult> {
+    fn run(&mut self, watch: &mut Watch<'_>) -> Result<DdpResult> {
         let s = self.s;
         let mut cost = match self.initial_rollout()? {
             Rollout::Ok(c) => c,
@@ -128,7 +163,13 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
         let mut need_derivatives = true;
         let mut policy_current = false;
         let mut iterations = 0;
+        // the initial rollout, then every trial one
+        let mut rollouts = 1;
         'outer: loop {
+            if let Some(why) = watch.out_of_time() {
+                status = DdpStatus::interrupted(why);
+                break;
+            }
             if need_derivatives {
                 if !self.linearise() {
                     status = DdpStatus::NonFiniteDerivatives;
@@ -182,6 +223,11 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let mut accepted = None;
             let mut all_diverged = true;
             for _ in 0..s.n_line_search {
+                if let Some(why) = watch.out_of_time() {
+                    status = DdpStatus::interrupted(why);
+                    break 'outer;
+                }
+                rollouts += 1;
                 if let Rollout::Ok(trial) = self.forward(alpha) {
                     all_diverged = false;
                     let expected = -alpha * (dv1 + alpha * dv2);
@@ -224,9 +270,18 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
                     }
                 }
             }
+            if let Some(why) = watch.iteration(NAME, iterations, rollouts, cost, &self.us) {
+                status = DdpStatus::interrupted(why);
+                break;
+            }
         }
         // a policy at the returned trajectory, if one was not just computed
-        if !policy_current && matches!(status, DdpStatus::MaxIterations) {
+        if !policy_current
+            && matches!(
+                status,
+                DdpStatus::MaxIterations | DdpStatus::TimeLimit | DdpStatus::Stopped
+            )
+        {
             if need_derivatives && !self.linearise() {
                 status = DdpStatus::NonFiniteDerivatives;
             } else {

@@ -16,6 +16,11 @@ pub enum DdpStatus {
     Converged,
     /// `max_iterations` reached.
     MaxIterations,
+    /// The [`Watch`](solve::Watch)'s time limit passed (checked at every
+    /// iteration and before every trial rollout).
+    TimeLimit,
+    /// An observer of the [`Watch`](solve::Watch) stopped the solve.
+    Stopped,
     /// The initial rollout (warm start, open loop) left the finite region or
     /// exceeded `max_state_norm` at state `step`; the result holds the
     /// states before it and no policy.
@@ -43,9 +48,38 @@ impl DdpStatus {
     }
 
     /// `true` for the statuses saying the model or the local quadratic
-    /// model failed (everything but `Converged` and `MaxIterations`).
+    /// model failed (everything but `Converged`, `MaxIterations`,
+    /// `TimeLimit` and `Stopped`).
     pub fn is_failure(&self) -> bool {
-        !matches!(self, Self::Converged | Self::MaxIterations)
+        !matches!(
+            self,
+            Self::Converged | Self::MaxIterations | Self::TimeLimit | Self::Stopped
+        )
+    }
+
+    /// The status for a watch's interrupt.
+    pub(super) fn interrupted(why: solve::Interrupt) -> Self {
+        match why {
+            solve::Interrupt::TimeLimit => Self::TimeLimit,
+            solve::Interrupt::Observer => Self::Stopped,
+        }
+    }
+}
+
+impl solve::Status for DdpStatus {
+    fn termination(&self) -> solve::Termination {
+        use solve::Termination as T;
+        match self {
+            Self::Converged => T::Converged,
+            Self::MaxIterations => T::MaxIterations,
+            Self::TimeLimit => T::TimeLimit,
+            Self::Stopped => T::Stopped,
+            Self::InitialRolloutDiverged { .. }
+            | Self::RolloutDiverged
+            | Self::NotPositiveDefinite
+            | Self::NoDescent
+            | Self::NonFiniteDerivatives => T::Failed,
+        }
     }
 }
 

@@ -17,19 +17,23 @@
 //! **The budget and its fallback** ([`ReplanSettings`]). A replan runs at
 //! most `max_iterations` Gauss-Newton iterations and returns the best
 //! iterate: never worse than the warm start in the criterion, since each
-//! accepted step lowers it. With a wall-time `budget`, a replan that takes
-//! longer would reach the robot after its frame: its result is discarded
-//! and the robot keeps executing the previous plan, shifted
-//! ([`ReplanStatus::KeptPrevious`]); so is a replan whose solve fails (a
-//! model that returns a non-finite value). Iterations make runs
-//! reproducible bit for bit; a time budget makes them depend on the
-//! machine, which is why it is off by default.
+//! accepted step lowers it. A wall-time `budget` is a deadline inside the
+//! solve (a [`solve::Watch`] started with the replan, so the warm start's
+//! fit counts): Gauss-Newton checks it at every iteration and trial step
+//! and returns its best iterate when it passes, late by at most one
+//! Jacobian and one trial step. If no step was accepted by then, the replan
+//! has nothing better than the warm start and the robot keeps executing
+//! the previous plan, shifted ([`ReplanStatus::KeptPrevious`]); so it does
+//! when the solve fails (a model that returns a non-finite value).
+//! Iterations make runs reproducible bit for bit; a time budget makes them
+//! depend on the machine, which is why it is off by default.
 
 use std::time::{Duration, Instant};
 
 use faer::Mat;
+use solve::Watch;
 use splines::{BSplineBasis, FitSettings};
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, StageCost};
+use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, GaussNewtonStatus, Lambda, StageCost};
 
 /// The bases and sample times of one window, the same at every replan
 /// (each window is timed from 0), and the least-squares fit operators
@@ -212,8 +216,9 @@ pub struct ReplanSettings {
     pub max_iterations: usize,
     /// Relative cost-decrease tolerance of the solve.
     pub tol_cost: f64,
-    /// Wall time after which a replan's result is discarded and the
-    /// previous plan kept; `None`: no time limit.
+    /// Deadline of a replan, from its start: the solve stops there with its
+    /// best iterate, or the previous plan is kept if no step was accepted
+    /// by then; `None`: no time limit.
     pub budget: Option<Duration>,
 }
 
@@ -232,8 +237,8 @@ impl Default for ReplanSettings {
 pub enum ReplanStatus {
     /// The solve's result is the new plan (the solver's status, as text).
     Solved(String),
-    /// The previous plan, shifted, stays: the replan took longer than the
-    /// budget, or its solve failed (the reason, as text).
+    /// The previous plan, shifted, stays: the budget ran out before a step
+    /// was accepted, or the solve failed (the reason, as text).
     KeptPrevious(String),
 }
 
@@ -267,6 +272,10 @@ pub fn replan<M: trajopt::Model, C: StageCost>(
     settings: &ReplanSettings,
 ) -> crate::Result<Replan> {
     let started = Instant::now();
+    let mut watch = Watch::new();
+    if let Some(budget) = settings.budget {
+        watch = watch.with_time_limit(budget);
+    }
     crate::error::ensure_data!(
         x0.len() == warm.states.ncols(),
         "the measured state has {} entries, the plan's states {}",
@@ -290,7 +299,7 @@ pub fn replan<M: trajopt::Model, C: StageCost>(
         tol_cost: settings.tol_cost,
         ..GaussNewtonSettings::default()
     })?;
-    let result = match solver.solve(problem, &theta) {
+    let result = match solver.solve_watched(problem, &theta, &mut watch) {
         Ok(r) if r.cost.is_finite() => r,
         Ok(r) => {
             return Ok(keep(
@@ -302,11 +311,13 @@ pub fn replan<M: trajopt::Model, C: StageCost>(
         Err(e) => return Ok(keep(format!("the solve failed: {e}"), (f64::NAN, f64::NAN), 0)),
     };
     let costs = (result.initial_cost, result.cost);
-    if let Some(budget) = settings.budget
-        && started.elapsed() > budget
-    {
+    if result.status == GaussNewtonStatus::TimeLimit && result.cost_history.is_empty() {
+        let budget = settings.budget.unwrap_or_default();
         return Ok(keep(
-            format!("over the budget of {:.1} ms", budget.as_secs_f64() * 1e3),
+            format!(
+                "the budget of {:.1} ms ran out before a step was accepted",
+                budget.as_secs_f64() * 1e3
+            ),
             costs,
             result.iterations,
         ));
@@ -509,7 +520,9 @@ mod tests {
         assert!(bounded(again, f64::NAN, u_max).is_err());
     }
 
-    /// Over the time budget the previous plan stays, exactly.
+    /// A budget that runs out before a step is accepted keeps the previous
+    /// plan, exactly (a deadline passing inside the solve is Gauss-Newton's
+    /// time limit, tested in `tests/tests/watch.rs`).
     #[test]
     fn over_budget_keeps_the_previous_plan() {
         let (window, model, cost) = setup(30);

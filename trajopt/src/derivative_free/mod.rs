@@ -119,6 +119,7 @@ pub use groups::{ColumnGroups, GroupedDifferences};
 use crate::error::{Result, TrajoptError};
 use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
 use crate::least_squares::LeastSquaresProblem;
+use solve::Watch;
 
 /// Which differences form the Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -262,22 +263,42 @@ impl DerivativeFree {
     /// Wrong sizes, a non-finite start, an error from the residuals, or
     /// infeasible bounds; as [`GaussNewton::solve`].
     pub fn solve<P: LeastSquaresProblem + ?Sized>(&self, problem: &P, theta0: &[f64]) -> Result<DerivativeFreeResult> {
+        self.solve_watched(problem, theta0, &mut Watch::new())
+    }
+
+    /// [`solve`](Self::solve) under a [`Watch`], as
+    /// [`GaussNewton::solve_watched`] (the observers see every residual
+    /// evaluation counted, the differences' included; the statuses
+    /// [`GaussNewtonStatus::Stopped`] and [`GaussNewtonStatus::TimeLimit`]).
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_watched<P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &P,
+        theta0: &[f64],
+        watch: &mut Watch<'_>,
+    ) -> Result<DerivativeFreeResult> {
         let start = Instant::now();
         let s = &self.settings;
         let budget = s.max_residual_evals.unwrap_or(usize::MAX);
         let wrapped = GroupedDifferences::new(problem, s.difference, s.step(), budget)?;
         let jacobian_groups = wrapped.groups().n_groups();
-        let solved = self.gauss_newton.solve(&wrapped, theta0).and_then(|mut r| {
-            // a cost or step test is believed only at a stationary point
-            if matches!(
-                r.status,
-                GaussNewtonStatus::ConvergedCost | GaussNewtonStatus::ConvergedStep
-            ) && wrapped.stationarity(&r.x)? > s.tol_stationary
-            {
-                r.status = GaussNewtonStatus::Stalled;
-            }
-            Ok(r)
-        });
+        let count = || wrapped.residual_evals();
+        let solved = self
+            .gauss_newton
+            .solve_counted(&wrapped, theta0, watch, &count)
+            .and_then(|mut r| {
+                // a cost or step test is believed only at a stationary point
+                if matches!(
+                    r.status,
+                    GaussNewtonStatus::ConvergedCost | GaussNewtonStatus::ConvergedStep
+                ) && wrapped.stationarity(&r.x)? > s.tol_stationary
+                {
+                    r.status = GaussNewtonStatus::Stalled;
+                }
+                Ok(r)
+            });
         match solved {
             Ok(r) => Ok(DerivativeFreeResult {
                 x: r.x,

@@ -564,6 +564,7 @@ impl<M: Model, C: StageCost> crate::powell::Objective for Eq3Problem<M, C> {
 }
 
 /// Eq. 3's scalar criterion for argmin's solvers (parameters as `Vec<f64>`).
+#[cfg(feature = "argmin")]
 impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
     type Param = Vec<f64>;
     type Output = f64;
@@ -574,6 +575,7 @@ impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
 }
 
 /// The gradient $2 J^\top r$ for argmin's solvers ([`Eq3Problem::gradient`]).
+#[cfg(feature = "argmin")]
 impl<M: Model, C: StageCost> argmin::core::Gradient for Eq3Problem<M, C> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;

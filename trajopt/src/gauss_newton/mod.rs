@@ -114,6 +114,10 @@ use damping::{
 use normal_equations::{BandSystem, Damping, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
 pub use result::{GaussNewtonResult, GaussNewtonStatus};
+use solve::Watch;
+
+/// The solver's name in [`solve::Progress`].
+const NAME: &str = "gauss-newton";
 pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepModel};
 
 /// Below this many parameters [`GaussNewton::solve_parallel`] runs on one
@@ -149,7 +153,39 @@ impl GaussNewton {
     /// `theta0` ([`TrajoptError::NonFiniteStart`]), or an error from the
     /// problem. Not converging is a status, not an error.
     pub fn solve<P: LeastSquaresProblem + ?Sized>(&self, problem: &P, theta0: &[f64]) -> Result<GaussNewtonResult> {
-        self.solve_with(problem, theta0, None)
+        self.solve_with(problem, theta0, None, &mut Watch::new(), None)
+    }
+
+    /// [`solve`](Self::solve) under a [`Watch`]: its observers see every
+    /// iteration (after the step is accepted, with the cost, the residual
+    /// evaluations and the parameters) and may stop the solve
+    /// ([`GaussNewtonStatus::Stopped`]); its time limit is checked at every
+    /// iteration and every trial step ([`GaussNewtonStatus::TimeLimit`]).
+    /// Either way the result holds the best parameters so far.
+    ///
+    /// ```
+    /// use std::time::Duration;
+    /// use solve::{Control, Progress, Watch};
+    /// use trajopt::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
+    /// use trajopt::problems::pendulum_swingup;
+    ///
+    /// let (problem, theta0) = pendulum_swingup(100, 10.0)?;
+    /// let gn = GaussNewton::new(GaussNewtonSettings::default())?;
+    /// // stop after two iterations
+    /// let mut two = |p: &Progress<'_>| if p.iteration >= 2 { Control::Stop } else { Control::Continue };
+    /// let mut watch = Watch::new().with_time_limit(Duration::from_secs(1)).with_observer(&mut two);
+    /// let r = gn.solve_watched(&problem, &theta0, &mut watch)?;
+    /// assert_eq!((r.status, r.iterations), (GaussNewtonStatus::Stopped, 2));
+    /// assert!(r.cost < r.initial_cost);
+    /// # Ok::<(), trajopt::TrajoptError>(())
+    /// ```
+    pub fn solve_watched<P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &P,
+        theta0: &[f64],
+        watch: &mut Watch<'_>,
+    ) -> Result<GaussNewtonResult> {
+        self.solve_with(problem, theta0, None, watch, None)
     }
 
     /// [`solve`](Self::solve) with the band normal equations formed, and
@@ -198,13 +234,26 @@ impl GaussNewton {
         theta0: &[f64],
         threads: usize,
     ) -> Result<GaussNewtonResult> {
+        self.solve_parallel_watched(problem, theta0, threads, &mut Watch::new())
+    }
+
+    /// [`solve_parallel`](Self::solve_parallel) under a [`Watch`], as
+    /// [`solve_watched`](Self::solve_watched) (the observers are called on
+    /// this thread).
+    pub fn solve_parallel_watched<P: LeastSquaresProblem + Sync + ?Sized>(
+        &self,
+        problem: &P,
+        theta0: &[f64],
+        threads: usize,
+        watch: &mut Watch<'_>,
+    ) -> Result<GaussNewtonResult> {
         // spinning helpers beyond the cores would take turns with the solver,
         // and small problems gain less from the parts than the hand-overs cost
         let cores = std::thread::available_parallelism().map_or(1, usize::from);
         if problem.n_params() < MIN_PARALLEL_PARAMS {
-            return self.solve(problem, theta0);
+            return self.solve_with(problem, theta0, None, watch, None);
         }
-        self.solve_threads(problem, theta0, threads.min(cores))
+        self.solve_threads(problem, theta0, threads.min(cores), watch)
     }
 
     /// [`solve_parallel`](Self::solve_parallel) without the cap on
@@ -214,15 +263,29 @@ impl GaussNewton {
         problem: &P,
         theta0: &[f64],
         threads: usize,
+        watch: &mut Watch<'_>,
     ) -> Result<GaussNewtonResult> {
         // only the band form is split
         if threads <= 1 || !self.settings.band() || problem.bounds().is_some() {
-            return self.solve(problem, theta0);
+            return self.solve_with(problem, theta0, None, watch, None);
         }
         std::thread::scope(|scope| {
             let helpers = Helpers::spawn(scope, problem, threads - 1);
-            self.solve_with(problem, theta0, Some(helpers))
+            self.solve_with(problem, theta0, Some(helpers), watch, None)
         })
+    }
+
+    /// [`solve_watched`](Self::solve_watched) reporting `evaluations()`
+    /// to the watch instead of its own count of residual evaluations (the
+    /// derivative-free mode's, whose differences it does not see).
+    pub(crate) fn solve_counted<P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &P,
+        theta0: &[f64],
+        watch: &mut Watch<'_>,
+        evaluations: &dyn Fn() -> usize,
+    ) -> Result<GaussNewtonResult> {
+        self.solve_with(problem, theta0, None, watch, Some(evaluations))
     }
 
     fn solve_with<P: LeastSquaresProblem + ?Sized>(
@@ -230,6 +293,8 @@ impl GaussNewton {
         problem: &P,
         theta0: &[f64],
         helpers: Option<Helpers>,
+        watch: &mut Watch<'_>,
+        evaluations: Option<&dyn Fn() -> usize>,
     ) -> Result<GaussNewtonResult> {
         let start = Instant::now();
         let (n_p, n_r) = (problem.n_params(), problem.n_residuals());
@@ -338,6 +403,10 @@ impl GaussNewton {
                 // the helpers wait for cores (a busy machine): one thread is faster
                 one_thread_from = Some(iterations + 1);
                 system = Box::new(BandSystem::new(layout.clone(), s.second_order(), None));
+            }
+            if let Some(why) = watch.out_of_time() {
+                status = GaussNewtonStatus::interrupted(why);
+                break;
             }
             iterations += 1;
             jacobian_evals += 1;
@@ -501,6 +570,11 @@ impl GaussNewton {
                         status = GaussNewtonStatus::ConvergedCost;
                         break 'outer;
                     }
+                    let evals = evaluations.map_or(residual_evals, |count| count());
+                    if let Some(why) = watch.iteration(NAME, iterations, evals, cost, &theta) {
+                        status = GaussNewtonStatus::interrupted(why);
+                        break 'outer;
+                    }
                     break;
                 }
                 // a rejected step whose predicted gain is below the cost's
@@ -513,6 +587,10 @@ impl GaussNewton {
                     && mu < 1.0
                 {
                     status = GaussNewtonStatus::ConvergedCost;
+                    break 'outer;
+                }
+                if let Some(why) = watch.out_of_time() {
+                    status = GaussNewtonStatus::interrupted(why);
                     break 'outer;
                 }
                 if !raise_damping(&mut mu, &mut nu) {
@@ -558,8 +636,12 @@ mod tests {
             .expect("settings");
             let one = solver.solve(&p, &theta0).expect("solve");
             for threads in [2, 3] {
-                let par = solver.solve_threads(&p, &theta0, threads).expect("solve");
-                let again = solver.solve_threads(&p, &theta0, threads).expect("solve");
+                let par = solver
+                    .solve_threads(&p, &theta0, threads, &mut Watch::new())
+                    .expect("solve");
+                let again = solver
+                    .solve_threads(&p, &theta0, threads, &mut Watch::new())
+                    .expect("solve");
                 assert!(one.status.is_converged() && par.status.is_converged());
                 assert!(
                     (par.cost - one.cost).abs() <= 1e-10 * one.cost,

@@ -27,6 +27,35 @@ pub enum GaussNewtonStatus {
     /// The residuals or Jacobian became non-finite at every trial step, or
     /// the normal equations could not be factorised even with damping.
     NumericalError,
+    /// The [`Watch`](solve::Watch)'s time limit passed (checked at every
+    /// iteration and trial step).
+    TimeLimit,
+    /// An observer of the [`Watch`](solve::Watch) stopped the solve.
+    Stopped,
+}
+
+impl GaussNewtonStatus {
+    /// The status for a watch's interrupt.
+    pub(crate) fn interrupted(why: solve::Interrupt) -> Self {
+        match why {
+            solve::Interrupt::TimeLimit => Self::TimeLimit,
+            solve::Interrupt::Observer => Self::Stopped,
+        }
+    }
+}
+
+impl solve::Status for GaussNewtonStatus {
+    fn termination(&self) -> solve::Termination {
+        use solve::Termination as T;
+        match self {
+            Self::ConvergedGradient | Self::ConvergedStep | Self::ConvergedCost => T::Converged,
+            Self::MaxIterations => T::MaxIterations,
+            Self::MaxEvaluations => T::MaxEvaluations,
+            Self::TimeLimit => T::TimeLimit,
+            Self::Stopped => T::Stopped,
+            Self::Stalled | Self::NumericalError => T::Failed,
+        }
+    }
 }
 
 impl GaussNewtonStatus {

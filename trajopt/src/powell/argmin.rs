@@ -132,6 +132,9 @@ where
                 "maximum number of cost evaluations".into(),
             )),
             Some(PowellStatus::ReachedStopCost) => TerminationStatus::Terminated(TerminationReason::TargetCostReached),
+            // not made by the engine (argmin's executor has its own timeout and observers)
+            Some(PowellStatus::TimeLimit) => TerminationStatus::Terminated(TerminationReason::Timeout),
+            Some(PowellStatus::Stopped) => TerminationStatus::Terminated(TerminationReason::Interrupt),
             None => TerminationStatus::NotTerminated,
         }
     }

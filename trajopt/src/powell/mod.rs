@@ -273,6 +273,7 @@
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
+#[cfg(feature = "argmin")]
 mod argmin;
 mod engine;
 mod line_search;
@@ -282,7 +283,12 @@ use std::time::{Duration, Instant};
 
 use crate::error::{Result, TrajoptError, check_nonnegative};
 use engine::Engine;
+use solve::{Interrupt, Termination, Watch};
 
+/// The solver's name in [`solve::Progress`].
+const NAME: &str = "powell";
+
+#[cfg(feature = "argmin")]
 pub use argmin::PowellArgmin;
 use separable::TermCache;
 pub use separable::{BandTerms, SeparableObjective};
@@ -441,6 +447,11 @@ pub enum PowellStatus {
     MaxIterations,
     /// The `max_cost_evals` budget of cost evaluations was used up.
     MaxEvaluations,
+    /// The [`Watch`]'s time limit passed (checked before every evaluation
+    /// when a limit is set).
+    TimeLimit,
+    /// An observer of the [`Watch`] stopped the solve (after an iteration).
+    Stopped,
     /// An evaluation reached `stop_cost`; `cost_evals` counts the
     /// evaluations up to that one.
     ReachedStopCost,
@@ -451,6 +462,32 @@ impl PowellStatus {
     pub fn is_converged(self) -> bool {
         matches!(self, Self::ConvergedCost | Self::ConvergedStep)
     }
+
+    fn interrupted(why: Interrupt) -> Self {
+        match why {
+            Interrupt::TimeLimit => Self::TimeLimit,
+            Interrupt::Observer => Self::Stopped,
+        }
+    }
+}
+
+impl solve::Status for PowellStatus {
+    fn termination(&self) -> Termination {
+        match self {
+            Self::ConvergedCost | Self::ConvergedStep => Termination::Converged,
+            Self::MaxIterations => Termination::MaxIterations,
+            Self::MaxEvaluations => Termination::MaxEvaluations,
+            Self::TimeLimit => Termination::TimeLimit,
+            Self::Stopped => Termination::Stopped,
+            Self::ReachedStopCost => Termination::TargetReached,
+        }
+    }
+}
+
+/// Why an evaluation inside an iteration did not return a cost.
+enum Halt {
+    Error(TrajoptError),
+    Interrupt(Interrupt),
 }
 
 /// The outcome of [`Powell::solve`].
@@ -518,8 +555,34 @@ impl Powell {
     /// start ([`TrajoptError::NonFiniteStart`]), or an `Err` returned by `f`.
     /// Not converging is a [`PowellStatus`], not an error.
     pub fn solve(&self, f: &impl Objective, x0: &[f64]) -> Result<PowellResult> {
+        self.solve_watched(f, x0, &mut Watch::new())
+    }
+
+    /// [`solve`](Self::solve) under a [`Watch`]: its observers see every
+    /// iteration (one sweep over the direction set) and may stop the
+    /// solve ([`PowellStatus::Stopped`]); its time limit is checked before
+    /// every cost evaluation ([`PowellStatus::TimeLimit`]: a sweep on many
+    /// coordinates can be long). Either way the result holds the best
+    /// point so far.
+    ///
+    /// ```
+    /// use std::time::Duration;
+    /// use solve::Watch;
+    /// use trajopt::powell::{Powell, PowellSettings, PowellStatus};
+    ///
+    /// let f = |x: &[f64]| -> trajopt::Result<f64> { Ok(x.iter().map(|v| (v - 1.0).powi(4)).sum()) };
+    /// // a limit already passed: the start only
+    /// let mut watch = Watch::new().with_time_limit(Duration::ZERO);
+    /// let r = Powell::new(PowellSettings::default())?.solve_watched(&f, &[0.0; 10], &mut watch)?;
+    /// assert_eq!((r.status, r.cost_evals, r.cost), (PowellStatus::TimeLimit, 1, 10.0));
+    /// # Ok::<(), trajopt::TrajoptError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve).
+    pub fn solve_watched(&self, f: &impl Objective, x0: &[f64], watch: &mut Watch<'_>) -> Result<PowellResult> {
         let mut eval = |x: &Vec<f64>| f.cost(x);
-        let mut result = self.run(x0, &mut eval)?;
+        let mut result = self.run(x0, &mut eval, watch)?;
         result.full_eval_equivalents = result.cost_evals as f64;
         Ok(result)
     }
@@ -539,22 +602,49 @@ impl Powell {
     pub fn solve_separable(&self, f: &impl SeparableObjective, x0: &[f64]) -> Result<PowellResult> {
         let mut cache = TermCache::new(f.n_terms());
         let mut eval = |x: &Vec<f64>| cache.eval(f, x);
-        let mut result = self.run(x0, &mut eval)?;
+        let mut result = self.run(x0, &mut eval, &mut Watch::new())?;
         result.full_eval_equivalents = cache.work;
         Ok(result)
     }
 
-    fn run(&self, x0: &[f64], eval: &mut impl FnMut(&Vec<f64>) -> Result<f64>) -> Result<PowellResult> {
+    fn run(
+        &self,
+        x0: &[f64],
+        eval: &mut impl FnMut(&Vec<f64>) -> Result<f64>,
+        watch: &mut Watch<'_>,
+    ) -> Result<PowellResult> {
         let start = Instant::now();
         let mut engine = Engine::start(&self.settings, x0, eval)?;
         let initial_cost = engine.fx;
         let mut cost_history = Vec::new();
+        let timed = watch.time_limit().is_some();
         let status = loop {
-            // every call runs one iteration until one returns a status
-            let status = engine.iterate(eval)?;
+            // every call runs one iteration until one returns a status;
+            // with a time limit, every evaluation first checks the clock
+            let step = if timed {
+                let mut checked = |x: &Vec<f64>| match watch.out_of_time() {
+                    Some(why) => Err(Halt::Interrupt(why)),
+                    None => eval(x).map_err(Halt::Error),
+                };
+                engine.iterate(&mut checked)
+            } else {
+                engine.iterate(&mut |x: &Vec<f64>| eval(x).map_err(Halt::Error))
+            };
+            let status = match step {
+                Ok(status) => status,
+                Err(Halt::Error(e)) => return Err(e),
+                Err(Halt::Interrupt(why)) => {
+                    // the engine counts an evaluation before making it
+                    engine.evals -= 1;
+                    break PowellStatus::interrupted(why);
+                }
+            };
             cost_history.push(engine.fx);
             if let Some(status) = status {
                 break status;
+            }
+            if let Some(why) = watch.iteration(NAME, engine.iters, engine.evals, engine.fx, &engine.x) {
+                break PowellStatus::interrupted(why);
             }
         };
         Ok(PowellResult {

@@ -431,6 +431,7 @@ impl Objective for MghProblem {
 }
 
 /// The cost $f(x)$ for argmin's solvers.
+#[cfg(feature = "argmin")]
 impl argmin::core::CostFunction for MghProblem {
     type Param = Vec<f64>;
     type Output = f64;
@@ -441,6 +442,7 @@ impl argmin::core::CostFunction for MghProblem {
 }
 
 /// The gradient $2 J^\top f$ for argmin's solvers.
+#[cfg(feature = "argmin")]
 impl argmin::core::Gradient for MghProblem {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;

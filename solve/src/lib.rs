@@ -1,0 +1,379 @@
+#![doc = include_str!("../README.md")]
+
+use std::fmt;
+use std::time::{Duration, Instant};
+
+/// One iteration as a solver reports it to its observers.
+#[derive(Debug, Clone, Copy)]
+pub struct Progress<'a> {
+    /// The solver's name (`"gauss-newton"`, `"powell"`, `"ddp"`, ...).
+    pub solver: &'static str,
+    /// Iterations completed (1 after the first).
+    pub iteration: usize,
+    /// Evaluations of the objective (cost, residuals or rollouts) so far.
+    pub evaluations: usize,
+    /// The best cost so far.
+    pub cost: f64,
+    /// The best point so far (the parameters; DDP's controls).
+    pub x: &'a [f64],
+    /// Time since the watch started.
+    pub elapsed: Duration,
+}
+
+/// An observer's answer: go on, or stop the solve after this iteration.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Control {
+    /// Go on.
+    Continue,
+    /// Stop: the solver returns its best point with a `Stopped` status.
+    Stop,
+}
+
+/// Sees every iteration of a watched solve and may stop it.
+///
+/// Closures `FnMut(&Progress) -> Control` are observers.
+pub trait Observer {
+    /// Called after each iteration, on the solver's thread.
+    fn observe(&mut self, progress: &Progress<'_>) -> Control;
+}
+
+impl<F: FnMut(&Progress<'_>) -> Control> Observer for F {
+    fn observe(&mut self, progress: &Progress<'_>) -> Control {
+        self(progress)
+    }
+}
+
+/// Why a [`Watch`] interrupted a solve.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+pub enum Interrupt {
+    /// The wall-time limit passed.
+    TimeLimit,
+    /// An observer returned [`Control::Stop`].
+    Observer,
+}
+
+/// The run control of one solve: a wall-time limit and observers.
+///
+/// The clock starts when the watch is made, so a limit is a deadline for
+/// everything done after that (a replan's set-up included). A watch with
+/// neither limit nor observers ([`Watch::new`]) never interrupts; the
+/// solvers' plain entry points use one.
+pub struct Watch<'a> {
+    start: Instant,
+    time_limit: Option<Duration>,
+    observers: Vec<&'a mut dyn Observer>,
+}
+
+impl fmt::Debug for Watch<'_> {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.debug_struct("Watch")
+            .field("time_limit", &self.time_limit)
+            .field("observers", &self.observers.len())
+            .finish()
+    }
+}
+
+impl Default for Watch<'_> {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl<'a> Watch<'a> {
+    /// A watch started now, without limit or observers.
+    pub fn new() -> Self {
+        Self {
+            start: Instant::now(),
+            time_limit: None,
+            observers: Vec::new(),
+        }
+    }
+
+    /// With a wall-time limit, counted from the watch's start.
+    pub fn with_time_limit(mut self, limit: Duration) -> Self {
+        self.time_limit = Some(limit);
+        self
+    }
+
+    /// With one more observer (called in the order added; the first
+    /// [`Control::Stop`] stops the solve, and later observers do not see
+    /// that iteration).
+    pub fn with_observer(mut self, observer: &'a mut dyn Observer) -> Self {
+        self.observers.push(observer);
+        self
+    }
+
+    /// The wall-time limit, if any.
+    pub fn time_limit(&self) -> Option<Duration> {
+        self.time_limit
+    }
+
+    /// Time since the watch started.
+    pub fn elapsed(&self) -> Duration {
+        self.start.elapsed()
+    }
+
+    /// Whether anything can interrupt (a limit or an observer): solvers
+    /// skip building their [`Progress`] when nothing can.
+    pub fn is_active(&self) -> bool {
+        self.time_limit.is_some() || !self.observers.is_empty()
+    }
+
+    /// [`Interrupt::TimeLimit`] once the limit has passed; a solver polls
+    /// this inside long iterations (between trial steps, line-search
+    /// points, rollouts).
+    #[inline]
+    pub fn out_of_time(&self) -> Option<Interrupt> {
+        match self.time_limit {
+            Some(limit) => self.past(limit),
+            None => None,
+        }
+    }
+
+    /// The clock read, out of line so that the solvers' loops stay as
+    /// small as without a watch.
+    #[cold]
+    #[inline(never)]
+    fn past(&self, limit: Duration) -> Option<Interrupt> {
+        (self.elapsed() >= limit).then_some(Interrupt::TimeLimit)
+    }
+
+    /// Reports a completed iteration to the observers, then checks the
+    /// time limit; returns why the solve must stop, if it must.
+    #[inline]
+    pub fn iteration(
+        &mut self,
+        solver: &'static str,
+        iteration: usize,
+        evaluations: usize,
+        cost: f64,
+        x: &[f64],
+    ) -> Option<Interrupt> {
+        if !self.is_active() {
+            return None;
+        }
+        self.report(solver, iteration, evaluations, cost, x)
+    }
+
+    /// [`iteration`](Self::iteration)'s work when something can interrupt.
+    #[cold]
+    #[inline(never)]
+    fn report(
+        &mut self,
+        solver: &'static str,
+        iteration: usize,
+        evaluations: usize,
+        cost: f64,
+        x: &[f64],
+    ) -> Option<Interrupt> {
+        let progress = Progress {
+            solver,
+            iteration,
+            evaluations,
+            cost,
+            x,
+            elapsed: self.elapsed(),
+        };
+        for observer in &mut self.observers {
+            if observer.observe(&progress) == Control::Stop {
+                return Some(Interrupt::Observer);
+            }
+        }
+        self.out_of_time()
+    }
+}
+
+/// One recorded iteration of a [`Trace`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct TraceRecord {
+    /// As [`Progress::iteration`].
+    pub iteration: usize,
+    /// As [`Progress::evaluations`].
+    pub evaluations: usize,
+    /// As [`Progress::cost`].
+    pub cost: f64,
+    /// As [`Progress::elapsed`].
+    pub elapsed: Duration,
+    /// The point, when the trace keeps points ([`Trace::with_points`]).
+    pub x: Option<Vec<f64>>,
+}
+
+/// An observer recording every iteration (never stops the solve).
+#[derive(Debug, Clone, Default)]
+pub struct Trace {
+    /// The iterations seen, in order.
+    pub records: Vec<TraceRecord>,
+    keep_points: bool,
+}
+
+impl Trace {
+    /// A trace of costs and counts only.
+    pub fn new() -> Self {
+        Self::default()
+    }
+
+    /// A trace that also copies each iteration's point.
+    pub fn with_points() -> Self {
+        Self {
+            records: Vec::new(),
+            keep_points: true,
+        }
+    }
+}
+
+impl Observer for Trace {
+    fn observe(&mut self, progress: &Progress<'_>) -> Control {
+        self.records.push(TraceRecord {
+            iteration: progress.iteration,
+            evaluations: progress.evaluations,
+            cost: progress.cost,
+            elapsed: progress.elapsed,
+            x: self.keep_points.then(|| progress.x.to_vec()),
+        });
+        Control::Continue
+    }
+}
+
+/// Why a solver stopped, in the one vocabulary all the workspace's solvers
+/// share (each solver's own status says more; [`Status::termination`]
+/// maps it here).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[non_exhaustive]
+pub enum Termination {
+    /// A convergence test passed: the point is a (local) optimum to the
+    /// solver's tolerances.
+    Converged,
+    /// A target cost given by the caller was reached (not a convergence
+    /// test: the optimum may lie lower).
+    TargetReached,
+    /// The iteration budget was used up.
+    MaxIterations,
+    /// The evaluation budget was used up.
+    MaxEvaluations,
+    /// The wall-time limit of the [`Watch`] passed.
+    TimeLimit,
+    /// An [`Observer`] stopped the solve.
+    Stopped,
+    /// The solver could not go on (a numerical failure, a diverged rollout,
+    /// no descent): the point is not an optimum.
+    Failed,
+}
+
+impl Termination {
+    /// The termination a watch's interrupt stands for.
+    pub fn from_interrupt(interrupt: Interrupt) -> Self {
+        match interrupt {
+            Interrupt::TimeLimit => Self::TimeLimit,
+            Interrupt::Observer => Self::Stopped,
+        }
+    }
+
+    /// Whether a convergence test passed.
+    pub fn is_converged(self) -> bool {
+        self == Self::Converged
+    }
+
+    /// Whether a budget (iterations, evaluations, wall time) stopped the
+    /// solve.
+    pub fn is_budget(self) -> bool {
+        matches!(self, Self::MaxIterations | Self::MaxEvaluations | Self::TimeLimit)
+    }
+}
+
+impl fmt::Display for Termination {
+    fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
+        f.write_str(match self {
+            Self::Converged => "converged",
+            Self::TargetReached => "target reached",
+            Self::MaxIterations => "iteration budget",
+            Self::MaxEvaluations => "evaluation budget",
+            Self::TimeLimit => "time limit",
+            Self::Stopped => "stopped by an observer",
+            Self::Failed => "failed",
+        })
+    }
+}
+
+/// A solver's status, classified.
+pub trait Status {
+    /// The status in the shared vocabulary.
+    fn termination(&self) -> Termination;
+}
+
+impl Status for Termination {
+    fn termination(&self) -> Termination {
+        *self
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn an_idle_watch_never_interrupts_and_builds_no_progress() {
+        let mut watch = Watch::new();
+        assert!(!watch.is_active());
+        for it in 0..1000 {
+            assert_eq!(watch.iteration("t", it, it, 1.0, &[0.0]), None);
+        }
+        assert_eq!(watch.out_of_time(), None);
+    }
+
+    #[test]
+    fn a_passed_limit_interrupts_and_an_unpassed_one_does_not() {
+        let mut late = Watch::new().with_time_limit(Duration::ZERO);
+        assert_eq!(late.out_of_time(), Some(Interrupt::TimeLimit));
+        assert_eq!(late.iteration("t", 1, 1, 0.0, &[]), Some(Interrupt::TimeLimit));
+        let mut early = Watch::new().with_time_limit(Duration::from_secs(3600));
+        assert_eq!(early.iteration("t", 1, 1, 0.0, &[]), None);
+    }
+
+    #[test]
+    fn the_first_stopping_observer_wins_and_later_ones_do_not_see_it() {
+        let mut seen_first = 0;
+        let mut first = |p: &Progress<'_>| {
+            seen_first += 1;
+            if p.iteration == 3 {
+                Control::Stop
+            } else {
+                Control::Continue
+            }
+        };
+        let mut second = Trace::with_points();
+        {
+            let mut watch = Watch::new().with_observer(&mut first).with_observer(&mut second);
+            for it in 1..=5 {
+                let x = [it as f64];
+                if let Some(why) = watch.iteration("t", it, 2 * it, 1.0 / it as f64, &x) {
+                    assert_eq!(why, Interrupt::Observer);
+                    assert_eq!(it, 3);
+                    break;
+                }
+            }
+        }
+        assert_eq!(seen_first, 3);
+        assert_eq!(second.records.len(), 2);
+        assert_eq!(second.records[1].evaluations, 4);
+        assert_eq!(second.records[1].x.as_deref(), Some(&[2.0][..]));
+    }
+
+    #[test]
+    fn terminations_classify() {
+        assert!(Termination::Converged.is_converged());
+        assert!(!Termination::TargetReached.is_converged());
+        for t in [
+            Termination::MaxIterations,
+            Termination::MaxEvaluations,
+            Termination::TimeLimit,
+        ] {
+            assert!(t.is_budget());
+        }
+        assert!(!Termination::Stopped.is_budget());
+        assert_eq!(Termination::from_interrupt(Interrupt::Observer), Termination::Stopped);
+        assert_eq!(
+            Termination::from_interrupt(Interrupt::TimeLimit).to_string(),
+            "time limit"
+        );
+    }
+}
