@@ -104,7 +104,11 @@ pub struct DirLock {
 }
 
 /// Creates `dir` if needed and takes the exclusive lock on its file `name`
-/// (e.g. [`LOCK_FILE`]), without waiting.
+/// (e.g. [`LOCK_FILE`]), waiting at most [`LOCK_PATIENCE`]: a lock is
+/// shared with a child process between its fork and its exec, so a lock
+/// just released by a process that is starting another program can stay
+/// held for a moment (seen under load, with one test's grid resuming while
+/// another test spawned the program).
 ///
 /// # Errors
 /// Another process holds the lock (the error names the directory and the
@@ -118,14 +122,29 @@ pub fn lock_dir(dir: &Path, name: &str) -> crate::Result<DirLock> {
         .write(true)
         .open(&path)
         .map_err(|e| crate::Error::io("opening the lock file", &path, e))?;
-    match file.try_lock() {
-        Ok(()) => Ok(DirLock { _file: file }),
-        Err(std::fs::TryLockError::WouldBlock) => Err(crate::Error::Refused(format!(
+    let waited = std::time::Instant::now();
+    loop {
+        match file.try_lock() {
+            Ok(()) => return Ok(DirLock { _file: file }),
+            Err(std::fs::TryLockError::WouldBlock) if waited.elapsed() < LOCK_PATIENCE => {
+                std::thread::sleep(std::time::Duration::from_millis(50));
+            }
+            Err(e) => return Err(lock_error(dir, &path, e)),
+        }
+    }
+}
+
+/// How long [`lock_dir`] waits for a held lock before it refuses.
+pub const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_secs(2);
+
+fn lock_error(dir: &Path, path: &Path, e: std::fs::TryLockError) -> crate::Error {
+    match e {
+        std::fs::TryLockError::WouldBlock => crate::Error::Refused(format!(
             "another swingup program is working in {} (it holds {}); wait for it to finish, or choose another --out",
             dir.display(),
             path.display()
-        ))),
-        Err(std::fs::TryLockError::Error(e)) => Err(crate::Error::io("locking", &path, e)),
+        )),
+        std::fs::TryLockError::Error(e) => crate::Error::io("locking", path, e),
     }
 }
 
