@@ -11,12 +11,13 @@
 //! sideways move it cannot make directly, so the plan has to manoeuvre.
 //! The cost is quadratic, 1/2 (x - goal)^T Q (x - goal) + 1/2 u^T R u per
 //! step and a heavier terminal term; the dynamics give their Jacobians
-//! analytically (leave `derivatives` out and `ddp` takes central
+//! analytically (leave `jacobians` out and `ddp` takes central
 //! differences instead). Copy this file to start a problem of your own.
 //!
 //! `cargo run --release -p nprl-ddp --example unicycle_parking`
 
-use ddp::{Cost, CostDerivatives, Ddp, DdpError, DdpProblem, DdpSettings, Dynamics};
+use ddp::ModelResult;
+use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, Dynamics};
 
 const DT: f64 = 0.1;
 const GOAL: [f64; 3] = [0.0, 1.0, 0.0];
@@ -33,7 +34,7 @@ impl Dynamics for Unicycle {
         2
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<(), DdpError> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let (s, c) = x[2].sin_cos();
         next[0] = x[0] + DT * u[0] * c;
         next[1] = x[1] + DT * u[0] * s;
@@ -41,13 +42,13 @@ impl Dynamics for Unicycle {
         Ok(())
     }
 
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<(), DdpError> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (s, c) = x[2].sin_cos();
         // fx: 3 x 3, row-major
         fx.copy_from_slice(&[1.0, 0.0, -DT * u[0] * s, 0.0, 1.0, DT * u[0] * c, 0.0, 0.0, 1.0]);
         // fu: 3 x 2, row-major
         fu.copy_from_slice(&[DT * c, 0.0, DT * s, 0.0, 0.0, DT]);
-        Ok(())
+        Ok(true)
     }
 }
 

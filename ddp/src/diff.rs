@@ -1,5 +1,6 @@
-//! Central differences: the default [`Dynamics::derivatives`](crate::Dynamics::derivatives)
-//! and, with the `proptest` feature, `strategies::check_jacobian`.
+//! Central differences for `strategies::check_jacobian` (the proptest feature)
+//! and the shooting gradient checks; the models' own differences are
+//! `systems::central_differences`, with the same step.
 
 use crate::error::Result;
 

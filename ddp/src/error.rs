@@ -36,9 +36,16 @@ pub enum DdpError {
         reason: String,
     },
     /// A user-supplied model failed ([`Dynamics::step`](crate::Dynamics::step)
-    /// or [`Dynamics::derivatives`](crate::Dynamics::derivatives) returned it).
+    /// or [`Dynamics::jacobians`](crate::Dynamics::jacobians) returned it).
     #[error("the model failed: {0}")]
     Model(String),
+}
+
+/// A model's error is [`DdpError::Model`].
+impl From<systems::ModelError> for DdpError {
+    fn from(e: systems::ModelError) -> Self {
+        Self::Model(e.0)
+    }
 }
 
 /// The crate's result type.

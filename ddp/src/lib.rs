@@ -9,6 +9,7 @@ pub mod models;
 pub mod nalgebra_convert;
 pub mod problem;
 pub mod problems;
+mod residual;
 mod shooting;
 pub mod solver;
 #[cfg(feature = "proptest")]
@@ -20,5 +21,7 @@ pub use faer;
 
 pub use error::{DdpError, Result};
 pub use models::{Acrobot, CartPole, LinearDynamics, Pendulum, QuadraticCost};
-pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics, SecondDerivatives};
+pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
+pub use residual::ResidualCost;
 pub use solver::{Ddp, DdpMethod, DdpResult, DdpSettings, DdpStatus, Regularization};
+pub use systems::{ModelError, ModelResult, StageCost};

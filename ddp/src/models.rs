@@ -4,7 +4,6 @@
 //! `IntegratedActionModelEuler`).
 
 use faer::Mat;
-use systems::Mechanics;
 
 /// The benchmark systems of `nprl-systems` (the very types `trajopt`'s
 /// Eq. 3 swing-ups step), here as [`Dynamics`]: a torque-driven
@@ -15,7 +14,8 @@ use systems::Mechanics;
 pub use systems::{Acrobot, CartPole, Pendulum, SwingUpModel};
 
 use crate::error::{DdpError, Result, check_finite, check_len};
-use crate::problem::{Cost, CostDerivatives, Dynamics, SecondDerivatives};
+use crate::problem::{Cost, CostDerivatives, Dynamics};
+use systems::ModelResult;
 
 fn to_row_major(what: &'static str, a: &Mat<f64>) -> Result<Vec<f64>> {
     let v: Vec<f64> = (0..a.nrows())
@@ -77,7 +77,7 @@ impl Dynamics for LinearDynamics {
     fn control_dim(&self) -> usize {
         self.m
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         for (i, out) in next.iter_mut().enumerate() {
             let ax: f64 = self.a[i * self.n..(i + 1) * self.n]
                 .iter()
@@ -93,13 +93,14 @@ impl Dynamics for LinearDynamics {
         }
         Ok(())
     }
-    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+    fn jacobians(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         fx.copy_from_slice(&self.a);
         fu.copy_from_slice(&self.b);
-        Ok(())
+        Ok(true)
     }
-    fn second_derivatives(&self, _: &[f64], _: &[f64], _: &[f64], _: SecondDerivatives<'_>) -> bool {
-        true // all zero
+    fn weighted_hessian(&self, _: &[f64], _: &[f64], _: &[f64], hess: &mut [f64]) -> ModelResult<bool> {
+        hess.fill(0.0); // linear
+        Ok(true)
     }
 }
 
@@ -285,60 +286,9 @@ impl Cost for QuadraticCost {
     }
 }
 
-/// The pendulum inside a model, whose step has second derivatives.
-trait SecondOrder {
-    fn pendulum(&self) -> Option<&Pendulum> {
-        None
-    }
-}
-
-impl SecondOrder for Pendulum {
-    fn pendulum(&self) -> Option<&Pendulum> {
-        Some(self)
-    }
-}
-
-impl SecondOrder for CartPole {}
-
-impl SecondOrder for Acrobot {}
-
-impl SecondOrder for SwingUpModel {
-    fn pendulum(&self) -> Option<&Pendulum> {
-        match self {
-            SwingUpModel::Pendulum(p) => Some(p),
-            SwingUpModel::CartPole(_) | SwingUpModel::Acrobot(_) => None,
-        }
-    }
-}
-
-macro_rules! euler_dynamics {
-    ($($t:ty),*) => {$(
-        /// Semi-implicit Euler ([`Mechanics::euler_step`]) with its analytic
-        /// Jacobians ([`Mechanics::euler_jacobians`]); second derivatives
-        /// ([`Pendulum::euler_curvature`]) for the pendulum only.
-        impl Dynamics for $t {
-            fn state_dim(&self) -> usize {
-                self.n_x()
-            }
-            fn control_dim(&self) -> usize {
-                self.n_u()
-            }
-            fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-                self.euler_step(x, u, next);
-                Ok(())
-            }
-            fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-                self.euler_jacobians(x, u, fx, fu);
-                Ok(())
-            }
-            fn second_derivatives(&self, x: &[f64], _u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
-                self.pendulum().map(|p| out.fxx[0] = p.euler_curvature(x, v)).is_some()
-            }
-        }
-    )*};
-}
-
-euler_dynamics!(Pendulum, CartPole, Acrobot, SwingUpModel);
+// The swing-up systems implement the one model contract, `systems::Dynamics`,
+// themselves (semi-implicit Euler, exact Jacobians, the torque pendulum's
+// second derivatives).
 
 #[cfg(test)]
 mod tests {

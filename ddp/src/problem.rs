@@ -1,118 +1,14 @@
-//! The problem: dynamics and cost traits, horizon, initial state, warm start
-//! and control limits.
+//! The problem: the dynamics (the workspace's one model contract,
+//! [`systems::Dynamics`]), the cost trait, horizon, initial state, warm
+//! start and control limits.
 //!
 //! Matrices cross these traits as row-major slices: entry $(i, j)$ of an
 //! $r \times c$ matrix is `a[i * c + j]`. The solver owns every buffer and
 //! zeroes it before each call, so an implementation only writes its nonzeros.
 
+pub use systems::Dynamics;
+
 use crate::error::{DdpError, Result, check_finite, check_len};
-
-/// Discrete-time dynamics $x_{k+1} = f(x_k, u_k)$ with $x \in \mathbb{R}^n$,
-/// $u \in \mathbb{R}^m$: the counterpart of `trajopt`'s `Model` (same
-/// method signatures for `state_dim`, `control_dim` and `step`, and
-/// Jacobians by central differences unless the model writes them).
-///
-/// DDP needs the first derivatives $f_x$ ($n \times n$) and $f_u$
-/// ($n \times m$): analytic ones from [`Dynamics::derivatives`], or by
-/// default central differences of [`Dynamics::step`]. If
-/// [`Dynamics::second_derivatives`] is implemented (it returns `true`) and
-/// [`DdpSettings::method`](crate::DdpSettings::method) is
-/// [`DdpMethod::Ddp`](crate::DdpMethod::Ddp), the solver is full DDP,
-/// adding the tensor terms $V_x' \cdot f_{xx}$, $V_x' \cdot f_{ux}$,
-/// $V_x' \cdot f_{uu}$ to the $Q$-function; otherwise it is iLQR (Li and
-/// Todorov, 2004).
-///
-/// Non-finite output is allowed (a learned model far from its data may
-/// return anything): the solver treats it as a blown-up rollout. A step
-/// that returns an error is a blown-up trial rollout in the line search,
-/// and an `Err` of [`Ddp::solve`](crate::Ddp::solve) in the warm start's
-/// rollout (where there is nothing to fall back on).
-pub trait Dynamics {
-    /// State dimension $n$.
-    fn state_dim(&self) -> usize;
-
-    /// Control dimension $m$.
-    fn control_dim(&self) -> usize;
-
-    /// Writes $f(x, u)$ into `next` (length $n$).
-    ///
-    /// # Errors
-    /// Whatever the model reports, typically [`DdpError::Model`].
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()>;
-
-    /// Writes the Jacobians $f_x = \partial f / \partial x$ ($n \times n$,
-    /// row-major) and $f_u = \partial f / \partial u$ ($n \times m$).
-    ///
-    /// The default takes central differences of [`step`](Self::step),
-    /// $(f(z + h e_j) - f(z - h e_j)) / 2h$ over $z = (x, u)$ with
-    /// $h = \epsilon^{1/3} \max(1, \lvert z_j \rvert)$ (as `trajopt`'s
-    /// `Model` does): $2(n + m)$ steps and a few small allocations per call,
-    /// accurate to about $10^{-10}$ relative for smooth dynamics. Write the
-    /// analytic Jacobians where they are cheap.
-    ///
-    /// # Errors
-    /// A failed step (the solver then reports
-    /// [`DdpStatus::NonFiniteDerivatives`](crate::DdpStatus::NonFiniteDerivatives)).
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        let (n, m) = (x.len(), u.len());
-        let z: Vec<f64> = x.iter().chain(u).copied().collect();
-        let mut jac = vec![0.0; n * (n + m)];
-        let mut scratch = vec![0.0; n + m + 2 * n];
-        crate::diff::central_jacobian(|z, out| self.step(&z[..n], &z[n..], out), &z, n, &mut jac, &mut scratch)?;
-        for (i, row) in jac.chunks_exact(n + m).enumerate() {
-            fx[i * n..(i + 1) * n].copy_from_slice(&row[..n]);
-            fu[i * m..(i + 1) * m].copy_from_slice(&row[n..]);
-        }
-        Ok(())
-    }
-
-    /// Second derivatives contracted with a vector $v \in \mathbb{R}^n$,
-    /// written into `out` ([`SecondDerivatives`]), returning `true`. The
-    /// default returns `false` (no second derivatives: the solver is iLQR).
-    fn second_derivatives(&self, x: &[f64], u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
-        let _ = (x, u, v, out);
-        false
-    }
-}
-
-/// Where [`Dynamics::second_derivatives`] writes, row-major and zeroed by
-/// the solver (write only the nonzeros): $\sum_i v_i \, \partial^2 f_i / \partial x^2$
-/// into `fxx` ($n \times n$), $\sum_i v_i \, \partial^2 f_i / \partial u \partial x$
-/// into `fux` ($m \times n$) and $\sum_i v_i \, \partial^2 f_i / \partial u^2$
-/// into `fuu` ($m \times m$).
-#[derive(Debug)]
-pub struct SecondDerivatives<'a> {
-    /// $\sum_i v_i \, \partial^2 f_i / \partial x^2$, $n \times n$.
-    pub fxx: &'a mut [f64],
-    /// $\sum_i v_i \, \partial^2 f_i / \partial u \partial x$, $m \times n$.
-    pub fux: &'a mut [f64],
-    /// $\sum_i v_i \, \partial^2 f_i / \partial u^2$, $m \times m$.
-    pub fuu: &'a mut [f64],
-}
-
-/// A reference to dynamics is dynamics, so that one model can serve several
-/// problems (as `trajopt`'s `Model` for `&M`).
-impl<D: Dynamics + ?Sized> Dynamics for &D {
-    fn state_dim(&self) -> usize {
-        (**self).state_dim()
-    }
-
-    fn control_dim(&self) -> usize {
-        (**self).control_dim()
-    }
-
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
-        (**self).step(x, u, next)
-    }
-
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
-        (**self).derivatives(x, u, fx, fu)
-    }
-
-    fn second_derivatives(&self, x: &[f64], u: &[f64], v: &[f64], out: SecondDerivatives<'_>) -> bool {
-        (**self).second_derivatives(x, u, v, out)
-    }
-}
 
 /// First and second derivatives of a running cost $\ell(x, u, k)$ at one
 /// knot, filled by [`Cost::running_derivatives`] (row-major matrices).

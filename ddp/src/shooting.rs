@@ -54,7 +54,7 @@ impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
     /// by the adjoint recursion $p_N = \nabla \ell_f(x_N)$,
     /// $\nabla_{u_k} J = \ell_u + f_u^\top p_{k+1}$,
     /// $p_k = \ell_x + f_x^\top p_{k+1}$, with the
-    /// dynamics' Jacobians from [`Dynamics::derivatives`].
+    /// dynamics' Jacobians from [`Dynamics::jacobians`].
     ///
     /// # Errors
     /// A wrong length, a non-finite control, a failed step or derivative,
@@ -77,7 +77,7 @@ impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
             fx.fill(0.0);
             fu.fill(0.0);
             d.clear();
-            self.dynamics().derivatives(&states[k], us[k], &mut fx, &mut fu)?;
+            systems::jacobians_or_differences(self.dynamics(), &states[k], us[k], &mut fx, &mut fu)?;
             self.cost().running_derivatives(k, &states[k], us[k], &mut d);
             for j in 0..m {
                 grad[k * m + j] = d.lu[j] + (0..n).map(|i| fu[i * m + j] * p[i]).sum::<f64>();

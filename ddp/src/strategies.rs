@@ -190,7 +190,7 @@ pub struct JacobianCheck {
 /// $f: \mathbb{R}^p \to \mathbb{R}^q$ at `z` with central differences
 /// $(f(z + h e_j) - f(z - h e_j)) / 2h$,
 /// $h = \epsilon^{1/3} \max(1, \lvert z_j \rvert)$ (the step of the
-/// default [`Dynamics::derivatives`]), and returns the worst entry. For
+/// central differences of [`systems::central_differences`]), and returns the worst entry. For
 /// smooth $f$ of unit scale the differences are accurate to about
 /// $10^{-10}$, so a correct Jacobian gives `max_rel_error` below $10^{-6}$
 /// and a wrong entry typically above $10^{-3}$.
@@ -253,7 +253,7 @@ pub fn check_jacobian(mut f: impl FnMut(&[f64]) -> Vec<f64>, z: &[f64], analytic
 }
 
 /// [`check_jacobian`] for both Jacobians of `dynamics` at $(x, u)$: returns
-/// the checks of $f_x$ and $f_u$ as written by [`Dynamics::derivatives`].
+/// the checks of $f_x$ and $f_u$ as written by [`Dynamics::jacobians`] (central differences where it writes none).
 ///
 /// # Errors
 /// Wrong-sized `x` or `u`, or a failed step or derivative of the dynamics.
@@ -262,7 +262,7 @@ pub fn check_dynamics<D: Dynamics>(dynamics: &D, x: &[f64], u: &[f64]) -> Result
     check_len("x", n, x.len())?;
     check_len("u", m, u.len())?;
     let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
-    dynamics.derivatives(x, u, &mut fx, &mut fu)?;
+    systems::jacobians_or_differences(dynamics, x, u, &mut fx, &mut fu)?;
     let step = |x: &[f64], u: &[f64]| -> Result<Vec<f64>> {
         let mut next = vec![0.0; n];
         dynamics.step(x, u, &mut next)?;

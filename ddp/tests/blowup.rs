@@ -2,8 +2,8 @@
 //! The solver reports it as a status and never returns NaNs.
 
 use ddp::{
-    Cost, CostDerivatives, Ddp, DdpError, DdpProblem, DdpResult, DdpSettings, DdpStatus, Dynamics, QuadraticCost,
-    Result,
+    Cost, CostDerivatives, Ddp, DdpError, DdpProblem, DdpResult, DdpSettings, DdpStatus, Dynamics, ModelResult,
+    QuadraticCost,
 };
 
 mod common;
@@ -26,12 +26,12 @@ impl Dynamics for Scalar {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let out = (x[0].abs() - self.radius).max(0.0);
         next[0] = self.a * x[0] + u[0] + (out * 50.0).exp() - 1.0;
         Ok(())
     }
-    fn derivatives(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+    fn jacobians(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let out = (x[0].abs() - self.radius).max(0.0);
         fx[0] = self.a
             + if out > 0.0 {
@@ -40,7 +40,7 @@ impl Dynamics for Scalar {
                 0.0
             };
         fu[0] = self.reported_fu;
-        Ok(())
+        Ok(true)
     }
 }
 
@@ -202,7 +202,7 @@ fn non_finite_derivatives_are_a_status() {
 
 /// A "learned" model that only saw zero controls: any other control sends it
 /// to infinity.
-fn only_knows_zero(x: f64, u: f64) -> Result<f64> {
+fn only_knows_zero(x: f64, u: f64) -> ModelResult<f64> {
     Ok(if u == 0.0 { x } else { f64::INFINITY })
 }
 
@@ -218,9 +218,9 @@ fn every_trial_rollout_blowing_up_is_rollout_diverged() {
 
 /// A model $x_{k+1} = x_k + u_k$ that refuses (returns an error) outside
 /// $|x| \le 1$.
-fn refuses(x: f64, u: f64) -> Result<f64> {
+fn refuses(x: f64, u: f64) -> ModelResult<f64> {
     if x.abs() > 1.0 {
-        return Err(DdpError::Model(format!("no data at x = {x}")));
+        return Err(ddp::ModelError::new(format!("no data at x = {x}")));
     }
     Ok(x + u)
 }
@@ -229,21 +229,21 @@ fn refuses(x: f64, u: f64) -> Result<f64> {
 /// Jacobians $f_x = f_u = 1$ (exact for [`refuses`] where it answers).
 struct Unit<F>(F);
 
-impl<F: Fn(f64, f64) -> Result<f64>> Dynamics for Unit<F> {
+impl<F: Fn(f64, f64) -> ModelResult<f64>> Dynamics for Unit<F> {
     fn state_dim(&self) -> usize {
         1
     }
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         next[0] = (self.0)(x[0], u[0])?;
         Ok(())
     }
-    fn derivatives(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<()> {
+    fn jacobians(&self, _x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         fx[0] = 1.0;
         fu[0] = 1.0;
-        Ok(())
+        Ok(true)
     }
 }
 
@@ -257,7 +257,7 @@ impl<D: Dynamics> Dynamics for Differenced<D> {
     fn control_dim(&self) -> usize {
         self.0.control_dim()
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.0.step(x, u, next)
     }
 }

@@ -3,29 +3,39 @@
 //! finite-difference derivatives of [`Dynamics`] equal the analytic ones.
 
 use ddp::strategies::{JacobianCheck, check_dynamics, check_jacobian};
-use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result, SecondDerivatives};
+use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, ModelResult, Pendulum, QuadraticCost, Result};
 use faer::Mat;
 use proptest::collection::vec;
 use proptest::prelude::*;
+use systems::jacobians_or_differences;
 
 fn assert_close(what: &str, check: JacobianCheck, tol: f64) -> Result<(), TestCaseError> {
     prop_assert!(check.max_rel_error <= tol, "{what}: {check:?}");
     Ok(())
 }
 
-/// Checks `derivatives` (and `second_derivatives` if provided) of `f` at `(x, u)`.
+/// Checks the Jacobians (and the weighted second derivative if provided) of `f` at `(x, u)`.
 fn check_model<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<(), TestCaseError> {
     let (n, m) = (f.state_dim(), f.control_dim());
     let (cx, cu) = check_dynamics(f, x, u).expect("sizes");
     assert_close("fx", cx, 1e-7)?;
     assert_close("fu", cu, 1e-7)?;
-    let (mut hxx, mut hux, mut huu) = (vec![0.0; n * n], vec![0.0; m * n], vec![0.0; m * m]);
-    let out = SecondDerivatives {
-        fxx: &mut hxx,
-        fux: &mut hux,
-        fuu: &mut huu,
-    };
-    if f.second_derivatives(x, u, v, out) {
+    let z = n + m;
+    let mut hzz = vec![0.0; z * z];
+    if f.weighted_hessian(x, u, v, &mut hzz).expect("second derivatives") {
+        // the blocks of the packed (n + m) x (n + m) matrix
+        let block = |rows: std::ops::Range<usize>, cols: std::ops::Range<usize>| -> Vec<f64> {
+            rows.flat_map(|i| cols.clone().map(move |j| (i, j)))
+                .map(|(i, j)| hzz[i * z + j])
+                .collect()
+        };
+        let (hxx, hux, huu) = (block(0..n, 0..n), block(n..z, 0..n), block(n..z, n..z));
+        let hxu = block(0..n, n..z);
+        for a in 0..m {
+            for j in 0..n {
+                prop_assert_eq!(hxu[j * m + a], hux[a * n + j], "symmetric");
+            }
+        }
         // d/dx (v^T f_x), d/dx (v^T f_u), d/du (v^T f_u)
         let vt = |a: &[f64], cols: usize| {
             (0..cols)
@@ -34,7 +44,7 @@ fn check_model<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<()
         };
         let vfx = |x: &[f64], u: &[f64]| -> (Vec<f64>, Vec<f64>) {
             let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
-            f.derivatives(x, u, &mut fx, &mut fu).expect("derivatives");
+            jacobians_or_differences(f, x, u, &mut fx, &mut fu).expect("derivatives");
             (vt(&fx, n), vt(&fu, m))
         };
         assert_close("fxx", check_jacobian(|z| vfx(z, u).0, x, &hxx).expect("sizes"), 1e-6)?;
@@ -54,7 +64,7 @@ impl Dynamics for DifferencedPendulum {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.0.step(x, u, next)
     }
 }
@@ -70,7 +80,7 @@ fn check_jacobian_finds_a_wrong_entry_and_rejects_wrong_sizes() {
     let p = Pendulum::default();
     let (x, u) = ([0.4, -1.0], [0.5]);
     let (mut fx, mut fu) = ([0.0; 4], [0.0; 2]);
-    p.derivatives(&x, &u, &mut fx, &mut fu).expect("derivatives");
+    assert!(p.jacobians(&x, &u, &mut fx, &mut fu).expect("derivatives"));
     let step = |z: &[f64]| {
         let mut next = vec![0.0; 2];
         p.step(z, &u, &mut next).expect("step");
@@ -122,15 +132,15 @@ proptest! {
         }
     }
 
-    /// The default `derivatives` (central differences of `step`) equal the
-    /// analytic Jacobians.
+    /// Central differences of `step` (for a model without Jacobians) equal
+    /// the analytic Jacobians.
     #[test]
     fn default_derivatives_are_central_differences(x in vec(-4.0..4.0f64, 2), u in vec(-5.0..5.0f64, 1)) {
         let p = Pendulum { damping: 0.1, dt: 0.05, ..Pendulum::default() };
         let (mut fx, mut fu) = ([0.0; 4], [0.0; 2]);
-        p.derivatives(&x, &u, &mut fx, &mut fu).expect("analytic");
+        prop_assert!(p.jacobians(&x, &u, &mut fx, &mut fu).expect("analytic"));
         let (mut dx, mut du) = ([0.0; 4], [0.0; 2]);
-        DifferencedPendulum(p).derivatives(&x, &u, &mut dx, &mut du).expect("differences");
+        prop_assert!(!jacobians_or_differences(&DifferencedPendulum(p), &x, &u, &mut dx, &mut du).expect("differences"));
         for (a, d) in fx.iter().chain(&fu).zip(dx.iter().chain(&du)) {
             prop_assert!((a - d).abs() <= 1e-8 * a.abs().max(1.0), "{fx:?} {fu:?} vs {dx:?} {du:?}");
         }

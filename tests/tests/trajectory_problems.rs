@@ -83,7 +83,7 @@ fn models_step_alike_and_pass_both_jacobian_checks() {
         let (problem, _) = instance.problem().expect("problem");
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (model, dyn_) = (problem.model(), ddp_problem.dynamics());
-        // one type (`systems::SwingUpModel`) under both crates' traits
+        // one type (`systems::SwingUpModel`) under the one model contract
         let n = Model::state_dim(model);
         assert_eq!(
             (n, Model::control_dim(model)),
@@ -104,7 +104,7 @@ fn models_step_alike_and_pass_both_jacobian_checks() {
             let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n]);
             assert!(model.jacobians(&x, &u, &mut fx, &mut fu).expect("jacobians"));
             let (mut gx, mut gu) = (vec![0.0; n * n], vec![0.0; n]);
-            dyn_.derivatives(&x, &u, &mut gx, &mut gu).expect("derivatives");
+            assert!(dyn_.jacobians(&x, &u, &mut gx, &mut gu).expect("jacobians"));
             for (p, q) in fx.iter().chain(&fu).zip(gx.iter().chain(&gu)) {
                 assert!((p - q).abs() <= 1e-12 * (1.0 + q.abs()), "{} {x:?}", instance.name());
             }

@@ -7,6 +7,7 @@
 //! one trial step; DDP's: one rollout); and the statuses map onto the one
 //! [`solve::Termination`].
 
+use ddp::ModelResult;
 use std::sync::Mutex;
 use std::time::{Duration, Instant};
 
@@ -228,12 +229,12 @@ impl<D: Dynamics> Dynamics for SlowDynamics<'_, D> {
     fn control_dim(&self) -> usize {
         self.inner.control_dim()
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ddp::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.clock.tick();
         self.inner.step(x, u, next)
     }
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ddp::Result<()> {
-        self.inner.derivatives(x, u, fx, fu)
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
+        self.inner.jacobians(x, u, fx, fu)
     }
 }
 

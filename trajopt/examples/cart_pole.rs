@@ -23,10 +23,11 @@
 //! `cargo run --release -p nprl-trajopt --example cart_pole`
 
 use std::f64::consts::PI;
+use trajopt::ModelResult;
 
 use splines::{BSplineBasis, FitSettings, fit_matrix};
 use trajopt::faer::Mat;
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, Model, StageCost, TrajoptError};
+use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, Model, StageCost};
 
 const DT: f64 = 0.05;
 
@@ -47,7 +48,7 @@ impl Model for CartPole {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<(), TrajoptError> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let (m, l, g) = (self.pole_mass, self.half_length, self.gravity);
         let total = self.cart_mass + m;
         let (s, c) = x[2].sin_cos();
@@ -77,7 +78,7 @@ impl StageCost for ToUpright {
         5
     }
 
-    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<(), TrajoptError> {
+    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         let q = if u.is_some() { self.q } else { self.q_final };
         for i in 0..4 {
             r[i] = q[i].sqrt() * x[i];
@@ -87,14 +88,7 @@ impl StageCost for ToUpright {
         Ok(())
     }
 
-    fn jacobians(
-        &self,
-        _k: usize,
-        _x: &[f64],
-        u: Option<&[f64]>,
-        jx: &mut [f64],
-        ju: &mut [f64],
-    ) -> Result<(), TrajoptError> {
+    fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         let q = if u.is_some() { self.q } else { self.q_final };
         jx.fill(0.0);
         for i in 0..4 {

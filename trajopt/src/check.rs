@@ -95,7 +95,7 @@ pub fn check_model_jacobians<M: Model + ?Sized>(model: &M, x: &[f64], u: &[f64])
     model.jacobian_structure(&mut sx, &mut su);
     let analytic = join_columns(n, (&fx, &sx, n), (&fu, &su, m));
     let z: Vec<f64> = x.iter().chain(u).copied().collect();
-    worst_difference(&z, n, &analytic, |z, next| model.step(&z[..n], &z[n..], next)).map(Some)
+    worst_difference(&z, n, &analytic, |z, next| Ok(model.step(&z[..n], &z[n..], next)?)).map(Some)
 }
 
 /// Compares a [`StageCost`]'s analytic residual Jacobians at stage `k` with
@@ -123,11 +123,13 @@ pub fn check_stage_cost_jacobians<C: StageCost + ?Sized>(
     cost.jacobian_structure(&mut sx, &mut su);
     if terminal {
         let analytic = join_columns(q, (&jx, &sx, n), (&[], &[], 0));
-        return worst_difference(x, q, &analytic, |x, r| cost.residuals(k, x, None, r));
+        return worst_difference(x, q, &analytic, |x, r| Ok(cost.residuals(k, x, None, r)?));
     }
     let analytic = join_columns(q, (&jx, &sx, n), (&ju, &su, m));
     let z: Vec<f64> = x.iter().chain(u).copied().collect();
-    worst_difference(&z, q, &analytic, |z, r| cost.residuals(k, &z[..n], Some(&z[n..]), r))
+    worst_difference(&z, q, &analytic, |z, r| {
+        Ok(cost.residuals(k, &z[..n], Some(&z[n..]), r)?)
+    })
 }
 
 /// The row-major $q \times (n + m)$ matrix $[J_x \; J_u]$ from two
@@ -196,6 +198,7 @@ fn worst_difference(
 mod tests {
     use super::*;
     use faer::sparse::SymbolicSparseRowMat;
+    use systems::ModelResult;
 
     /// $r = (\theta_0^2 - 1, \theta_0 \theta_1)$, its Jacobian right or
     /// with a wrong entry, and a pattern missing $\partial r_1 / \partial
@@ -295,12 +298,12 @@ mod tests {
         fn control_dim(&self) -> usize {
             1
         }
-        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
             next[0] = x[0] + x[1] * u[0];
             next[1] = x[1].sin();
             Ok(())
         }
-        fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+        fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
             let d11 = if self.wrong { x[1].sin() } else { x[1].cos() };
             fx.copy_from_slice(&[1.0, u[0], 0.0, d11]);
             fu.copy_from_slice(&[x[1], 0.0]);

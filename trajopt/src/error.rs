@@ -61,6 +61,13 @@ pub enum TrajoptError {
     Model(String),
 }
 
+/// A model's or a stage cost's error is [`TrajoptError::Model`].
+impl From<systems::ModelError> for TrajoptError {
+    fn from(e: systems::ModelError) -> Self {
+        Self::Model(e.0)
+    }
+}
+
 /// The crate's result type.
 pub type Result<T, E = TrajoptError> = std::result::Result<T, E>;
 

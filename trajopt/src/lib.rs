@@ -36,3 +36,4 @@ pub use least_squares::{
 pub use linalg::{BandLayout, BandedSym};
 pub use models::LinearModel;
 pub use powell::{Powell, PowellResult, PowellSettings, PowellStatus};
+pub use systems::{Dynamics, ModelError, ModelResult};

@@ -4,6 +4,7 @@ use faer::Mat;
 
 use crate::eq3::Model;
 use crate::error::{Result, TrajoptError, check_finite};
+use systems::ModelResult;
 
 /// The linear model $x_{k+1} = A x_k + B u_k$, with exact Jacobians.
 #[derive(Debug, Clone)]
@@ -41,7 +42,7 @@ impl Model for LinearModel {
         self.b.ncols()
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         for (i, ni) in next.iter_mut().enumerate() {
             *ni = (0..x.len()).map(|c| self.a[(i, c)] * x[c]).sum::<f64>()
                 + (0..u.len()).map(|c| self.b[(i, c)] * u[c]).sum::<f64>();
@@ -62,12 +63,12 @@ impl Model for LinearModel {
     }
 
     /// The model is linear: zero.
-    fn weighted_hessian(&self, _x: &[f64], _u: &[f64], _w: &[f64], hess: &mut [f64]) -> Result<bool> {
+    fn weighted_hessian(&self, _x: &[f64], _u: &[f64], _w: &[f64], hess: &mut [f64]) -> ModelResult<bool> {
         hess.fill(0.0);
         Ok(true)
     }
 
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (n, m) = (x.len(), u.len());
         for i in 0..n {
             for c in 0..n {

@@ -26,6 +26,7 @@ use splines::BSplineBasis;
 
 use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
 use crate::error::Result;
+use systems::ModelResult;
 
 /// Sample period of the pendulum problems, 60 Hz as in the paper.
 pub const PENDULUM_DT: f64 = 1.0 / 60.0;
@@ -63,7 +64,7 @@ impl Model for Pendulum {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let (g, l, b, dt) = (self.gravity, self.length, self.damping, self.dt);
         let (s, c) = x[0].sin_cos();
         let acc = -(g / l) * s - (u[0] / l) * c - b * x[1];
@@ -83,7 +84,7 @@ impl Model for Pendulum {
         fu.fill(true);
     }
 
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (g, l, b, dt) = (self.gravity, self.length, self.damping, self.dt);
         let (s, c) = x[0].sin_cos();
         let da_dth = -(g / l) * c + (u[0] / l) * s;
@@ -110,7 +111,7 @@ impl Model for Pendulum {
     /// weighted second derivative is $(w_0 \Delta t^2 + w_1 \Delta t) \nabla^2 a$
     /// with $a_{\theta\theta} = (g/l)\sin\theta + (u/l)\cos\theta$,
     /// $a_{\theta u} = \sin\theta / l$.
-    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> ModelResult<bool> {
         let (g, l, dt) = (self.gravity, self.length, self.dt);
         let c = w[0] * dt * dt + w[1] * dt;
         let (s, co) = x[0].sin_cos();

@@ -8,6 +8,7 @@ use faer::Mat;
 use faer::sparse::SymbolicSparseRowMat;
 use proptest::prelude::*;
 use splines::BSplineBasis;
+use trajopt::ModelResult;
 use trajopt::derivative_free::{DerivativeFree, DerivativeFreeSettings, Difference};
 use trajopt::problems::mgh;
 use trajopt::problems::{Pendulum, pendulum_swingup, swingup_reference};
@@ -173,11 +174,11 @@ impl Model for NoDerivatives {
     fn control_dim(&self) -> usize {
         self.0.control_dim()
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.0.step(x, u, next)
     }
-    fn jacobians(&self, _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64]) -> trajopt::Result<bool> {
-        Err(TrajoptError::Model("the model's Jacobian was called".into()))
+    fn jacobians(&self, _: &[f64], _: &[f64], _: &mut [f64], _: &mut [f64]) -> ModelResult<bool> {
+        Err(trajopt::ModelError::new("the model's Jacobian was called"))
     }
 }
 

@@ -8,6 +8,7 @@ use faer::prelude::*;
 use faer::sparse::{SparseRowMat, SymbolicSparseRowMat};
 use proptest::prelude::*;
 use splines::{BSplineBasis, TrajectoryBasis};
+use trajopt::ModelResult;
 use trajopt::{
     Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LeastSquaresProblem, LinearLeastSquares, LinearModel,
     LinearSolver, Model, Result, StepModel, TrackingCost, TrajoptError,
@@ -28,13 +29,13 @@ impl Model for Pendulum {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let acc = -(9.81 / 0.5) * x[0].sin() - (u[0] / 0.5) * x[0].cos() - 0.1 * x[1];
         next[1] = x[1] + DT * acc;
         next[0] = x[0] + DT * next[1];
         Ok(())
     }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         if !self.analytic {
             return Ok(false);
         }
@@ -249,7 +250,7 @@ fn bad_input_gives_errors() {
         fn control_dim(&self) -> usize {
             1
         }
-        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
             next[0] = if x[0].abs() > 1.0 { f64::NAN } else { x[0] + DT * x[1] };
             next[1] = x[1] + DT * u[0];
             Ok(())
@@ -527,13 +528,13 @@ impl Model for Batched {
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.0.step(x, u, next)
     }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         self.0.jacobians(x, u, fx, fu)
     }
-    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         for k in (0..us.len()).rev() {
             self.0
@@ -541,7 +542,7 @@ impl Model for Batched {
         }
         Ok(())
     }
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         self.1.fetch_add(1, std::sync::atomic::Ordering::Relaxed);
         for k in (0..us.len()).rev() {
             self.0.jacobians(

@@ -74,13 +74,10 @@ fn parallel_solves_agree_with_the_sequential_one() -> Result<()> {
 
 /// The pendulum, with Jacobians that fail beyond `max_angle`: only at the
 /// last time steps of the swing-up, so in the last part of a split.
-fn failing_late(max_angle: f64) -> Hooked<impl Fn(&[f64]) -> Result<()>, common::Unaltered> {
+fn failing_late(max_angle: f64) -> Hooked<impl Fn(&[f64]) -> trajopt::ModelResult<()>, common::Unaltered> {
     Hooked::before_jacobians(move |xs: &[f64]| {
         if xs.chunks(4).any(|x| x[0] > max_angle) {
-            return Err(TrajoptError::InvalidParameter {
-                name: "state",
-                reason: "outside the model's range".into(),
-            });
+            return Err(trajopt::ModelError::new("state outside the model's range"));
         }
         Ok(())
     })
@@ -115,7 +112,7 @@ fn an_error_in_a_helper_part_is_returned() -> Result<()> {
     let parallel = s.solve_parallel(&failing, &theta0, 2);
     assert!(matches!(
         sequential,
-        Err(TrajoptError::InvalidParameter { name: "state", .. })
+        Err(TrajoptError::Model(ref why)) if why == "state outside the model's range"
     ));
     assert_eq!(parallel.map(|r| r.cost), sequential.map(|r| r.cost));
     Ok(())

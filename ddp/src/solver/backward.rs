@@ -5,7 +5,7 @@ use super::regularization::Regularization;
 use super::settings::DdpMethod;
 use super::work::Work;
 use crate::linalg::{add_at_b, add_at_x, cholesky, cholesky_solve, set_a_b};
-use crate::problem::{Cost, Dynamics, SecondDerivatives};
+use crate::problem::{Cost, Dynamics};
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// Derivatives along the current trajectory; `false` if any is not
@@ -22,7 +22,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let fu = &mut self.fu[k * n * m..(k + 1) * n * m];
             fx.fill(0.0);
             fu.fill(0.0);
-            finite &= dynamics.derivatives(x, u, fx, fu).is_ok();
+            finite &= systems::jacobians_or_differences(dynamics, x, u, fx, fu).is_ok();
             let d = &mut self.cd[k];
             d.clear();
             cost.running_derivatives(k, x, u, d);
@@ -68,27 +68,29 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             self.qux.copy_from_slice(&d.lux);
             add_at_b(fu, &self.vxx_fx, n, m, n, &mut self.qux);
             if use_second {
-                self.hxx.fill(0.0);
-                self.hux.fill(0.0);
-                self.huu.fill(0.0);
+                self.hzz.fill(0.0);
                 let x = &self.xs[k * n..(k + 1) * n];
                 let u = &self.us[k * m..(k + 1) * m];
-                let out = SecondDerivatives {
-                    fxx: &mut self.hxx,
-                    fux: &mut self.hux,
-                    fuu: &mut self.huu,
-                };
-                let has = self.p.dynamics().second_derivatives(x, u, vx_next, out);
+                // V_x' . f_zz; a model that fails here adds no tensor term at this knot
+                let has = matches!(
+                    self.p.dynamics().weighted_hessian(x, u, vx_next, &mut self.hzz),
+                    Ok(true)
+                );
                 if has {
                     self.second_order = true;
-                    for (q, h) in self.qxx.iter_mut().zip(&self.hxx) {
-                        *q += h;
+                    let z = n + m;
+                    for i in 0..n {
+                        for j in 0..n {
+                            self.qxx[i * n + j] += self.hzz[i * z + j];
+                        }
                     }
-                    for (q, h) in self.qux.iter_mut().zip(&self.hux) {
-                        *q += h;
-                    }
-                    for (q, h) in self.quu.iter_mut().zip(&self.huu) {
-                        *q += h;
+                    for a in 0..m {
+                        for j in 0..n {
+                            self.qux[a * n + j] += self.hzz[(n + a) * z + j];
+                        }
+                        for b in 0..m {
+                            self.quu[a * m + b] += self.hzz[(n + a) * z + n + b];
+                        }
                     }
                 }
             }

@@ -36,7 +36,7 @@ pub enum DdpStatus {
     /// No step size reduced the cost, up to `reg_max`.
     NoDescent,
     /// The dynamics or cost returned non-finite derivatives at a finite
-    /// trajectory, or [`Dynamics::derivatives`](crate::Dynamics::derivatives)
+    /// trajectory, or [`Dynamics::jacobians`](crate::Dynamics::jacobians)
     /// returned an error.
     NonFiniteDerivatives,
 }
@@ -128,7 +128,7 @@ pub struct DdpResult {
     /// start's and every line-search trial.
     pub cost_evals: usize,
     /// Linearisations of the dynamics and the cost along a whole trajectory
-    /// (each [`Dynamics::derivatives`](crate::Dynamics::derivatives) at every knot).
+    /// (each [`Dynamics::jacobians`](crate::Dynamics::jacobians) at every knot).
     pub jacobian_evals: usize,
     /// How the solve ended.
     pub status: DdpStatus,

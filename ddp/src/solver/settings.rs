@@ -14,7 +14,7 @@ pub enum DdpMethod {
     Ilqr,
     /// Full DDP (Jacobson and Mayne 1970): adds the tensor terms
     /// $V_x' \cdot f_{xx}$, $V_x' \cdot f_{ux}$, $V_x' \cdot f_{uu}$ from
-    /// [`Dynamics::second_derivatives`](crate::Dynamics::second_derivatives);
+    /// [`Dynamics::weighted_hessian`](crate::Dynamics::weighted_hessian) (contracted with $V_x'$);
     /// dynamics without second derivatives fall back to iLQR.
     Ddp,
 }

@@ -25,6 +25,7 @@
 //! leave-one-out ([`lwr::LwrModel::tune`]).
 
 use std::sync::atomic::{AtomicUsize, Ordering};
+use trajopt::ModelResult;
 
 use faer::Mat;
 use faer::prelude::*;
@@ -288,7 +289,7 @@ impl trajopt::Model for CartPoleModel {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let d = self.predict_delta(&features(x, u[0]), None);
         for i in 0..4 {
             next[i] = x[i] + d[i];
@@ -296,7 +297,7 @@ impl trajopt::Model for CartPoleModel {
         Ok(())
     }
 
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let mut j = [0.0; 4 * N_INPUTS];
         self.predict_delta(&features(x, u[0]), Some(&mut j));
         let (sn, cs) = x[3].sin_cos();

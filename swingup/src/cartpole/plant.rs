@@ -21,6 +21,7 @@
 //! $0.01^2$ on the diagonal); the true state evolves noise-free.
 
 use serde::{Deserialize, Serialize};
+use trajopt::ModelResult;
 
 /// Physical constants of the cart-pole and its actuator.
 ///
@@ -202,7 +203,7 @@ impl trajopt::Model for CartPole {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let s = [x[0], x[1], x[2], x[3]];
         next[..4].copy_from_slice(&CartPole::step(self, &s, u[0]));
         Ok(())

@@ -25,6 +25,7 @@
 //! episode's last `success_hold` seconds (default 1 s).
 
 use serde::{Deserialize, Serialize};
+use trajopt::ModelResult;
 use trajopt::StageCost;
 
 use crate::cartpole::plant::CartPole;
@@ -145,7 +146,7 @@ impl StageCost for SwingupTask {
         6
     }
 
-    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> trajopt::Result<()> {
+    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         let l = self.pole_length;
         let t = if u.is_none() { self.sqrt_terminal } else { 1.0 };
         let (sn, cs) = x[3].sin_cos();
@@ -160,14 +161,7 @@ impl StageCost for SwingupTask {
         Ok(())
     }
 
-    fn jacobians(
-        &self,
-        _k: usize,
-        x: &[f64],
-        u: Option<&[f64]>,
-        jx: &mut [f64],
-        ju: &mut [f64],
-    ) -> trajopt::Result<()> {
+    fn jacobians(&self, _k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         let l = self.pole_length;
         let t = if u.is_none() { self.sqrt_terminal } else { 1.0 };
         let (sn, cs) = x[3].sin_cos();

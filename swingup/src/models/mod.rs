@@ -1,5 +1,6 @@
-//! The robot's models of its own dynamics, as `trajopt` models and `ddp`
-//! dynamics.
+//! The robot's models of its own dynamics, written once to the workspace's
+//! model contract (`systems::Dynamics`: `trajopt`'s `Model`, `ddp`'s
+//! `Dynamics`).
 //!
 //! As in the paper, the hand's kinematics are known and the pendulum's are
 //! learned: a regression $g$ predicts the per-sample change of the
@@ -23,6 +24,7 @@ pub mod nonparametric;
 pub mod parametric;
 pub mod selection;
 pub mod truth;
+use trajopt::ModelResult;
 
 pub use nonparametric::{LearnedModel, LinearRegression, LwrRegression};
 
@@ -121,12 +123,12 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
         1
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.next(x, u[0], next);
         Ok(())
     }
 
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         self.derivs(x, u[0], fx, fu);
         Ok(true)
     }
@@ -145,7 +147,7 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
     }
 
     /// The points in parallel (rayon), each exactly as [`step`](trajopt::Model::step).
-    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> trajopt::Result<()> {
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
         use rayon::prelude::*;
         next.par_chunks_mut(4 * BATCH_CHUNK).enumerate().for_each(|(c, out)| {
             for (i, o) in out.chunks_exact_mut(4).enumerate() {
@@ -157,7 +159,7 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
     }
 
     /// The points in parallel (rayon), each exactly as [`jacobians`](trajopt::Model::jacobians).
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::Result<bool> {
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         use rayon::prelude::*;
         fx.par_chunks_mut(16 * BATCH_CHUNK)
             .zip(fu.par_chunks_mut(4 * BATCH_CHUNK))
@@ -169,26 +171,6 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
                 }
             });
         Ok(true)
-    }
-}
-
-impl<G: PendulumRegression> ddp::Dynamics for KnownHand<G> {
-    fn state_dim(&self) -> usize {
-        4
-    }
-
-    fn control_dim(&self) -> usize {
-        1
-    }
-
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ddp::Result<()> {
-        self.next(x, u[0], next);
-        Ok(())
-    }
-
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ddp::Result<()> {
-        self.derivs(x, u[0], fx, fu);
-        Ok(())
     }
 }
 

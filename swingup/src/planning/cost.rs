@@ -11,6 +11,7 @@
 //! a plan exceeds a bound by little; the robot's actuator clips the rest.
 
 use std::sync::Arc;
+use trajopt::ModelResult;
 
 use trajopt::{StageCost, TrackingCost};
 
@@ -73,7 +74,7 @@ impl StageCost for SwingupCost {
         7 + usize::from(self.support.is_some())
     }
 
-    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> trajopt::Result<()> {
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         self.tracking.residuals(k, x, u, &mut r[..5])?;
         r[5] = self.sqrt_wb * hinge(x[2], self.x_max).0;
         r[6] = u.map_or(0.0, |u| self.sqrt_wb * hinge(u[0], self.u_max).0);
@@ -83,7 +84,7 @@ impl StageCost for SwingupCost {
         Ok(())
     }
 
-    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> trajopt::Result<()> {
+    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         // rows of 4 state columns and 1 control column
         self.tracking.jacobians(k, x, u, &mut jx[..20], &mut ju[..5])?;
         jx[20..].fill(0.0);

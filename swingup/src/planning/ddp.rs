@@ -25,10 +25,9 @@
 //! text) and [`classify_ddp_failure`] names the failure mode. A rollout whose
 //! $\lVert s \rVert_\infty$ exceeds [`MAX_STATE_NORM`] counts as blown up.
 
-use std::cell::{Cell, RefCell};
+use std::cell::Cell;
 
-use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, DdpStatus};
-use trajopt::StageCost;
+use ddp::{Cost, CostDerivatives, Ddp, DdpProblem, DdpSettings, DdpStatus, ResidualCost};
 
 use crate::planning::cost::SwingupCost;
 
@@ -55,139 +54,6 @@ pub fn task_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<ResidualCo
     let stage = crate::planning::eq3::swingup_cost(cfg, demo)?;
     let n = demo.horizon();
     Ok(ResidualCost::new(stage, 4, 1, n))
-}
-
-/// A `trajopt` stage cost in residual form, $c_k = \lVert r_k(x, u) \rVert^2$,
-/// as a `ddp` cost: gradient $2 J^\top r$ and Gauss-Newton Hessian
-/// $2 J^\top J$ (exact where the residuals are linear, as in Eq. 5; for the
-/// soft bounds' hinges it drops only the hinge's curvature, which is zero
-/// away from the kink). The terminal cost is stage $N$ without control.
-///
-/// `ddp` costs cannot fail: if the stage cost returns an error, the value
-/// is NaN and the derivatives NaN, which `ddp` reports as a blow-up or
-/// non-finite derivatives.
-#[derive(Debug)]
-pub struct ResidualCost<C> {
-    stage: C,
-    n: usize,
-    m: usize,
-    horizon: usize,
-    scratch: RefCell<Scratch>,
-}
-
-#[derive(Debug)]
-struct Scratch {
-    r: Vec<f64>,
-    jx: Vec<f64>,
-    ju: Vec<f64>,
-}
-
-impl<C: StageCost> ResidualCost<C> {
-    /// Wraps `stage` for state dimension `n`, control dimension `m` and
-    /// horizon $N$ (the terminal cost is stage $N$).
-    pub fn new(stage: C, n: usize, m: usize, horizon: usize) -> Self {
-        let nr = stage.n_residuals();
-        Self {
-            stage,
-            n,
-            m,
-            horizon,
-            scratch: RefCell::new(Scratch {
-                r: vec![0.0; nr],
-                jx: vec![0.0; nr * n],
-                ju: vec![0.0; nr * m],
-            }),
-        }
-    }
-
-    /// The wrapped stage cost.
-    pub fn stage(&self) -> &C {
-        &self.stage
-    }
-
-    fn value(&self, k: usize, x: &[f64], u: Option<&[f64]>) -> f64 {
-        let mut s = self.scratch.borrow_mut();
-        match self.stage.residuals(k, x, u, &mut s.r) {
-            Ok(()) => s.r.iter().map(|v| v * v).sum(),
-            Err(_) => f64::NAN,
-        }
-    }
-
-    /// Writes $2 J_x^\top r$, $2 J_x^\top J_x$ and, with a control,
-    /// $2 J_u^\top r$, $2 J_u^\top J_u$, $2 J_u^\top J_x$ (row-major, added to zeroed buffers).
-    fn derivatives(
-        &self,
-        k: usize,
-        x: &[f64],
-        u: Option<&[f64]>,
-        lx: &mut [f64],
-        lxx: &mut [f64],
-        rest: Option<(&mut [f64], &mut [f64], &mut [f64])>,
-    ) {
-        let (n, m) = (self.n, self.m);
-        let mut guard = self.scratch.borrow_mut();
-        let s = &mut *guard;
-        let ok = self.stage.residuals(k, x, u, &mut s.r).is_ok()
-            && self.stage.jacobians(k, x, u, &mut s.jx, &mut s.ju).is_ok();
-        if !ok {
-            lx.fill(f64::NAN);
-            lxx.fill(f64::NAN);
-            if let Some((lu, luu, lux)) = rest {
-                for b in [lu, luu, lux] {
-                    b.fill(f64::NAN);
-                }
-            }
-            return;
-        }
-        for (q, &r) in s.r.iter().enumerate() {
-            let jx = &s.jx[q * n..(q + 1) * n];
-            for i in 0..n {
-                lx[i] += 2.0 * jx[i] * r;
-                for j in 0..n {
-                    lxx[i * n + j] += 2.0 * jx[i] * jx[j];
-                }
-            }
-        }
-        if let Some((lu, luu, lux)) = rest {
-            for (q, &r) in s.r.iter().enumerate() {
-                let (jx, ju) = (&s.jx[q * n..(q + 1) * n], &s.ju[q * m..(q + 1) * m]);
-                for a in 0..m {
-                    lu[a] += 2.0 * ju[a] * r;
-                    for b in 0..m {
-                        luu[a * m + b] += 2.0 * ju[a] * ju[b];
-                    }
-                    for j in 0..n {
-                        lux[a * n + j] += 2.0 * ju[a] * jx[j];
-                    }
-                }
-            }
-        }
-    }
-}
-
-impl<C: StageCost> Cost for ResidualCost<C> {
-    fn running(&self, k: usize, x: &[f64], u: &[f64]) -> f64 {
-        self.value(k, x, Some(u))
-    }
-
-    fn running_derivatives(&self, k: usize, x: &[f64], u: &[f64], d: &mut CostDerivatives) {
-        self.derivatives(
-            k,
-            x,
-            Some(u),
-            &mut d.lx,
-            &mut d.lxx,
-            Some((&mut d.lu, &mut d.luu, &mut d.lux)),
-        );
-    }
-
-    fn terminal(&self, x: &[f64]) -> f64 {
-        self.value(self.horizon, x, None)
-    }
-
-    fn terminal_derivatives(&self, x: &[f64], lx: &mut [f64], lxx: &mut [f64]) {
-        self.derivatives(self.horizon, x, None, lx, lxx, None);
-    }
 }
 
 /// Plans the swing-up with DDP through `model` (see the [module docs](self)):

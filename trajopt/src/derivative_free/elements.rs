@@ -6,6 +6,7 @@ use std::sync::atomic::{AtomicUsize, Ordering};
 use super::Difference;
 use crate::eq3::Model;
 use crate::error::{Result, TrajoptError};
+use systems::ModelResult;
 
 /// A [`Model`] whose Jacobians are differences of its own values: `inner`'s
 /// [`jacobians`](Model::jacobians) are never called.
@@ -111,21 +112,21 @@ impl<M: Model> Model for Differenced<M> {
         self.inner.control_dim()
     }
 
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.inner.step(x, u, next)
     }
 
-    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.inner.step_batch(xs, us, next)
     }
 
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         self.jacobians_batch(x, u, fx, fu)
     }
 
     /// Every point's differences in one [`step_batch`](Model::step_batch)
     /// call of the inner model.
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (n, m) = (self.inner.state_dim(), self.inner.control_dim());
         let nm = n + m;
         let points = xs.len() / n.max(1);

@@ -19,7 +19,7 @@
 //! with a half-bandwidth set by how many coefficients overlap two
 //! consecutive samples.
 
-use super::jacobian::{LocalDerivatives, central_differences};
+use super::jacobian::LocalDerivatives;
 use super::{Eq3Problem, Model, StageCost};
 use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
@@ -273,7 +273,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             )?
         {
             for k in 0..n_model {
-                central_differences(
+                systems::central_differences(
                     &self.model,
                     &x[(k0 + k) * n..(k0 + k + 1) * n],
                     &u[(k0 + k) * m..(k0 + k + 1) * m],

@@ -51,12 +51,12 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let (n, m) = (self.n, self.m);
         let xk = &x[k * n..(k + 1) * n];
         if k == self.horizon {
-            return self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju);
+            return Ok(self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju)?);
         }
         let uk = &u[k * m..(k + 1) * m];
         self.cost.jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
         if !self.model.jacobians(xk, uk, &mut d.fx, &mut d.fu)? {
-            central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
+            systems::central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
         }
         Ok(())
     }
@@ -187,41 +187,4 @@ pub(super) struct LocalDerivatives {
     pub(super) ju: Vec<f64>,
     pub(super) fx: Vec<f64>,
     pub(super) fu: Vec<f64>,
-}
-
-/// Central differences of the model, step $\sqrt[3]{\epsilon} \max(1, |z|)$
-/// per coordinate.
-pub(super) fn central_differences<M: Model>(
-    model: &M,
-    x: &[f64],
-    u: &[f64],
-    fx: &mut [f64],
-    fu: &mut [f64],
-) -> Result<()> {
-    let (n, m) = (x.len(), u.len());
-    let mut xp = x.to_vec();
-    let mut up = u.to_vec();
-    let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
-    let eps = f64::EPSILON.cbrt();
-    for c in 0..n + m {
-        let z = if c < n { x[c] } else { u[c - n] };
-        let h = eps * z.abs().max(1.0);
-        let set = |xp: &mut Vec<f64>, up: &mut Vec<f64>, v: f64| {
-            if c < n { xp[c] = v } else { up[c - n] = v }
-        };
-        set(&mut xp, &mut up, z + h);
-        model.step(&xp, &up, &mut plus)?;
-        set(&mut xp, &mut up, z - h);
-        model.step(&xp, &up, &mut minus)?;
-        set(&mut xp, &mut up, z);
-        for i in 0..n {
-            let g = (plus[i] - minus[i]) / (2.0 * h);
-            if c < n {
-                fx[i * n + c] = g;
-            } else {
-                fu[i * m + c - n] = g;
-            }
-        }
-    }
-    Ok(())
 }

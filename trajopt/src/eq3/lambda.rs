@@ -2,7 +2,7 @@
 
 use faer::Mat;
 
-use crate::eq3::model::Model;
+use crate::eq3::Model;
 use crate::error::{Result, TrajoptError, check_finite, expect_len};
 
 /// The consistency weight $\lambda_k$ of each step.

@@ -27,13 +27,15 @@ use crate::least_squares::{BandForm, LeastSquaresProblem, LinearBounds, Part, Se
 mod band_assembly;
 mod jacobian;
 mod lambda;
-mod model;
 mod second_order;
 mod stage_cost;
 
 pub use lambda::Lambda;
-pub use model::Model;
-pub use stage_cost::{StageCost, TrackingCost};
+pub use stage_cost::TrackingCost;
+/// Eq. 3's dynamics model: the workspace's one model contract,
+/// [`systems::Dynamics`], under the name this crate has always used.
+pub use systems::Dynamics as Model;
+pub use systems::StageCost;
 /// The criterion split into its parts (all squared norms as in the module
 /// docs).
 #[derive(Debug, Clone, Copy, PartialEq)]

@@ -112,9 +112,9 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let row = k * (nc + n);
         hz.fill(0.0);
         if k == self.horizon {
-            return self
+            return Ok(self
                 .cost
-                .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n]);
+                .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n])?);
         }
         let uk = &u[k * m..(k + 1) * m];
         if !self.cost.weighted_hessian(k, xk, Some(uk), &r[row..row + nc], hz)? {

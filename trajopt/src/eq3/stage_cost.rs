@@ -1,41 +1,10 @@
-//! The task cost of Eq. 3 in residual form, and the paper's Eq. 5 tracking cost.
+//! The paper's Eq. 5 tracking cost, a [`StageCost`] in residual form.
 
 use faer::Mat;
 
+use systems::{ModelResult, StageCost};
+
 use crate::error::{Result, TrajoptError, check_finite, expect_len};
-
-/// A stage cost in residual form, $c_k(x, u) = \lVert r^c_k(x, u) \rVert^2$.
-pub trait StageCost {
-    /// Number of residuals per stage (the same for every stage).
-    fn n_residuals(&self) -> usize;
-
-    /// Writes $r^c_k(x_k, u_k)$; `u` is `None` at the terminal stage $k = N$.
-    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<()>;
-
-    /// Writes $\partial r^c_k / \partial x$ (`n_residuals` $\times n$) and
-    /// $\partial r^c_k / \partial u$ (`n_residuals` $\times m$), row-major;
-    /// at the terminal stage `ju` is ignored.
-    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()>;
-
-    /// Which entries of the residual Jacobians can be nonzero at any stage
-    /// (row-major, as in [`jacobians`](Self::jacobians)); the default says
-    /// all. Must not leave out any entry that can be nonzero.
-    fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
-        jx.fill(true);
-        ju.fill(true);
-    }
-
-    /// Writes $\sum_a w_a \nabla^2 r^c_{k,a}$ over $z = (x, u)$ (at the
-    /// terminal stage over $x$ alone), row-major, and returns `true`; or
-    /// returns `false` (the default) when the cost has no second
-    /// derivatives (then [`GaussNewton`](crate::GaussNewton) keeps to
-    /// Gauss-Newton steps). Nonzeros only where some residual's
-    /// [Jacobian structure](Self::jacobian_structure) has both entries.
-    fn weighted_hessian(&self, k: usize, x: &[f64], u: Option<&[f64]>, w: &[f64], hess: &mut [f64]) -> Result<bool> {
-        let _ = (k, x, u, w, hess);
-        Ok(false)
-    }
-}
 
 /// The paper's Eq. 5 as a built-in stage cost: quadratic tracking of a state
 /// reference $x^d$ and a control reference $u^d$ with diagonal weights,
@@ -105,7 +74,7 @@ impl StageCost for TrackingCost {
         self.sqrt_q.len() + self.sqrt_r.len()
     }
 
-    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<()> {
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         let n = self.sqrt_q.len();
         let w = if u.is_some() { &self.sqrt_q } else { &self.sqrt_qf };
         for i in 0..n {
@@ -140,12 +109,12 @@ impl StageCost for TrackingCost {
         _u: Option<&[f64]>,
         _w: &[f64],
         hess: &mut [f64],
-    ) -> Result<bool> {
+    ) -> ModelResult<bool> {
         hess.fill(0.0);
         Ok(true)
     }
 
-    fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()> {
+    fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         let (n, m) = (self.sqrt_q.len(), self.sqrt_r.len());
         let w = if u.is_some() { &self.sqrt_q } else { &self.sqrt_qf };
         jx.fill(0.0);

@@ -7,6 +7,7 @@
 
 use proptest::prelude::*;
 use splines::BSplineBasis;
+use trajopt::ModelResult;
 use trajopt::problems::{PENDULUM_DT, Pendulum};
 use trajopt::{
     Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda, LeastSquaresProblem, Model, Result,
@@ -79,12 +80,12 @@ pub(crate) struct Hooked<J, H> {
 }
 
 /// No hook before the Jacobians.
-pub(crate) type Unchecked = fn(&[f64]) -> Result<()>;
+pub(crate) type Unchecked = fn(&[f64]) -> ModelResult<()>;
 
 /// A hook that leaves the second derivatives as they are.
 pub(crate) type Unaltered = fn(&[f64], &mut [f64]) -> bool;
 
-impl<J: Fn(&[f64]) -> Result<()>> Hooked<J, Unaltered> {
+impl<J: Fn(&[f64]) -> ModelResult<()>> Hooked<J, Unaltered> {
     /// The pendulum with a hook before its Jacobians.
     pub(crate) fn before_jacobians(before_jacobians: J) -> Self {
         Self {
@@ -106,28 +107,28 @@ impl<H: Fn(&[f64], &mut [f64]) -> bool> Hooked<Unchecked, H> {
     }
 }
 
-impl<J: Fn(&[f64]) -> Result<()>, H: Fn(&[f64], &mut [f64]) -> bool> Model for Hooked<J, H> {
+impl<J: Fn(&[f64]) -> ModelResult<()>, H: Fn(&[f64], &mut [f64]) -> bool> Model for Hooked<J, H> {
     fn state_dim(&self) -> usize {
         4
     }
     fn control_dim(&self) -> usize {
         1
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         self.inner.step(x, u, next)
     }
-    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         (self.before_jacobians)(x)?;
         self.inner.jacobians(x, u, fx, fu)
     }
-    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> Result<bool> {
+    fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         (self.before_jacobians)(xs)?;
         self.inner.jacobians_batch(xs, us, fx, fu)
     }
     fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
         self.inner.jacobian_structure(fx, fu)
     }
-    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> Result<bool> {
+    fn weighted_hessian(&self, x: &[f64], u: &[f64], w: &[f64], hess: &mut [f64]) -> ModelResult<bool> {
         self.inner.weighted_hessian(x, u, w, hess)?;
         Ok((self.hessian)(x, hess))
     }

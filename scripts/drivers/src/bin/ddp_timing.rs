@@ -4,6 +4,7 @@
 //!
 //! `cargo run --release -p nprl-drivers --bin ddp_timing -- [repeats]`
 
+use ddp::ModelResult;
 use std::time::Duration;
 
 use ddp::problems::{cartpole_swingup, pendulum_swingup};
@@ -20,18 +21,18 @@ impl Dynamics for Unicycle {
     fn control_dim(&self) -> usize {
         2
     }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ddp::Result<()> {
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let (s, c) = x[2].sin_cos();
         next[0] = x[0] + c * u[0] * 0.1;
         next[1] = x[1] + s * u[0] * 0.1;
         next[2] = x[2] + u[1] * 0.1;
         Ok(())
     }
-    fn derivatives(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ddp::Result<()> {
+    fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (s, c) = x[2].sin_cos();
         fx.copy_from_slice(&[1.0, 0.0, -s * u[0] * 0.1, 0.0, 1.0, c * u[0] * 0.1, 0.0, 0.0, 1.0]);
         fu.copy_from_slice(&[c * 0.1, 0.0, s * 0.1, 0.0, 0.0, 0.1]);
-        Ok(())
+        Ok(true)
     }
 }
 

@@ -1,0 +1,196 @@
+//! One model contract: a model and a stage cost written once, by a user,
+//! against `systems::Dynamics` and `systems::StageCost`, planned by every
+//! solver of the workspace: Gauss-Newton, the derivative-free mode and
+//! Powell on Eq. 3 (`trajopt`), iLQR and full DDP (`ddp`).
+
+use std::f64::consts::PI;
+
+use ddp::{Ddp, DdpMethod, DdpProblem, DdpSettings, ResidualCost};
+use solve::Status;
+use splines::BSplineBasis;
+use systems::{Dynamics, ModelResult, StageCost};
+use trajopt::{
+    DerivativeFree, DerivativeFreeSettings, Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LeastSquaresProblem,
+    Powell, PowellSettings,
+};
+
+const DT: f64 = 0.1;
+const HORIZON: usize = 12;
+const TARGET: f64 = 1.2;
+
+/// A user's own model: a damped torque pendulum,
+/// $\dot\omega = u - b\omega - a \sin\theta$, semi-implicit Euler, with its
+/// Jacobians and its weighted second derivative (only $\partial^2 / \partial\theta^2$
+/// is nonzero).
+struct UserPendulum {
+    a: f64,
+    b: f64,
+}
+
+impl Dynamics for UserPendulum {
+    fn state_dim(&self) -> usize {
+        2
+    }
+    fn control_dim(&self) -> usize {
+        1
+    }
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
+        next[1] = x[1] + DT * (u[0] - self.b * x[1] - self.a * x[0].sin());
+        next[0] = x[0] + DT * next[1];
+        Ok(())
+    }
+    fn jacobians(&self, x: &[f64], _u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
+        let (dw_dth, dw_dw) = (-DT * self.a * x[0].cos(), 1.0 - DT * self.b);
+        fx.copy_from_slice(&[1.0 + DT * dw_dth, DT * dw_dw, dw_dth, dw_dw]);
+        fu.copy_from_slice(&[DT * DT, DT]);
+        Ok(true)
+    }
+    fn weighted_hessian(&self, x: &[f64], _u: &[f64], w: &[f64], hess: &mut [f64]) -> ModelResult<bool> {
+        hess.fill(0.0);
+        hess[0] = (w[0] * DT * DT + w[1] * DT) * self.a * x[0].sin();
+        Ok(true)
+    }
+}
+
+/// A user's own task: reach $\theta = 1.2$ at rest, cheaply.
+struct Reach;
+
+impl StageCost for Reach {
+    fn n_residuals(&self) -> usize {
+        3
+    }
+    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
+        let w = if u.is_some() { 1.0 } else { 10.0 };
+        r[0] = w * (x[0] - TARGET);
+        r[1] = 0.3 * w * x[1];
+        r[2] = u.map_or(0.0, |u| 0.2 * u[0]);
+        Ok(())
+    }
+    fn jacobians(&self, _k: usize, _x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
+        let w = if u.is_some() { 1.0 } else { 10.0 };
+        jx.copy_from_slice(&[w, 0.0, 0.0, 0.3 * w, 0.0, 0.0]);
+        if u.is_some() {
+            ju.copy_from_slice(&[0.0, 0.0, 0.2]);
+        }
+        Ok(())
+    }
+}
+
+fn eq3(model: &UserPendulum, lambda: f64) -> (Eq3Problem<&UserPendulum, Reach>, Vec<f64>) {
+    let times: Vec<f64> = (0..=HORIZON).map(|k| k as f64 * DT).collect();
+    let end = times[HORIZON];
+    let state_basis = BSplineBasis::clamped_uniform(HORIZON + 1, 3, 0.0, end).expect("state basis");
+    let control_basis = BSplineBasis::clamped_uniform(HORIZON, 3, 0.0, end).expect("control basis");
+    let problem = Eq3Problem::new(
+        model,
+        Reach,
+        &state_basis,
+        &control_basis,
+        &times,
+        Lambda::Constant(lambda),
+    )
+    .expect("problem")
+    .with_initial_state(&[0.0, 0.0], 1e4)
+    .expect("initial state");
+    let theta0 = vec![0.0; problem.n_params()];
+    (problem, theta0)
+}
+
+/// The cost of `controls` replayed through the model from rest, as DDP
+/// counts it.
+fn rollout_cost(model: &UserPendulum, controls: &[f64]) -> f64 {
+    let mut x = vec![0.0, 0.0];
+    let mut next = vec![0.0; 2];
+    let mut r = vec![0.0; 3];
+    let mut total = 0.0;
+    for (k, &u) in controls.iter().enumerate() {
+        Reach.residuals(k, &x, Some(&[u]), &mut r).expect("residuals");
+        total += r.iter().map(|v| v * v).sum::<f64>();
+        model.step(&x, &[u], &mut next).expect("step");
+        x.copy_from_slice(&next);
+    }
+    Reach.residuals(controls.len(), &x, None, &mut r).expect("residuals");
+    total + r.iter().map(|v| v * v).sum::<f64>()
+}
+
+#[test]
+fn one_user_model_is_planned_by_every_solver() {
+    let model = UserPendulum { a: 9.81 / 0.5, b: 0.1 };
+    let rel = |a: f64, b: f64| (a - b).abs() / b.abs().max(1e-12);
+
+    // Eq. 3: the same problem for the three trajopt solvers
+    let (problem, theta0) = eq3(&model, 1e3);
+    let gn = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("settings")
+        .solve(&problem, &theta0)
+        .expect("gauss-newton");
+    assert!(gn.status.termination().is_converged(), "{:?}", gn.status);
+    assert!(gn.cost < 0.5 * gn.initial_cost, "{} vs {}", gn.cost, gn.initial_cost);
+
+    let df = DerivativeFree::new(DerivativeFreeSettings::default())
+        .expect("settings")
+        .solve(&problem, &theta0)
+        .expect("derivative-free");
+    assert!(df.status.termination().is_converged(), "{:?}", df.status);
+    assert!(rel(df.cost, gn.cost) < 1e-6, "{} vs {}", df.cost, gn.cost);
+
+    let powell = Powell::new(PowellSettings {
+        max_cost_evals: Some(400_000),
+        max_iterations: Some(100_000),
+        ..PowellSettings::default()
+    })
+    .expect("settings")
+    .solve(&problem, &theta0)
+    .expect("powell");
+    assert!(powell.status.termination().is_converged(), "{:?}", powell.status);
+    assert!(rel(powell.cost, gn.cost) < 1e-4, "{} vs {}", powell.cost, gn.cost);
+
+    // DDP: the same model value and the same stage cost
+    let ddp_problem =
+        DdpProblem::new(&model, ResidualCost::new(Reach, 2, 1, HORIZON), &[0.0, 0.0], HORIZON).expect("ddp problem");
+    let solve = |method| {
+        Ddp::new(DdpSettings {
+            method,
+            ..DdpSettings::default()
+        })
+        .expect("settings")
+        .solve(&ddp_problem)
+        .expect("ddp")
+    };
+    let (ilqr, full) = (solve(DdpMethod::Ilqr), solve(DdpMethod::Ddp));
+    assert!(ilqr.status.termination().is_converged(), "{:?}", ilqr.status);
+    assert!(full.status.termination().is_converged(), "{:?}", full.status);
+    // full DDP ran: the model's weighted Hessian reached the backward pass
+    assert_eq!((ilqr.method, full.method), (DdpMethod::Ilqr, DdpMethod::Ddp));
+    assert!(rel(full.cost, ilqr.cost) < 1e-6, "{} vs {}", full.cost, ilqr.cost);
+    let controls: Vec<f64> = ilqr.controls.iter().map(|u| u[0]).collect();
+    assert!(rel(rollout_cost(&model, &controls), ilqr.cost) < 1e-12);
+    // the plan goes to the target: from hanging still (the zero warm start)
+    // to past half the target angle, at a fraction of the cost
+    let end = ilqr.states[HORIZON][0];
+    assert!(end > 0.5 * TARGET && end < PI, "{end}");
+    assert!(
+        ilqr.cost < 0.5 * ilqr.initial_cost,
+        "{} vs {}",
+        ilqr.cost,
+        ilqr.initial_cost
+    );
+
+    // Eq. 3's controls (a spline of HORIZON coefficients) replayed through
+    // the model cost at least DDP's optimum over free per-step controls,
+    // and with a stiff model term (and a state coefficient per step) within 1 %
+    let (stiff, _) = eq3(&model, 1e6);
+    let gn_stiff = GaussNewton::new(GaussNewtonSettings::default())
+        .expect("settings")
+        .solve(&stiff, &gn.x)
+        .expect("gauss-newton");
+    let (_, eq3_controls) = stiff.trajectory(&gn_stiff.x).expect("trajectory");
+    let replayed: Vec<f64> = (0..HORIZON).map(|k| eq3_controls[(k, 0)]).collect();
+    let replay_cost = rollout_cost(&model, &replayed);
+    assert!(
+        replay_cost >= ilqr.cost * (1.0 - 1e-9),
+        "{replay_cost} vs {}",
+        ilqr.cost
+    );
+    assert!(replay_cost <= 1.01 * ilqr.cost, "{replay_cost} vs {}", ilqr.cost);
+}
