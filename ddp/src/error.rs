@@ -51,26 +51,7 @@ impl From<systems::ModelError> for DdpError {
 /// The crate's result type.
 pub type Result<T, E = DdpError> = std::result::Result<T, E>;
 
-/// Checks that every value is finite.
-pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
-    match values.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(DdpError::NotFinite {
-            what,
-            index,
-            value: values[index],
-        }),
-        None => Ok(()),
-    }
-}
-
-/// Checks a length.
-pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
-    if expected == actual {
-        Ok(())
-    } else {
-        Err(DdpError::DimensionMismatch { what, expected, actual })
-    }
-}
+solve::input_checks!(DdpError, check_len);
 
 #[cfg(test)]
 mod tests {

@@ -247,21 +247,6 @@ impl<F: Fn(f64, f64) -> ModelResult<f64>> Dynamics for Unit<F> {
     }
 }
 
-/// Dynamics with the trait's default (central-difference) Jacobians.
-struct Differenced<D>(D);
-
-impl<D: Dynamics> Dynamics for Differenced<D> {
-    fn state_dim(&self) -> usize {
-        self.0.state_dim()
-    }
-    fn control_dim(&self) -> usize {
-        self.0.control_dim()
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
-        self.0.step(x, u, next)
-    }
-}
-
 #[test]
 fn a_failed_step_in_the_line_search_is_a_diverged_trial() {
     // the target lies outside the region where the model answers
@@ -300,7 +285,7 @@ fn a_failed_step_in_the_warm_start_is_an_error() {
 #[test]
 fn default_derivatives_let_ddp_solve_a_tracking_problem() {
     // inside the model's region the default (differenced) Jacobians are exact
-    let problem = DdpProblem::new(Differenced(Unit(refuses)), tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
+    let problem = DdpProblem::new(systems::StepOnly(Unit(refuses)), tracking(0.8, 1e-2), &[0.0], 20).expect("problem");
     let r = solve(&problem);
     assert_eq!(r.status, DdpStatus::Converged);
     // a linear-quadratic problem: one Newton step, the same plan as with

@@ -3,7 +3,7 @@
 //! finite-difference derivatives of [`Dynamics`] equal the analytic ones.
 
 use ddp::strategies::{JacobianCheck, check_dynamics, check_jacobian};
-use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, ModelResult, Pendulum, QuadraticCost, Result};
+use ddp::{Acrobot, CartPole, Cost, CostDerivatives, Dynamics, Pendulum, QuadraticCost, Result};
 use faer::Mat;
 use proptest::collection::vec;
 use proptest::prelude::*;
@@ -52,21 +52,6 @@ fn check_model<D: Dynamics>(f: &D, x: &[f64], u: &[f64], v: &[f64]) -> Result<()
         assert_close("fuu", check_jacobian(|z| vfx(x, z).1, u, &huu).expect("sizes"), 1e-6)?;
     }
     Ok(())
-}
-
-/// The pendulum without its analytic derivatives: the trait's defaults.
-struct DifferencedPendulum(Pendulum);
-
-impl Dynamics for DifferencedPendulum {
-    fn state_dim(&self) -> usize {
-        2
-    }
-    fn control_dim(&self) -> usize {
-        1
-    }
-    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
-        self.0.step(x, u, next)
-    }
 }
 
 fn sym(n: usize, e: &[f64], shift: f64) -> Mat<f64> {
@@ -140,7 +125,7 @@ proptest! {
         let (mut fx, mut fu) = ([0.0; 4], [0.0; 2]);
         prop_assert!(p.jacobians(&x, &u, &mut fx, &mut fu).expect("analytic"));
         let (mut dx, mut du) = ([0.0; 4], [0.0; 2]);
-        prop_assert!(!jacobians_or_differences(&DifferencedPendulum(p), &x, &u, &mut dx, &mut du).expect("differences"));
+        prop_assert!(!jacobians_or_differences(&systems::StepOnly(p), &x, &u, &mut dx, &mut du).expect("differences"));
         for (a, d) in fx.iter().chain(&fu).zip(dx.iter().chain(&du)) {
             prop_assert!((a - d).abs() <= 1e-8 * a.abs().max(1.0), "{fx:?} {fu:?} vs {dx:?} {du:?}");
         }

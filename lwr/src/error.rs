@@ -68,23 +68,4 @@ pub enum LwrError {
 /// The crate's result type.
 pub type Result<T, E = LwrError> = std::result::Result<T, E>;
 
-/// Checks that every value is finite.
-pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
-    match values.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(LwrError::NotFinite {
-            what,
-            index,
-            value: values[index],
-        }),
-        None => Ok(()),
-    }
-}
-
-/// Checks a length.
-pub(crate) fn check_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
-    if expected == actual {
-        Ok(())
-    } else {
-        Err(LwrError::DimensionMismatch { what, expected, actual })
-    }
-}
+solve::input_checks!(LwrError, check_len);

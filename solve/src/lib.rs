@@ -306,6 +306,64 @@ impl Status for Termination {
     }
 }
 
+/// Defines a crate's two input checks over its own error type, so that the
+/// solver crates share one definition: `check_finite(what, values)` fails
+/// with `$error::NotFinite { what, index, value }` at the first non-finite
+/// value, and `$len(what, expected, actual)` with
+/// `$error::DimensionMismatch { what, expected, actual }`. Both return the
+/// crate's `Result<()>`, which must be in scope.
+///
+/// ```
+/// #[derive(Debug, PartialEq)]
+/// enum MyError {
+///     NotFinite { what: &'static str, index: usize, value: f64 },
+///     DimensionMismatch { what: &'static str, expected: usize, actual: usize },
+/// }
+/// type Result<T> = std::result::Result<T, MyError>;
+/// solve::input_checks!(MyError, check_len);
+///
+/// assert!(check_finite("x", &[1.0, 2.0]).is_ok());
+/// assert_eq!(
+///     check_finite("x", &[1.0, f64::NAN]).map_err(|e| matches!(e, MyError::NotFinite { index: 1, .. })),
+///     Err(true)
+/// );
+/// assert_eq!(
+///     check_len("u", 2, 3),
+///     Err(MyError::DimensionMismatch { what: "u", expected: 2, actual: 3 })
+/// );
+/// ```
+#[macro_export]
+macro_rules! input_checks {
+    ($error:ident, $len:ident) => {
+        /// Checks that every value is finite.
+        #[allow(dead_code)]
+        pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
+            match values.iter().position(|v| !v.is_finite()) {
+                Some(index) => Err($error::NotFinite {
+                    what,
+                    index,
+                    value: values[index],
+                }),
+                None => Ok(()),
+            }
+        }
+
+        /// Checks that a size (`what`) is the expected one.
+        #[allow(dead_code)]
+        pub(crate) fn $len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
+            if expected == actual {
+                Ok(())
+            } else {
+                Err($error::DimensionMismatch {
+                    what,
+                    expected,
+                    actual,
+                })
+            }
+        }
+    };
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -8,7 +8,9 @@ mod registry;
 
 pub use acrobot::Acrobot;
 pub use cart_pole::CartPole;
-pub use model::{Dynamics, ModelError, ModelResult, StageCost, central_differences, jacobians_or_differences};
+pub use model::{
+    Dynamics, ModelError, ModelResult, StageCost, StepOnly, central_differences, jacobians_or_differences,
+};
 pub use pendulum::Pendulum;
 pub use registry::{DT, STANDARD_LAMBDAS, SwingUpModel, SwingUpWeights, System, find_instance};
 

@@ -188,6 +188,31 @@ impl<D: Dynamics + ?Sized> Dynamics for &D {
     }
 }
 
+/// A model with only its step: its Jacobians, second derivatives and
+/// confidence hidden, so that every solver takes [`central_differences`].
+/// For checking a model's analytic derivatives against differences in a
+/// whole solve, or planning a model whose derivatives are suspect.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct StepOnly<D>(pub D);
+
+impl<D: Dynamics> Dynamics for StepOnly<D> {
+    fn state_dim(&self) -> usize {
+        self.0.state_dim()
+    }
+
+    fn control_dim(&self) -> usize {
+        self.0.control_dim()
+    }
+
+    fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
+        self.0.step(x, u, next)
+    }
+
+    fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
+        self.0.step_batch(xs, us, next)
+    }
+}
+
 /// The Jacobians of `model` at $(x, u)$: its own where it writes them
 /// ([`Dynamics::jacobians`] returns `true`), else [`central_differences`].
 /// Returns whether they are the model's own.
@@ -401,27 +426,12 @@ mod tests {
     use super::*;
     use crate::{Acrobot, CartPole, Mechanics, Pendulum};
 
-    /// A model without Jacobians, differenced.
-    struct Differenced<D>(D);
-
-    impl<D: Dynamics> Dynamics for Differenced<D> {
-        fn state_dim(&self) -> usize {
-            self.0.state_dim()
-        }
-        fn control_dim(&self) -> usize {
-            self.0.control_dim()
-        }
-        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
-            self.0.step(x, u, next)
-        }
-    }
-
     fn check_differences<D: Dynamics>(model: D, x: &[f64], u: &[f64]) {
         let (n, m) = (model.state_dim(), model.control_dim());
         let (mut fx, mut fu) = (vec![0.0; n * n], vec![0.0; n * m]);
         assert!(jacobians_or_differences(&model, x, u, &mut fx, &mut fu).expect("own"));
         let (mut dx, mut du) = (vec![f64::NAN; n * n], vec![f64::NAN; n * m]);
-        assert!(!jacobians_or_differences(&Differenced(&model), x, u, &mut dx, &mut du).expect("differenced"));
+        assert!(!jacobians_or_differences(&StepOnly(&model), x, u, &mut dx, &mut du).expect("differenced"));
         for (a, b) in fx.iter().chain(&fu).zip(dx.iter().chain(&du)) {
             assert!((a - b).abs() < 1e-7 * (1.0 + a.abs()), "{a} vs {b}");
         }

@@ -71,25 +71,7 @@ impl From<systems::ModelError> for TrajoptError {
 /// The crate's result type.
 pub type Result<T, E = TrajoptError> = std::result::Result<T, E>;
 
-/// Checks that every value is finite.
-pub(crate) fn check_finite(what: &'static str, values: &[f64]) -> Result<()> {
-    match values.iter().position(|v| !v.is_finite()) {
-        Some(index) => Err(TrajoptError::NotFinite {
-            what,
-            index,
-            value: values[index],
-        }),
-        None => Ok(()),
-    }
-}
-
-/// Checks that a size is the expected one.
-pub(crate) fn expect_len(what: &'static str, expected: usize, actual: usize) -> Result<()> {
-    if expected != actual {
-        return Err(TrajoptError::DimensionMismatch { what, expected, actual });
-    }
-    Ok(())
-}
+solve::input_checks!(TrajoptError, expect_len);
 
 /// Checks that a point has `expected` entries, all finite.
 pub(crate) fn check_point(what: &'static str, expected: usize, values: &[f64]) -> Result<()> {
