@@ -541,4 +541,80 @@ mod tests {
         assert_eq!(r.plan, warm);
         assert!(replan(&window, &problem, &warm, &[0.0], &settings).is_err());
     }
+
+    /// The linear model, whose Jacobians take `delay` from their second
+    /// evaluation on (a learned model that slows down as the solve goes).
+    struct SlowLater {
+        inner: LinearModel,
+        delay: Duration,
+        calls: std::sync::atomic::AtomicUsize,
+    }
+
+    impl SlowLater {
+        fn wait(&self) {
+            if self.calls.fetch_add(1, std::sync::atomic::Ordering::Relaxed) > 0 {
+                std::thread::sleep(self.delay);
+            }
+        }
+    }
+
+    impl trajopt::Model for SlowLater {
+        fn state_dim(&self) -> usize {
+            self.inner.state_dim()
+        }
+        fn control_dim(&self) -> usize {
+            self.inner.control_dim()
+        }
+        fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> trajopt::ModelResult<()> {
+            self.inner.step(x, u, next)
+        }
+        fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> trajopt::ModelResult<bool> {
+            self.wait();
+            self.inner.jacobians(x, u, fx, fu)
+        }
+        fn jacobians_batch(
+            &self,
+            xs: &[f64],
+            us: &[f64],
+            fx: &mut [f64],
+            fu: &mut [f64],
+        ) -> trajopt::ModelResult<bool> {
+            self.wait();
+            self.inner.jacobians_batch(xs, us, fx, fu)
+        }
+    }
+
+    /// A deadline that passes after a step was accepted stops the solve
+    /// inside it, and the replan keeps the improved plan.
+    #[test]
+    fn a_deadline_after_an_accepted_step_keeps_the_solves_best_plan() {
+        let (window, inner, cost) = setup(30);
+        let model = SlowLater {
+            inner,
+            delay: Duration::from_millis(1500),
+            calls: Default::default(),
+        };
+        let x0 = [0.0, 0.0];
+        let problem = window.problem(&model, cost, 1e3, &x0, 1e4).expect("problem");
+        let warm = WindowPlan {
+            states: Mat::from_fn(31, 2, |k, i| if i == 0 { k as f64 / 30.0 } else { 2.0 }),
+            controls: Mat::zeros(30, 1),
+        };
+        let settings = ReplanSettings {
+            max_iterations: 50,
+            tol_cost: 0.0,
+            budget: Some(Duration::from_millis(500)),
+        };
+        let started = Instant::now();
+        let r = replan(&window, &problem, &warm, &x0, &settings).expect("replan");
+        let took = started.elapsed();
+        match &r.status {
+            ReplanStatus::Solved(status) => assert!(status.contains("TimeLimit"), "{status}"),
+            other => panic!("{other:?}"),
+        }
+        assert!(r.costs.1 < r.costs.0, "{:?}", r.costs);
+        assert_ne!(r.plan, warm);
+        // stopped after the slow Jacobian, not after the iteration budget
+        assert!(took < Duration::from_millis(1500) * 3, "{took:?}");
+    }
 }
