@@ -5,6 +5,16 @@
 //! Matrices cross these traits as row-major slices: entry $(i, j)$ of an
 //! $r \times c$ matrix is `a[i * c + j]`. The solver owns every buffer and
 //! zeroes it before each call, so an implementation only writes its nonzeros.
+//!
+//! How DDP treats what a model returns: non-finite output is allowed (a
+//! learned model far from its data may return anything) and counts as a
+//! blown-up rollout; a [`Dynamics::step`] that returns an error is a
+//! blown-up trial rollout in the line search, and an `Err` of
+//! [`Ddp::solve`](crate::Ddp::solve) in the warm start's rollout (where
+//! there is nothing to fall back on); failed or non-finite Jacobians end
+//! the solve with [`DdpStatus::NonFiniteDerivatives`](crate::DdpStatus::NonFiniteDerivatives);
+//! a failed [`Dynamics::weighted_hessian`] adds no tensor term at that
+//! knot (an iLQR step there).
 
 pub use systems::Dynamics;
 

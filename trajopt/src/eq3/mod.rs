@@ -33,7 +33,14 @@ mod stage_cost;
 pub use lambda::Lambda;
 pub use stage_cost::TrackingCost;
 /// Eq. 3's dynamics model: the workspace's one model contract,
-/// [`systems::Dynamics`], under the name this crate has always used.
+/// [`systems::Dynamics`], under the name this crate has always used. How
+/// Eq. 3 uses it: [`Eq3Problem`] calls `step_batch` (and `jacobians_batch`)
+/// once per residual (Jacobian) evaluation, differences the steps where the
+/// model writes no Jacobians, keeps to `jacobian_structure` in its band
+/// form, takes exact Newton steps with `weighted_hessian`
+/// ([`GaussNewtonSettings::step_model`](crate::GaussNewtonSettings::step_model)),
+/// and weighs the consistency term by `confidence` with
+/// [`Lambda::from_confidence`].
 pub use systems::Dynamics as Model;
 pub use systems::StageCost;
 /// The criterion split into its parts (all squared norms as in the module
