@@ -280,15 +280,6 @@ pub trait BandForm: LeastSquaresProblem {
     }
 }
 
-/// The problem's band form, or an error if it has none (the solver uses
-/// the band paths only for problems that have one).
-pub(crate) fn band_form_of<P: LeastSquaresProblem + ?Sized>(problem: &P) -> Result<&dyn BandForm> {
-    problem.band_form().ok_or_else(|| TrajoptError::InvalidParameter {
-        name: "problem",
-        reason: "it has no band form of its normal equations".into(),
-    })
-}
-
 /// An error unless the Jacobian pattern is `n_residuals` by `n_params`.
 pub(crate) fn check_jacobian_pattern(
     pattern: &SymbolicSparseRowMat<usize>,

@@ -27,7 +27,7 @@ use std::thread::Scope;
 use std::time::{Duration, Instant};
 
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
+use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
 use crate::split::{self, SplitDone, SplitJob};
 
@@ -59,7 +59,7 @@ struct PartJob {
     grad: Vec<f64>,
     /// The diagonal of $S$ when $S$ is asked for.
     diag: Option<Vec<f64>>,
-    /// $S$ alone ([`LeastSquaresProblem::band_second_order_part`]) instead
+    /// $S$ alone ([`BandForm::second_order_part`]) instead
     /// of the normal equations.
     s_only: bool,
 }
@@ -187,6 +187,11 @@ impl Helpers {
                 let (jobs, job_rx) = channel::<Job>();
                 let (done_tx, done) = channel::<Done>();
                 scope.spawn(move || {
+                    // looked up once: a problem without a band form has no
+                    // jobs for its helpers (the solver sees them gone)
+                    let Some(form) = problem.band_form() else {
+                        return;
+                    };
                     if done_tx.send(Done::Ready).is_err() {
                         return;
                     }
@@ -203,18 +208,16 @@ impl Helpers {
                                     theta: &job.theta,
                                     r: &job.r,
                                 };
-                                let result = band_form_of(problem).and_then(|form| {
-                                    if job.s_only {
-                                        form.second_order_part(part, at, &job.layout, &mut job.h)
-                                    } else {
-                                        let out = BandNormalEquations {
-                                            h: &mut job.h,
-                                            grad: &mut job.grad,
-                                            second_order_diagonal: job.diag.as_deref_mut(),
-                                        };
-                                        form.normal_equations_part(part, at, &job.layout, out)
-                                    }
-                                });
+                                let result = if job.s_only {
+                                    form.second_order_part(part, at, &job.layout, &mut job.h)
+                                } else {
+                                    let out = BandNormalEquations {
+                                        h: &mut job.h,
+                                        grad: &mut job.grad,
+                                        second_order_diagonal: job.diag.as_deref_mut(),
+                                    };
+                                    form.normal_equations_part(part, at, &job.layout, out)
+                                };
                                 let first_column = job.h.first_nonzero_column();
                                 Done::Band(PartDone {
                                     job,
@@ -222,7 +225,7 @@ impl Helpers {
                                     first_column,
                                 })
                             }
-                            Job::Split(job) => match split::run_job(&mut split_part, problem, job) {
+                            Job::Split(job) => match split::run_job(&mut split_part, form, job) {
                                 Some(done) => Done::Split(done),
                                 // a job out of order: the solver sees the helper gone
                                 None => break,
@@ -232,8 +235,7 @@ impl Helpers {
                                     index: job.part,
                                     count: job.parts,
                                 };
-                                let result = band_form_of(problem)
-                                    .and_then(|form| form.residuals_part(part, &job.theta, &mut job.r));
+                                let result = form.residuals_part(part, &job.theta, &mut job.r);
                                 Done::Residuals(job, result)
                             }
                         };
@@ -289,9 +291,9 @@ impl Helpers {
     /// in parts, part 0 on this thread and one part on each helper, and
     /// summed in the part order (so the result depends on the number of
     /// parts, not on timing).
-    pub(crate) fn band_parts<P: LeastSquaresProblem + ?Sized>(
+    pub(crate) fn band_parts(
         &mut self,
-        problem: &P,
+        form: &dyn BandForm,
         at: Point<'_>,
         layout: &Arc<BandLayout>,
         out: PartsOut<'_>,
@@ -343,7 +345,7 @@ impl Helpers {
             sent += 1;
         }
         let part = Part { index: 0, count: parts };
-        let mine = band_form_of(problem).and_then(|form| match grad.as_deref_mut() {
+        let mine = match grad.as_deref_mut() {
             Some(g) => {
                 let out = BandNormalEquations {
                     h: &mut *h,
@@ -353,7 +355,7 @@ impl Helpers {
                 form.normal_equations_part(part, at, layout, out)
             }
             None => form.second_order_part(part, at, layout, h),
-        });
+        };
         // collect every part sent, even after an error, so that no answer
         // is left in a channel for the next call
         let mut outcome = mine;
@@ -394,7 +396,7 @@ impl Helpers {
                 grad: Some(grad),
                 second_order: None,
             };
-            return self.band_parts(problem, at, layout, out);
+            return self.band_parts(form, at, layout, out);
         }
         Ok(all_s)
     }
@@ -437,12 +439,7 @@ impl Helpers {
     /// # Errors
     /// The problem's errors, or [`TrajoptError::InvalidParameter`] if the
     /// parts' rows do not cover every residual exactly once.
-    pub(crate) fn residuals<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        theta: &[f64],
-        r: &mut [f64],
-    ) -> Result<()> {
+    pub(crate) fn residuals(&mut self, form: &dyn BandForm, theta: &[f64], r: &mut [f64]) -> Result<()> {
         let parts = self.helpers.len() + 1;
         let mut sent = 0;
         for (i, helper) in self.helpers.iter_mut().enumerate() {
@@ -462,7 +459,7 @@ impl Helpers {
             sent += 1;
         }
         let part = Part { index: 0, count: parts };
-        let mine = band_form_of(problem).and_then(|form| form.residuals_part(part, theta, r));
+        let mine = form.residuals_part(part, theta, r);
         let mut outcome = mine.map(|range| vec![range]);
         let Self { helpers, late, .. } = self;
         for helper in &mut helpers[..sent] {

@@ -33,7 +33,7 @@ use std::sync::atomic::AtomicBool;
 
 use crate::band_model::BandModel;
 use crate::error::Result;
-use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
+use crate::least_squares::{BandForm, BandNormalEquations, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
 
 /// One part's normal equations and the work on them, on the thread that
@@ -126,12 +126,7 @@ impl SplitPart {
 
     /// Forms this part of $J^\top J$ (+ $S$ if `want_s`) and $J^\top r$;
     /// whether $S$ was added.
-    pub(crate) fn assemble<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        at: Point<'_>,
-        want_s: bool,
-    ) -> Result<bool> {
+    pub(crate) fn assemble(&mut self, form: &dyn BandForm, at: Point<'_>, want_s: bool) -> Result<bool> {
         let part = self.part();
         let diag_s = want_s.then_some(&mut self.diag_s[..]);
         let out = BandNormalEquations {
@@ -139,7 +134,7 @@ impl SplitPart {
             grad: &mut self.grad,
             second_order_diagonal: diag_s,
         };
-        self.band.has_s = band_form_of(problem)?.normal_equations_part(part, at, &self.layout, out)?;
+        self.band.has_s = form.normal_equations_part(part, at, &self.layout, out)?;
         if !self.band.has_s {
             self.diag_s.fill(0.0);
         }
@@ -187,20 +182,16 @@ impl SplitPart {
 
     /// This part's $J^\top J$ alone ([`BandModel::form_jtj`]); false if
     /// not finite.
-    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
+    fn form_jtj(&mut self, form: &dyn BandForm, at: Point<'_>) -> Result<bool> {
         let (part, layout) = (self.part(), &self.layout);
         self.band
-            .form_jtj(|out| band_form_of(problem)?.normal_equations_part(part, at, layout, out))
+            .form_jtj(|out| form.normal_equations_part(part, at, layout, out))
     }
 
     /// After a non-finite $S$: $J^\top J$ alone becomes the matrix; false
     /// if it is not finite either.
-    pub(crate) fn replace_by_jtj<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        at: Point<'_>,
-    ) -> Result<bool> {
-        if !self.form_jtj(problem, at)? {
+    pub(crate) fn replace_by_jtj(&mut self, form: &dyn BandForm, at: Point<'_>) -> Result<bool> {
+        if !self.form_jtj(form, at)? {
             return Ok(false);
         }
         self.band.replace_by_jtj();
@@ -213,22 +204,18 @@ impl SplitPart {
 
     /// Makes this part's $J^\top J$ available (from $S$ alone when the
     /// problem gives it, else formed again); false if not finite.
-    pub(crate) fn ensure_gauss_newton<P: LeastSquaresProblem + ?Sized>(
-        &mut self,
-        problem: &P,
-        at: Point<'_>,
-    ) -> Result<bool> {
+    pub(crate) fn ensure_gauss_newton(&mut self, form: &dyn BandForm, at: Point<'_>) -> Result<bool> {
         if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
         }
         let (part, layout) = (self.part(), &self.layout);
         let from_s = self
             .band
-            .jtj_from_second_order(|s| band_form_of(problem)?.second_order_part(part, at, layout, s))?;
+            .jtj_from_second_order(|s| form.second_order_part(part, at, layout, s))?;
         if from_s {
             return Ok(true);
         }
-        self.form_jtj(problem, at)
+        self.form_jtj(form, at)
     }
 
     /// Eliminates the interior of the damped model matrix for the global
@@ -408,11 +395,7 @@ pub(crate) enum SplitDone {
 
 /// Runs one job on the helper's part (`part`, created at the first
 /// assembly).
-pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
-    part: &mut Option<SplitPart>,
-    problem: &P,
-    job: SplitJob,
-) -> Option<SplitDone> {
+pub(crate) fn run_job(part: &mut Option<SplitPart>, form: &dyn BandForm, job: SplitJob) -> Option<SplitDone> {
     if let SplitJob::Assemble {
         layout,
         theta,
@@ -421,7 +404,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
     } = job
     {
         let p = part.get_or_insert_with(|| SplitPart::new(1, &layout));
-        let result = p.assemble(problem, Point { theta: &theta, r: &r }, want_s);
+        let result = p.assemble(form, Point { theta: &theta, r: &r }, want_s);
         let mut diagonal = vec![0.0; p.n];
         p.add_diagonal(&mut diagonal);
         return Some(SplitDone::Assembled {
@@ -438,7 +421,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
     Some(match job {
         SplitJob::Assemble { .. } => return None,
         SplitJob::ReplaceByJtj { theta, r } => {
-            let result = p.replace_by_jtj(problem, Point { theta: &theta, r: &r });
+            let result = p.replace_by_jtj(form, Point { theta: &theta, r: &r });
             let mut diagonal = vec![0.0; p.n];
             p.add_diagonal(&mut diagonal);
             SplitDone::Replaced {
@@ -449,7 +432,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
             }
         }
         SplitJob::GaussNewton { theta, r } => {
-            SplitDone::GaussNewton(p.ensure_gauss_newton(problem, Point { theta: &theta, r: &r }))
+            SplitDone::GaussNewton(p.ensure_gauss_newton(form, Point { theta: &theta, r: &r }))
         }
         SplitJob::Eliminate {
             newton,
@@ -475,7 +458,7 @@ pub(crate) fn run_job<P: LeastSquaresProblem + ?Sized>(
 mod tests {
     use super::*;
     use crate::eq3::{Eq3Problem, TrackingCost};
-    use crate::least_squares::BandForm;
+    use crate::least_squares::LeastSquaresProblem;
     use crate::problems::{Pendulum, pendulum_swingup};
 
     /// The benchmark swing-up at 120 steps, its start, layout and residuals.

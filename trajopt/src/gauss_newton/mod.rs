@@ -105,7 +105,7 @@ pub mod settings;
 use std::time::Instant;
 
 use crate::error::{Result, TrajoptError, check_point};
-use crate::least_squares::{BandForm, LeastSquaresProblem, Point};
+use crate::least_squares::{LeastSquaresProblem, Point};
 use crate::parallel::Helpers;
 use damping::{
     ACCURATE, PROBE, SHIFT_DECREASE, SHIFT_DECREASE_ACCURATE, SHIFT_INCREASE, SHIFT_MAX, SHIFT_MIN, lower_damping,
@@ -339,24 +339,27 @@ impl GaussNewton {
 
         // the band form only when it is narrow (a basis with wide supports,
         // such as a multilevel wavelet, makes it dense)
+        // the back end, chosen once: the band form (looked up here, held by
+        // the system) only when it is narrow (a basis with wide supports,
+        // such as a multilevel wavelet, makes it dense)
         let band = match bounds {
             None if s.band() => problem
                 .band_form()
-                .map(BandForm::layout)
-                .filter(|l| l.half_bandwidth <= MAX_HALF_BANDWIDTH),
+                .map(|form| (form, form.layout()))
+                .filter(|(_, l)| l.half_bandwidth <= MAX_HALF_BANDWIDTH),
             _ => None,
         };
         // kept to go on with one thread when the helpers wait for cores
         let band_layout = band.clone();
         let mut one_thread_from = None;
-        let mut system: Box<dyn NormalEquations<P>> = match band {
-            Some(layout) => {
+        let mut system: Box<dyn NormalEquations<P> + '_> = match band {
+            Some((form, layout)) => {
                 layout.validate(n_p)?;
                 match helpers {
                     Some(helpers) if helpers.count() == 1 => {
-                        Box::new(SplitSystem::new(layout, s.second_order(), helpers))
+                        Box::new(SplitSystem::new(form, layout, s.second_order(), helpers))
                     }
-                    helpers => Box::new(BandSystem::new(layout, s.second_order(), helpers)),
+                    helpers => Box::new(BandSystem::new(form, layout, s.second_order(), helpers)),
                 }
             }
             None => Box::new(SparseSystem::new(
@@ -399,10 +402,11 @@ impl GaussNewton {
         };
 
         'outer: while iterations < s.max_iterations {
-            if let (true, true, Some(layout)) = (s.one_thread_fallback, system.helpers_degraded(), &band_layout) {
+            if let (true, true, Some((form, layout))) = (s.one_thread_fallback, system.helpers_degraded(), &band_layout)
+            {
                 // the helpers wait for cores (a busy machine): one thread is faster
                 one_thread_from = Some(iterations + 1);
-                system = Box::new(BandSystem::new(layout.clone(), s.second_order(), None));
+                system = Box::new(BandSystem::new(*form, layout.clone(), s.second_order(), None));
             }
             if let Some(why) = watch.out_of_time() {
                 status = GaussNewtonStatus::interrupted(why);

@@ -8,13 +8,15 @@ use std::sync::Arc;
 use super::{Damping, NormalEquations};
 use crate::band_model::BandModel;
 use crate::error::Result;
-use crate::least_squares::{BandNormalEquations, LeastSquaresProblem, Part, Point, band_form_of};
+use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
 use crate::parallel::Helpers;
 
 /// The band form: $J^\top J$ (or $J^\top J + S$) formed by the problem in
 /// band storage, a band Cholesky factorisation ([`crate::linalg`]).
-pub(crate) struct BandSystem {
+pub(crate) struct BandSystem<'p> {
+    /// The problem's band form, looked up once per solve.
+    form: &'p dyn BandForm,
     layout: Arc<BandLayout>,
     /// Threads forming parts of the normal equations, if any.
     helpers: Option<Helpers>,
@@ -31,11 +33,17 @@ pub(crate) struct BandSystem {
     product: Vec<f64>,
 }
 
-impl BandSystem {
-    pub(crate) fn new(layout: BandLayout, second_order: bool, helpers: Option<Helpers>) -> Self {
+impl<'p> BandSystem<'p> {
+    pub(crate) fn new(
+        form: &'p dyn BandForm,
+        layout: BandLayout,
+        second_order: bool,
+        helpers: Option<Helpers>,
+    ) -> Self {
         let n = layout.position.len();
         let band = BandModel::new(n, layout.half_bandwidth);
         Self {
+            form,
             second_order,
             work: Some(band.h.clone()),
             band,
@@ -49,49 +57,49 @@ impl BandSystem {
 
     /// $J^\top J$ alone ([`BandModel::form_jtj`]); false if it is not
     /// finite.
-    fn form_jtj<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
-        let (helpers, layout) = (&mut self.helpers, &self.layout);
-        self.band.form_jtj(|out| form_band(helpers, problem, at, layout, out))
+    fn form_jtj(&mut self, at: Point<'_>) -> Result<bool> {
+        let (helpers, form, layout) = (&mut self.helpers, self.form, &self.layout);
+        self.band.form_jtj(|out| form_band(helpers, form, at, layout, out))
     }
 
     /// $J^\top J = H - S$ from the problem's $S$ alone
     /// ([`BandForm::second_order_part`](crate::BandForm::second_order_part)), cheaper than
     /// forming $J^\top J$; false if the problem does not give $S$ alone or
     /// the difference is not finite.
-    fn jtj_from_second_order<P: LeastSquaresProblem + ?Sized>(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
-        let (helpers, layout) = (&mut self.helpers, &self.layout);
+    fn jtj_from_second_order(&mut self, at: Point<'_>) -> Result<bool> {
+        let (helpers, form, layout) = (&mut self.helpers, self.form, &self.layout);
         self.band.jtj_from_second_order(|s| match helpers {
-            Some(helpers) => helpers.band_parts(problem, at, layout, s.into()),
-            None => band_form_of(problem)?.second_order_part(Part::WHOLE, at, layout, s),
+            Some(helpers) => helpers.band_parts(form, at, layout, s.into()),
+            None => form.second_order_part(Part::WHOLE, at, layout, s),
         })
     }
 }
 
-impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
+impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem<'_> {
     fn helpers_degraded(&mut self) -> bool {
         self.helpers.as_mut().is_some_and(Helpers::degraded)
     }
 
     fn residuals(&mut self, problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
         match self.helpers.as_mut() {
-            Some(helpers) => helpers.residuals(problem, theta, r),
+            Some(helpers) => helpers.residuals(self.form, theta, r),
             None => problem.residuals(theta, r),
         }
     }
 
-    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
+    fn assemble(&mut self, _problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
         let diag_s = (self.second_order && want_s).then_some(&mut self.diag_s[..]);
         let out = BandNormalEquations {
             h: &mut self.band.h,
             grad,
             second_order_diagonal: diag_s,
         };
-        self.band.has_s = form_band(&mut self.helpers, problem, at, &self.layout, out)?;
+        self.band.has_s = form_band(&mut self.helpers, self.form, at, &self.layout, out)?;
         self.band.jtj_current = false;
         let finite = |v: &[f64]| v.iter().all(|x| x.is_finite());
         if !(finite(self.band.h.band()) && finite(grad)) {
             // a non-finite S only rules out Newton steps
-            if !self.band.has_s || !self.form_jtj(problem, at)? {
+            if !self.band.has_s || !self.form_jtj(at)? {
                 return Ok(None);
             }
             grad.copy_from_slice(&self.band.grad);
@@ -101,14 +109,14 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
     }
 
     /// Makes $J^\top J$ available for Gauss-Newton steps at this iterate.
-    fn ensure_gauss_newton(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
+    fn ensure_gauss_newton(&mut self, _problem: &P, at: Point<'_>) -> Result<bool> {
         if !self.band.has_s || self.band.jtj_current {
             return Ok(true);
         }
-        if self.jtj_from_second_order(problem, at)? {
+        if self.jtj_from_second_order(at)? {
             return Ok(true);
         }
-        self.form_jtj(problem, at)
+        self.form_jtj(at)
     }
 
     /// The diagonal of $J^\top J$ in the parameter order.
@@ -160,15 +168,15 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for BandSystem {
 }
 
 /// The band normal equations, split over the helpers if there are any.
-fn form_band<P: LeastSquaresProblem + ?Sized>(
+fn form_band(
     helpers: &mut Option<Helpers>,
-    problem: &P,
+    form: &dyn BandForm,
     at: Point<'_>,
     layout: &Arc<BandLayout>,
     out: BandNormalEquations<'_>,
 ) -> Result<bool> {
     match helpers {
-        Some(helpers) => helpers.band_parts(problem, at, layout, out.into()),
-        None => band_form_of(problem)?.normal_equations(at, layout, out),
+        Some(helpers) => helpers.band_parts(form, at, layout, out.into()),
+        None => form.normal_equations(at, layout, out),
     }
 }

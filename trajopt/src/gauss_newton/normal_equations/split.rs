@@ -8,7 +8,7 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::{Damping, NormalEquations};
 use crate::error::{Result, TrajoptError};
-use crate::least_squares::{LeastSquaresProblem, Point};
+use crate::least_squares::{BandForm, LeastSquaresProblem, Point};
 use crate::linalg::BandLayout;
 use crate::parallel::Helpers;
 use crate::split::{SplitDone, SplitJob, SplitPart, split_points};
@@ -16,7 +16,9 @@ use crate::split::{SplitDone, SplitJob, SplitPart, split_points};
 /// The band form on two threads ([`crate::split`]): part 0 here, part 1
 /// on the helper; only the gradient, the diagonals, the Schur blocks on
 /// the overlap $S$ and the step's pieces cross threads.
-pub(crate) struct SplitSystem {
+pub(crate) struct SplitSystem<'p> {
+    /// The problem's band form, looked up once per solve.
+    form: &'p dyn BandForm,
     layout: Arc<BandLayout>,
     second_order: bool,
     mine: SplitPart,
@@ -40,10 +42,11 @@ pub(crate) struct SplitSystem {
     abort: Arc<AtomicBool>,
 }
 
-impl SplitSystem {
-    pub(crate) fn new(layout: BandLayout, second_order: bool, helpers: Helpers) -> Self {
+impl<'p> SplitSystem<'p> {
+    pub(crate) fn new(form: &'p dyn BandForm, layout: BandLayout, second_order: bool, helpers: Helpers) -> Self {
         let n = layout.position.len();
         Self {
+            form,
             mine: SplitPart::new(0, &layout),
             layout: Arc::new(layout),
             second_order,
@@ -70,17 +73,17 @@ impl SplitSystem {
     }
 }
 
-impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
+impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem<'_> {
     fn helpers_degraded(&mut self) -> bool {
         self.helpers.degraded()
     }
 
-    fn residuals(&mut self, problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
-        self.helpers.residuals(problem, theta, r)
+    fn residuals(&mut self, _problem: &P, theta: &[f64], r: &mut [f64]) -> Result<()> {
+        self.helpers.residuals(self.form, theta, r)
     }
 
     /// Both parts at `theta`.
-    fn assemble(&mut self, problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
+    fn assemble(&mut self, _problem: &P, at: Point<'_>, grad: &mut [f64], want_s: bool) -> Result<Option<bool>> {
         let Point { theta, r } = at;
         self.product_of = None;
         self.jtj_current = false;
@@ -94,7 +97,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
             };
             let (mine, theirs) = self
                 .helpers
-                .split_alongside(job, || self.mine.assemble(problem, at, want));
+                .split_alongside(job, || self.mine.assemble(self.form, at, want));
             let Some(SplitDone::Assembled {
                 result,
                 finite,
@@ -127,7 +130,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
             };
             let (mine, theirs) = self
                 .helpers
-                .split_alongside(job, || self.mine.replace_by_jtj(problem, at));
+                .split_alongside(job, || self.mine.replace_by_jtj(self.form, at));
             let Some(SplitDone::Replaced {
                 result,
                 grad,
@@ -163,7 +166,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
         }
     }
 
-    fn ensure_gauss_newton(&mut self, problem: &P, at: Point<'_>) -> Result<bool> {
+    fn ensure_gauss_newton(&mut self, _problem: &P, at: Point<'_>) -> Result<bool> {
         if !self.has_s || self.jtj_current {
             return Ok(true);
         }
@@ -173,7 +176,7 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SplitSystem {
         };
         let (mine, theirs) = self
             .helpers
-            .split_alongside(job, || self.mine.ensure_gauss_newton(problem, at));
+            .split_alongside(job, || self.mine.ensure_gauss_newton(self.form, at));
         let Some(SplitDone::GaussNewton(theirs)) = theirs else {
             return Err(Self::helper_lost());
         };
