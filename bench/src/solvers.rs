@@ -7,7 +7,7 @@
 //! | `newton` | the same, [`StepModel::Newton`] | $r$, $J$, $S$ by central differences of $J$ ($2n$ Jacobians) |
 //! | `adaptive` | the same, [`StepModel::Adaptive`] | as `newton`, $S$ only where the model choice asks for it |
 //! | `powell` | [`trajopt::Powell`] | $f$ |
-//! | `dfo-ls` | [`trajopt::DerivativeFree`]: Levenberg-Marquardt on a Jacobian forward-differenced by column groups of the residuals, settings as `gauss-newton`'s, the budget as its `max_residual_evals` | $r$ (each evaluation counts 1, the differences' included) |
+//! | `dfo-ls` | [`trajopt::DerivativeFree`]: Levenberg-Marquardt on a Jacobian forward-differenced by column groups of the residuals, settings as `gauss-newton`'s, the budget as its `max_evals` | $r$ (each evaluation counts 1, the differences' included) |
 //! | `argmin-nelder-mead` | argmin's `NelderMead` (scipy's initial simplex: 5% of each coordinate, 0.00025 for a zero) | $f$ |
 //! | `argmin-lbfgs` | argmin's `LBFGS`, memory 7, Moré-Thuente line search | $f$, $\nabla f = 2 J^\top r$ |
 //! | `ddp-ilqr` | [`ddp::Ddp`], [`DdpMethod::Ilqr`], on the DDP form (trajectory set) | rollouts, linearisations |
@@ -284,7 +284,7 @@ impl Solver {
         let measured = match result {
             Ok(r) => {
                 let jac_evals = (1 + u64::from(r.method == DdpMethod::Ddp)) * r.jacobian_evals as u64;
-                let f_evals = r.cost_evals as u64;
+                let f_evals = r.evals as u64;
                 Measured {
                     status: format!("{:?}", r.status),
                     converged: r.status.is_converged(),
@@ -323,10 +323,10 @@ impl Solver {
             }
             Self::Powell => {
                 let solver = Powell::new(PowellSettings {
-                    tol_f: 1e-14,
-                    tol_x: 1e-12,
+                    tol_cost: 1e-14,
+                    tol_step: 1e-12,
                     max_iterations: Some(usize::MAX),
-                    max_cost_evals: Some(usize::MAX),
+                    max_evals: Some(usize::MAX),
                     ..PowellSettings::default()
                 })
                 .map_err(|e| refused(e.to_string()))?;
@@ -339,7 +339,7 @@ impl Solver {
                 let budget = usize::try_from(counted.max_evals()).unwrap_or(usize::MAX);
                 let solver = DerivativeFree::new(DerivativeFreeSettings {
                     gauss_newton: gauss_newton_settings(StepModel::GaussNewton),
-                    max_residual_evals: Some(budget.max(1)),
+                    max_evals: Some(budget.max(1)),
                     ..DerivativeFreeSettings::default()
                 })
                 .map_err(|e| refused(e.to_string()))?;

@@ -42,7 +42,7 @@ fn pendulum_swingup_converges_with_ddp_and_ilqr_to_the_same_optimum() {
             // one linearisation at the warm start and one after each accepted step
             let accepted = r.step_sizes.iter().filter(|&&a| a > 0.0).count();
             assert_eq!(r.jacobian_evals, accepted + 1);
-            assert!(r.cost_evals > r.iterations, "{} rollouts", r.cost_evals);
+            assert!(r.evals > r.iterations, "{} rollouts", r.evals);
             assert_eq!(r.step_sizes.len(), r.iterations);
             assert_eq!(r.regularizations.len(), r.iterations);
             assert_eq!(r.gains.len(), 300);

@@ -194,6 +194,20 @@ pub struct TuneResult {
     pub status: TuneStatus,
 }
 
+/// The objective is the cost; every evaluation counts as an iteration.
+impl solve::Outcome for TuneResult {
+    fn summary(&self) -> solve::Summary {
+        solve::Summary {
+            cost: self.objective,
+            initial_cost: self.initial_objective,
+            iterations: self.evals,
+            evals: self.evals,
+            termination: solve::Status::termination(&self.status),
+            solve_time: None,
+        }
+    }
+}
+
 impl LwrModel {
     /// Tunes the bandwidth $h$ and the metric scales $m_j$ by minimising the
     /// normalised leave-one-out MSE ([`LooResult::normalized_mse`](crate::LooResult::normalized_mse)).

@@ -306,6 +306,36 @@ impl Status for Termination {
     }
 }
 
+/// What every solver's result says, under one name each: the one result
+/// shape of the workspace. Each result type keeps its own extra fields
+/// (DDP's gains, Gauss-Newton's factorisations, the LWR tuning's history)
+/// and gives this view through [`Outcome::summary`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct Summary {
+    /// The cost at the returned point (the solver's own objective: a sum
+    /// of squares, a cost function, a trajectory cost, a cross-validation
+    /// error).
+    pub cost: f64,
+    /// The cost at the start.
+    pub initial_cost: f64,
+    /// Iterations made.
+    pub iterations: usize,
+    /// Evaluations of the objective (residual vectors, costs, rollouts or
+    /// cross-validation passes), counted as the solver's `max_evals`
+    /// budget counts them.
+    pub evals: usize,
+    /// Why the solver stopped.
+    pub termination: Termination,
+    /// The solve's wall time, where the solver measures it.
+    pub solve_time: Option<Duration>,
+}
+
+/// A solver's result, seen through the one shape ([`Summary`]).
+pub trait Outcome {
+    /// The fields all results share.
+    fn summary(&self) -> Summary;
+}
+
 /// Defines a crate's two input checks over its own error type, so that the
 /// solver crates share one definition: `check_finite(what, values)` fails
 /// with `$error::NotFinite { what, index, value }` at the first non-finite

@@ -4,9 +4,10 @@
 //! Powell on Eq. 3 (`trajopt`), iLQR and full DDP (`ddp`).
 
 use std::f64::consts::PI;
+use std::time::Duration;
 
 use ddp::{Ddp, DdpMethod, DdpProblem, DdpSettings, ResidualCost};
-use solve::Status;
+use solve::{Outcome, Status, Termination};
 use splines::BSplineBasis;
 use systems::{Dynamics, ModelResult, StageCost};
 use trajopt::{
@@ -135,7 +136,7 @@ fn one_user_model_is_planned_by_every_solver() {
     assert!(rel(df.cost, gn.cost) < 1e-6, "{} vs {}", df.cost, gn.cost);
 
     let powell = Powell::new(PowellSettings {
-        max_cost_evals: Some(400_000),
+        max_evals: Some(400_000),
         max_iterations: Some(100_000),
         ..PowellSettings::default()
     })
@@ -193,4 +194,23 @@ fn one_user_model_is_planned_by_every_solver() {
         ilqr.cost
     );
     assert!(replay_cost <= 1.01 * ilqr.cost, "{replay_cost} vs {}", ilqr.cost);
+
+    // one result shape: every solver's result read through the same fields
+    let summaries = [
+        ("gauss-newton", gn.summary()),
+        ("derivative-free", df.summary()),
+        ("powell", powell.summary()),
+        ("ilqr", ilqr.summary()),
+        ("ddp", full.summary()),
+    ];
+    for (name, s) in &summaries {
+        assert_eq!(s.termination, Termination::Converged, "{name}");
+        assert!(s.cost < 0.5 * s.initial_cost, "{name}: {s:?}");
+        assert!(s.iterations >= 1 && s.evals > s.iterations / 2, "{name}: {s:?}");
+        assert!(s.solve_time.is_some_and(|t| t > Duration::ZERO), "{name}: {s:?}");
+    }
+    // the same problem, the same start: the three Eq. 3 solvers start from one cost
+    let eq3_starts: Vec<f64> = summaries[..3].iter().map(|(_, s)| s.initial_cost).collect();
+    assert!(eq3_starts.iter().all(|&c| c == eq3_starts[0]), "{eq3_starts:?}");
+    assert_eq!(summaries[2].1.evals, powell.evals);
 }

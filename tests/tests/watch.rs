@@ -108,7 +108,7 @@ fn gauss_newton_stops_on_request_and_on_time() {
     // the observers saw the accepted costs, and the result is the last one
     assert_eq!(seen, r.cost_history);
     assert_eq!(trace.records.iter().map(|t| t.cost).collect::<Vec<_>>(), seen);
-    assert_eq!(trace.records.last().map(|t| t.evaluations), Some(r.residual_evals));
+    assert_eq!(trace.records.last().map(|t| t.evaluations), Some(r.evals));
     assert_eq!(r.x, free_prefix(&gn, &problem, &theta0, 2));
 
     // a limit inside the solve: at most one Jacobian and one trial step after it
@@ -157,8 +157,8 @@ fn the_derivative_free_mode_stops_on_request_and_on_time() {
     };
     assert_eq!((r.status, r.iterations), (GaussNewtonStatus::Stopped, 1));
     // the observers count the differences' evaluations too
-    assert_eq!(trace.records[0].evaluations, r.residual_evals);
-    assert!(r.residual_evals > r.jacobian_groups);
+    assert_eq!(trace.records[0].evaluations, r.evals);
+    assert!(r.evals > r.jacobian_groups);
     assert_eq!(seen, vec![r.cost]);
 
     let clock = Clock::new(Duration::from_millis(1));
@@ -211,7 +211,7 @@ fn powell_stops_on_request_and_evaluates_nothing_after_its_limit() {
     assert_eq!(r.status.termination(), Termination::TimeLimit);
     assert_eq!(clock.after(deadline), 0);
     // every evaluation counted was made, and the cost is the one at x
-    assert_eq!(r.cost_evals, clock.starts.lock().expect("clock").len());
+    assert_eq!(r.evals, clock.starts.lock().expect("clock").len());
     assert_eq!(rosenbrock(&r.x).expect("cost"), r.cost);
     assert_eq!(PowellStatus::ReachedStopCost.termination(), Termination::TargetReached);
 }

@@ -50,7 +50,7 @@ fn overhead_per_evaluation(c: &mut Criterion) {
         // three sweeps), counted once for the throughput
         let powell = Powell::new(PowellSettings::default()).expect("settings");
         let x0 = vec![-3.0; n];
-        let evals = powell.solve(&trivial, &x0).expect("solve").cost_evals;
+        let evals = powell.solve(&trivial, &x0).expect("solve").evals;
         group.throughput(Throughput::Elements(evals as u64));
         group.bench_with_input(BenchmarkId::new("trivial", n), &x0, |b, x0| {
             b.iter(|| powell.solve(&trivial, black_box(x0)).expect("solve"));

@@ -53,7 +53,7 @@ fn main() -> anyhow::Result<()> {
         powell.status,
         powell.status.termination(),
         powell.cost,
-        powell.cost_evals,
+        powell.evals,
         powell.solve_time.as_secs_f64() * 1e3
     );
     Ok(())

@@ -7,7 +7,7 @@
 //!   final cost beside the reference minimum $f_\text{ref}$; a converged
 //!   status with $f > f_\text{ref} + 10^{-6} (1 + |f_\text{ref}|)$ that is
 //!   at none of the other minima the paper lists is a *false convergence*.
-//! - **effort** (tight tolerances, `tol_f = tol_x = 0`, budget
+//! - **effort** (tight tolerances, `tol_cost = tol_step = 0`, budget
 //!   $2000 (n + 1)$): the evaluations until the best value first reaches
 //!   $f_\text{ref} + 10^{-8} (1 + |f_\text{ref}|)$.
 //!
@@ -62,9 +62,9 @@ fn instances() -> Vec<Instance> {
             // Gauss-Newton from the start, the paper's minimiser, and the end
             // of a long Powell run (which finds lower minima on Chebyquad)
             let long = Powell::new(PowellSettings {
-                tol_f: 0.0,
-                tol_x: 0.0,
-                max_cost_evals: Some(20_000 * (problem.n() + 1)),
+                tol_cost: 0.0,
+                tol_step: 0.0,
+                max_evals: Some(20_000 * (problem.n() + 1)),
                 max_iterations: Some(usize::MAX),
                 ..PowellSettings::default()
             })
@@ -161,7 +161,7 @@ fn honesty(list: bool) -> Result<(), TrajoptError> {
                 r.status,
                 r.cost,
                 inst.f_ref,
-                r.cost_evals
+                r.evals
             );
         }
     }
@@ -204,9 +204,9 @@ fn effort(list: bool, principal_axes: usize) -> Result<(), TrajoptError> {
         let n = inst.problem.n();
         let budget = 2000 * (n + 1);
         let powell = Powell::new(PowellSettings {
-            tol_f: 0.0,
-            tol_x: 0.0,
-            max_cost_evals: Some(budget),
+            tol_cost: 0.0,
+            tol_step: 0.0,
+            max_evals: Some(budget),
             max_iterations: Some(usize::MAX),
             principal_axes,
             ..PowellSettings::default()

@@ -41,7 +41,7 @@ fn main() -> anyhow::Result<()> {
     );
     let budget = per_parameter * n;
     let powell = Powell::new(PowellSettings {
-        max_cost_evals: Some(budget),
+        max_evals: Some(budget),
         stop_cost: Some(target),
         ..PowellSettings::default()
     })?;
@@ -55,7 +55,7 @@ fn main() -> anyhow::Result<()> {
         println!(
             "| {name} | {:?} | {} | {:.0} | {:.6e} | {:.2} s |",
             r.status,
-            r.cost_evals,
+            r.evals,
             r.full_eval_equivalents,
             r.cost,
             r.solve_time.as_secs_f64()

@@ -209,7 +209,7 @@ fn eq3_pendulum_reaches_gauss_newtons_optimum() {
             gn.cost
         );
         // the evaluations: an iteration costs 1 + groups at most
-        assert!(r.residual_evals <= (r.iterations + 1) * (r.jacobian_groups + 1) + 2 * r.iterations + 2);
+        assert!(r.evals <= (r.iterations + 1) * (r.jacobian_groups + 1) + 2 * r.iterations + 2);
         groups.push(r.jacobian_groups);
     }
     // the groups depend on the basis's overlap, not on the horizon
@@ -290,7 +290,7 @@ fn mgh_reaches_the_minima_gauss_newton_reaches() {
         }
         let r = DerivativeFree::new(DerivativeFreeSettings {
             gauss_newton: tight(),
-            max_residual_evals: Some(2000 * (x0.len() + 1)),
+            max_evals: Some(2000 * (x0.len() + 1)),
             ..DerivativeFreeSettings::default()
         })
         .expect("settings")
@@ -315,14 +315,14 @@ fn budget_stops_with_the_best_point() {
     let problem = Rosenbrock { n: 20, c: 100.0 };
     let x0: Vec<f64> = (0..20).map(|i| if i % 2 == 0 { -1.2 } else { 1.0 }).collect();
     let r = DerivativeFree::new(DerivativeFreeSettings {
-        max_residual_evals: Some(25),
+        max_evals: Some(25),
         ..DerivativeFreeSettings::default()
     })
     .expect("settings")
     .solve(&problem, &x0)
     .expect("solves");
     assert_eq!(r.status, GaussNewtonStatus::MaxEvaluations);
-    assert_eq!(r.residual_evals, 25);
+    assert_eq!(r.evals, 25);
     assert!(r.cost < r.initial_cost);
     let mut res = vec![0.0; 20];
     problem.residuals(&r.x, &mut res).expect("evaluates");
@@ -356,7 +356,7 @@ fn converged_statuses_are_at_a_minimum_or_stationary_on_mgh() {
         for scale in [1.0, 10.0, 100.0] {
             let x0 = p.start(scale);
             let Ok(r) = DerivativeFree::new(DerivativeFreeSettings {
-                max_residual_evals: Some(2000 * (x0.len() + 1)),
+                max_evals: Some(2000 * (x0.len() + 1)),
                 ..DerivativeFreeSettings::default()
             })
             .expect("settings")

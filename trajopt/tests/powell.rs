@@ -98,14 +98,9 @@ fn rosenbrock_matches_scipy_with_fewer_evaluations() {
         assert!((ours - theirs).abs() < 1e-4, "{:?} vs scipy {:?}", result.x, g.x);
     }
     assert!((result.cost - g.cost).abs() < 1e-8, "{} vs {}", result.cost, g.cost);
-    assert_eq!(result.cost_evals, f.evals.get());
+    assert_eq!(result.evals, f.evals.get());
     // scipy: 607 evaluations; the target is no more than scipy's
-    assert!(
-        result.cost_evals <= g.nfev,
-        "{} evaluations, scipy {}",
-        result.cost_evals,
-        g.nfev
-    );
+    assert!(result.evals <= g.nfev, "{} evaluations, scipy {}", result.evals, g.nfev);
     assert!(result.cost <= result.initial_cost);
 }
 
@@ -149,9 +144,9 @@ fn evaluation_counts_stay_at_or_below_scipys() {
         let result = default_powell().solve(&objective, &g.x0).expect("solve");
         assert!(result.status.is_converged(), "{name}: {:?}", result.status);
         assert!(
-            result.cost_evals <= g.nfev,
+            result.evals <= g.nfev,
             "{name}: {} evaluations, scipy {}",
-            result.cost_evals,
+            result.evals,
             g.nfev
         );
         assert!(
@@ -167,7 +162,7 @@ fn evaluation_counts_stay_at_or_below_scipys() {
             .configure(|state| state.param(g.x0.clone()))
             .run()
             .expect("argmin run");
-        assert_eq!(run.solver().cost_evals(), result.cost_evals, "{name}");
+        assert_eq!(run.solver().evals(), result.evals, "{name}");
     }
 }
 
@@ -327,8 +322,8 @@ fn argmin_executor_reaches_the_same_minimum() {
         state.get_termination_reason(),
         Some(&TerminationReason::SolverConverged)
     );
-    assert_eq!(state.get_func_counts()["cost_count"] as usize, direct.cost_evals);
-    assert_eq!(result.solver().cost_evals(), direct.cost_evals);
+    assert_eq!(state.get_func_counts()["cost_count"] as usize, direct.evals);
+    assert_eq!(result.solver().evals(), direct.evals);
     assert_eq!(result.solver().status(), Some(direct.status));
 }
 
@@ -346,7 +341,7 @@ fn argmin_executor_limits() {
     );
 
     let solver = PowellArgmin::new(PowellSettings {
-        max_cost_evals: Some(50),
+        max_evals: Some(50),
         ..PowellSettings::default()
     })
     .expect("settings");
@@ -354,7 +349,7 @@ fn argmin_executor_limits() {
         .configure(|state| state.param(vec![-1.2, 1.0]))
         .run()
         .expect("argmin run");
-    assert!(result.solver().cost_evals() <= 50);
+    assert!(result.solver().evals() <= 50);
     assert_eq!(result.solver().status(), Some(PowellStatus::MaxEvaluations));
     assert!(matches!(
         result.state().get_termination_reason(),
@@ -408,14 +403,14 @@ proptest! {
         let n = c.len();
         let settings = PowellSettings {
             bounds: Some((vec![-half_width; n], vec![half_width; n])),
-            max_cost_evals: Some(max_evals),
+            max_evals: Some(max_evals),
             ..PowellSettings::default()
         };
         let f = |x: &[f64]| -> trajopt::Result<f64> { Ok(quadratic(&b, &c, x)) };
         let result = Powell::new(settings).expect("settings").solve(&f, &x0).expect("solve");
         let clipped: Vec<f64> = x0.iter().map(|v| v.clamp(-half_width, half_width)).collect();
         prop_assert!(result.cost <= quadratic(&b, &c, &clipped));
-        prop_assert!(result.cost_evals <= max_evals);
+        prop_assert!(result.evals <= max_evals);
         prop_assert!(result.x.iter().all(|v| v.abs() <= half_width));
     }
 

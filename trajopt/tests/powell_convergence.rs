@@ -94,7 +94,7 @@ fn mgh_default_convergence_is_at_a_minimum() {
                     p.id(),
                     r.status,
                     r.cost,
-                    r.cost_evals
+                    r.evals
                 )),
             }
         }
@@ -105,7 +105,7 @@ fn mgh_default_convergence_is_at_a_minimum() {
         "converged away from any minimum:\n{}",
         wrong.join("\n")
     );
-    // 76 when written; scipy's rule (tol_f = 1e-4, one sweep) reached 60
+    // 76 when written; scipy's rule (tol_cost = 1e-4, one sweep) reached 60
     assert!(
         at_best >= 70,
         "only {at_best} of {runs} runs converge at the best known minimum"
@@ -130,7 +130,7 @@ fn trajectory_run(instance: Instance) -> trajopt::PowellStatus {
             instance.name(),
             r.status,
             r.cost,
-            r.cost_evals,
+            r.evals,
             gn.cost
         );
     }

@@ -135,7 +135,7 @@ fn without_second_derivatives_newton_and_adaptive_modes_are_gauss_newton() -> Re
         assert_eq!(gn.x, other.x, "{step_model:?}");
         if step_model == StepModel::Adaptive {
             // and no curvature probes: without S they could not change the choice
-            assert_eq!(other.residual_evals, gn.residual_evals);
+            assert_eq!(other.evals, gn.evals);
         }
     }
     Ok(())
@@ -383,7 +383,7 @@ fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
     assert_same_minimum(&probed, &exact, 1e-9, "probed vs exact");
     assert_iterations_close(&probed, &exact, 3, "probed vs exact");
     // the probes: two residual evaluations per trial step
-    assert!(probed.residual_evals >= exact.residual_evals + 2 * (probed.iterations - 1));
+    assert!(probed.evals >= exact.evals + 2 * (probed.iterations - 1));
     Ok(())
 }
 

@@ -202,7 +202,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// The convergence test on the last backward pass, whose expected
     /// reduction at full step is `-dv`.
     pub(super) fn converged(&self, dv: f64, cost: f64) -> bool {
-        -dv <= self.s.tol_expected_reduction * cost.abs().max(1.0) || self.feedforward_norm() <= self.s.tol_feedforward
+        -dv <= self.s.tol_cost * cost.abs().max(1.0) || self.feedforward_norm() <= self.s.tol_step
     }
 
     pub(super) fn feedforward_norm(&self) -> f64 {

@@ -19,7 +19,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// # Errors
     /// The dynamics' error if a step fails (there is no iterate to return).
     pub(super) fn initial_rollout(&mut self) -> Result<Rollout> {
-        self.cost_evals += 1;
+        self.evals += 1;
         let (n, m) = (self.n, self.m);
         let (dynamics, cost) = (self.p.dynamics(), self.p.cost());
         self.xs[..n].copy_from_slice(self.p.initial_state());
@@ -48,7 +48,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
     /// Closed-loop rollout with step size `alpha` into the `_try` buffers. A
     /// step of the dynamics that fails counts as a blow-up at that step.
     pub(super) fn forward(&mut self, alpha: f64) -> Rollout {
-        self.cost_evals += 1;
+        self.evals += 1;
         let (n, m) = (self.n, self.m);
         let (dynamics, cost) = (self.p.dynamics(), self.p.cost());
         self.xs_try[..n].copy_from_slice(&self.xs[..n]);

@@ -126,7 +126,7 @@ pub struct DdpResult {
     pub method: DdpMethod,
     /// Rollouts, each a cost evaluation of a whole trajectory: the warm
     /// start's and every line-search trial.
-    pub cost_evals: usize,
+    pub evals: usize,
     /// Linearisations of the dynamics and the cost along a whole trajectory
     /// (each [`Dynamics::jacobians`](crate::Dynamics::jacobians) at every knot).
     pub jacobian_evals: usize,
@@ -134,6 +134,19 @@ pub struct DdpResult {
     pub status: DdpStatus,
     /// Wall-clock solve time.
     pub solve_time: Duration,
+}
+
+impl solve::Outcome for DdpResult {
+    fn summary(&self) -> solve::Summary {
+        solve::Summary {
+            cost: self.cost,
+            initial_cost: self.initial_cost,
+            iterations: self.iterations,
+            evals: self.evals,
+            termination: solve::Status::termination(&self.status),
+            solve_time: Some(self.solve_time),
+        }
+    }
 }
 
 impl DdpResult {

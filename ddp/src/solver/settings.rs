@@ -24,8 +24,8 @@ pub enum DdpMethod {
 /// | field | default | meaning |
 /// |---|---|---|
 /// | `max_iterations` | 200 | iterations (backward pass + line search), failed ones included |
-/// | `tol_expected_reduction` | 1e-12 | converged when the full step's expected reduction $-(\Delta_1 + \Delta_2) \le$ tol $\cdot \max(1, \lvert J \rvert)$ |
-/// | `tol_feedforward` | 1e-9 | converged when $\max_{k,i} \lvert k_{k,i} \rvert / (1 + \lvert u_{k,i} \rvert) \le$ tol |
+/// | `tol_cost` | 1e-12 | converged when the full step's expected reduction $-(\Delta_1 + \Delta_2) \le$ tol $\cdot \max(1, \lvert J \rvert)$ |
+/// | `tol_step` | 1e-9 | converged when $\max_{k,i} \lvert k_{k,i} \rvert / (1 + \lvert u_{k,i} \rvert) \le$ tol |
 /// | `regularization` | [`Regularization::State`] | where $\mu$ enters |
 /// | `reg_init` | 0 | $\mu$ at the start (0: the first step is a pure Newton step) |
 /// | `reg_min` | 1e-6 | below it $\mu$ snaps to 0 |
@@ -51,9 +51,9 @@ pub struct DdpSettings {
     /// Maximum iterations.
     pub max_iterations: usize,
     /// Relative tolerance on the expected cost reduction.
-    pub tol_expected_reduction: f64,
+    pub tol_cost: f64,
     /// Tolerance on the relative feedforward step.
-    pub tol_feedforward: f64,
+    pub tol_step: f64,
     /// Where the regularisation enters.
     pub regularization: Regularization,
     /// Initial regularisation $\mu$.
@@ -82,8 +82,8 @@ impl Default for DdpSettings {
     fn default() -> Self {
         Self {
             max_iterations: 200,
-            tol_expected_reduction: 1e-12,
-            tol_feedforward: 1e-9,
+            tol_cost: 1e-12,
+            tol_step: 1e-9,
             regularization: Regularization::State,
             reg_init: 0.0,
             reg_min: 1e-6,
@@ -112,11 +112,11 @@ impl DdpSettings {
             })
         };
         let nonneg = |v: f64| v.is_finite() && v >= 0.0;
-        if !nonneg(self.tol_expected_reduction) {
-            return bad("tol_expected_reduction", "must be finite and >= 0");
+        if !nonneg(self.tol_cost) {
+            return bad("tol_cost", "must be finite and >= 0");
         }
-        if !nonneg(self.tol_feedforward) {
-            return bad("tol_feedforward", "must be finite and >= 0");
+        if !nonneg(self.tol_step) {
+            return bad("tol_step", "must be finite and >= 0");
         }
         if !(self.reg_min.is_finite() && self.reg_min > 0.0) {
             return bad("reg_min", "must be finite and > 0");
@@ -168,7 +168,7 @@ mod tests {
             (|s| s.line_search_factor = 1.0, "line_search_factor"),
             (|s| s.n_line_search = 0, "n_line_search"),
             (|s| s.max_state_norm = f64::NAN, "max_state_norm"),
-            (|s| s.tol_expected_reduction = -1.0, "tol_expected_reduction"),
+            (|s| s.tol_cost = -1.0, "tol_cost"),
         ];
         for (spoil, name) in cases {
             let mut settings = DdpSettings::default();

@@ -55,7 +55,7 @@ pub(super) struct Work<'a, D, C> {
     pub(super) dx: Vec<f64>,
     pub(super) qp: BoxQp,
     pub(super) second_order: bool,
-    pub(super) cost_evals: usize,
+    pub(super) evals: usize,
     pub(super) jacobian_evals: usize,
 }
 
@@ -112,7 +112,7 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             dx: vec![0.0; n],
             qp: BoxQp::new(m),
             second_order: false,
-            cost_evals: 0,
+            evals: 0,
             jacobian_evals: 0,
         }
     }
@@ -148,7 +148,7 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             regularization: self.s.reg_init,
             iterations: 0,
             method: DdpMethod::Ilqr,
-            cost_evals: self.cost_evals,
+            evals: self.evals,
             jacobian_evals: self.jacobian_evals,
             status: DdpStatus::InitialRolloutDiverged { step },
             solve_time: Duration::ZERO,
@@ -197,7 +197,7 @@ impl<'a, D: Dynamics, C: Cost> Work<'a, D, C> {
             regularization: history.mu,
             iterations: history.iterations,
             method: self.method(),
-            cost_evals: self.cost_evals,
+            evals: self.evals,
             jacobian_evals: self.jacobian_evals,
             status,
             solve_time: Duration::ZERO,

@@ -313,7 +313,7 @@ fn solve<M: trajopt::Model>(
         ..DerivativeFreeSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
-        max_cost_evals: Some(p.powell_evals),
+        max_evals: Some(p.powell_evals),
         principal_axes: p.powell_principal_axes,
         ..PowellSettings::default()
     })?;
@@ -346,7 +346,7 @@ fn solve<M: trajopt::Model>(
                 r.cost,
                 r.x,
                 r.iterations,
-                r.cost_evals,
+                r.evals,
                 r.solve_time,
             )
         } else if method == Method::Groups {
@@ -356,7 +356,7 @@ fn solve<M: trajopt::Model>(
                 r.cost,
                 r.x,
                 r.iterations,
-                r.residual_evals,
+                r.evals,
                 r.solve_time,
             )
         } else {
@@ -366,7 +366,7 @@ fn solve<M: trajopt::Model>(
                 r.cost,
                 r.x,
                 r.iterations,
-                r.residual_evals,
+                r.evals,
                 r.solve_time,
             )
         };

@@ -181,7 +181,7 @@ impl<'a, P: LeastSquaresProblem + ?Sized> GroupedDifferences<'a, P> {
     }
 
     /// Residual evaluations so far, the differences' included.
-    pub fn residual_evals(&self) -> usize {
+    pub fn evals(&self) -> usize {
         self.evals.load(Ordering::Relaxed)
     }
 

@@ -49,8 +49,8 @@
 //!
 //! # Counting and budget
 //!
-//! `residual_evals` counts every residual evaluation, the differences'
-//! included; `max_residual_evals` caps it (the result is then the best point
+//! `evals` counts every residual evaluation, the differences'
+//! included; `max_evals` caps it (the result is then the best point
 //! evaluated, with [`GaussNewtonStatus::MaxEvaluations`]). The statuses are
 //! [`GaussNewton`]'s, with its convergence tests on
 //! the differenced gradient $J^\top r$, and one more check: a cost or step
@@ -77,7 +77,7 @@
 //! | `gauss_newton` | [`GaussNewtonSettings::default()`] | the step, its tests and the iteration cap |
 //! | `difference` | [`Difference::Forward`] | forward or central differences |
 //! | `relative_step` | $\sqrt{\epsilon} \approx 1.5 \times 10^{-8}$ (forward), $\epsilon^{1/3} \approx 6 \times 10^{-6}$ (central) | $s$ in $h_j = s \max(\lvert\theta_j\rvert, 1)$; `None` picks by `difference` |
-//! | `max_residual_evals` | `None` (no cap but the iteration cap) | budget of residual evaluations |
+//! | `max_evals` | `None` (no cap but the iteration cap) | budget of residual evaluations |
 //! | `tol_stationary` | $10^{-5}$ | largest cosine between $r$ and a Jacobian column at a point called converged by the cost or step test |
 //!
 //! # References
@@ -138,7 +138,7 @@ pub enum Difference {
 /// |---|---|
 /// | `gauss_newton` | as [`GaussNewtonSettings::validate`] |
 /// | `relative_step` | `None`, or finite and $> 0$ |
-/// | `max_residual_evals` | `None`, or $\ge 1$ |
+/// | `max_evals` | `None`, or $\ge 1$ |
 #[derive(Debug, Clone, PartialEq)]
 pub struct DerivativeFreeSettings {
     /// The Levenberg-Marquardt step, its tests and iteration cap.
@@ -150,7 +150,7 @@ pub struct DerivativeFreeSettings {
     pub relative_step: Option<f64>,
     /// Budget of residual evaluations, the differences' included (`None`:
     /// no cap but the iteration cap).
-    pub max_residual_evals: Option<usize>,
+    pub max_evals: Option<usize>,
     /// When Gauss-Newton's cost or step test fires, the point is called
     /// converged only if MINPACK's stationarity measure there (the largest
     /// cosine between $r$ and a column of the differenced Jacobian) is at
@@ -166,7 +166,7 @@ impl Default for DerivativeFreeSettings {
             gauss_newton: GaussNewtonSettings::default(),
             difference: Difference::Forward,
             relative_step: None,
-            max_residual_evals: None,
+            max_evals: None,
             tol_stationary: 1e-5,
         }
     }
@@ -190,9 +190,9 @@ impl DerivativeFreeSettings {
                 reason: format!("must be finite and >= 0, got {}", self.tol_stationary),
             });
         }
-        if self.max_residual_evals == Some(0) {
+        if self.max_evals == Some(0) {
             return Err(TrajoptError::InvalidParameter {
-                name: "max_residual_evals",
+                name: "max_evals",
                 reason: "must be at least 1".into(),
             });
         }
@@ -223,7 +223,7 @@ pub struct DerivativeFreeResult {
     /// Iterations (differenced Jacobians).
     pub iterations: usize,
     /// Residual evaluations, the differences' included.
-    pub residual_evals: usize,
+    pub evals: usize,
     /// Column groups: residual evaluations per forward-difference Jacobian.
     pub jacobian_groups: usize,
     /// Accepted cost after each iteration (empty when the budget stopped
@@ -231,6 +231,19 @@ pub struct DerivativeFreeResult {
     pub cost_history: Vec<f64>,
     /// Wall time.
     pub solve_time: Duration,
+}
+
+impl solve::Outcome for DerivativeFreeResult {
+    fn summary(&self) -> solve::Summary {
+        solve::Summary {
+            cost: self.cost,
+            initial_cost: self.initial_cost,
+            iterations: self.iterations,
+            evals: self.evals,
+            termination: solve::Status::termination(&self.status),
+            solve_time: Some(self.solve_time),
+        }
+    }
 }
 
 /// The derivative-free least-squares solver (see the [module docs](self)).
@@ -281,10 +294,10 @@ impl DerivativeFree {
     ) -> Result<DerivativeFreeResult> {
         let start = Instant::now();
         let s = &self.settings;
-        let budget = s.max_residual_evals.unwrap_or(usize::MAX);
+        let budget = s.max_evals.unwrap_or(usize::MAX);
         let wrapped = GroupedDifferences::new(problem, s.difference, s.step(), budget)?;
         let jacobian_groups = wrapped.groups().n_groups();
-        let count = || wrapped.residual_evals();
+        let count = || wrapped.evals();
         let solved = self
             .gauss_newton
             .solve_counted(&wrapped, theta0, watch, &count)
@@ -306,7 +319,7 @@ impl DerivativeFree {
                 initial_cost: r.initial_cost,
                 status: r.status,
                 iterations: r.iterations,
-                residual_evals: wrapped.residual_evals(),
+                evals: wrapped.evals(),
                 jacobian_groups,
                 cost_history: r.cost_history,
                 solve_time: start.elapsed(),
@@ -315,7 +328,7 @@ impl DerivativeFree {
                 let Some((x, cost)) = wrapped.best() else {
                     // the budget did not even cover the start
                     return Err(TrajoptError::InvalidParameter {
-                        name: "max_residual_evals",
+                        name: "max_evals",
                         reason: "the budget ran out before the start was evaluated".into(),
                     });
                 };
@@ -327,7 +340,7 @@ impl DerivativeFree {
                     initial_cost,
                     status: GaussNewtonStatus::MaxEvaluations,
                     iterations: wrapped.jacobian_evals(),
-                    residual_evals: wrapped.residual_evals(),
+                    evals: wrapped.evals(),
                     jacobian_groups,
                     cost_history: Vec::new(),
                     solve_time: start.elapsed(),

@@ -29,7 +29,7 @@
 //! is banded once the coefficients are ordered by time, and an iteration costs
 //! time linear in the horizon. Such a problem can say so
 //! ([`LeastSquaresProblem::band_form`]) and form its normal equations
-//! itself in band storage ([`BandForm::normal_equations`]):
+//! itself in band storage ([`BandForm::normal_equations`](crate::BandForm::normal_equations)):
 //! the solver then skips the sparse Jacobian, the sparse product and the
 //! sparse factorisation, and factorises band matrices ([`crate::linalg`],
 //! $O(N k^2)$ for half-bandwidth $k$, 30 for the benchmark pendulum at every
@@ -37,7 +37,7 @@
 //! those of the sparse form up to rounding. In Newton mode the band form
 //! holds $J^\top J + S$; when an iteration falls back to a Gauss-Newton
 //! step, $J^\top J$ is recovered as $(J^\top J + S) - S$ from the problem's
-//! $S$ alone ([`BandForm::second_order_part`]), or formed a
+//! $S$ alone ([`BandForm::second_order_part`](crate::BandForm::second_order_part)), or formed a
 //! second time if the problem does not give it.
 //!
 //! The settings and their defaults: [`settings`].
@@ -74,7 +74,7 @@
 //! precision.
 //!
 //! [`GaussNewton::solve_parallel`] forms the band normal equations in parts
-//! ([`BandForm::normal_equations_part`]), one on this thread
+//! ([`BandForm::normal_equations_part`](crate::BandForm::normal_equations_part)), one on this thread
 //! and one on each helper thread. On two threads each thread keeps its
 //! part and eliminates the coefficients only its part touches, and only
 //! the Schur complement on the few coefficients both parts touch is
@@ -191,8 +191,8 @@ impl GaussNewton {
     /// [`solve`](Self::solve) with the band normal equations formed, and
     /// the residuals evaluated, on `threads` threads: this one and
     /// `threads - 1` helpers living for the solve, each doing one part
-    /// ([`BandForm::normal_equations_part`],
-    /// [`BandForm::residuals_part`]). With two threads the
+    /// ([`BandForm::normal_equations_part`](crate::BandForm::normal_equations_part),
+    /// [`BandForm::residuals_part`](crate::BandForm::residuals_part)). With two threads the
     /// factorisations are split too: each thread eliminates the
     /// coefficients only its part touches (part 1 in reversed order) and
     /// this thread factorises the Schur complement on the overlap, a few
@@ -200,7 +200,7 @@ impl GaussNewton {
     /// the parts are added up and factorised on this thread. `threads` is capped at the cores the system reports
     /// ([`std::thread::available_parallelism`]); with one thread, or
     /// without a band form (bounds, [`LinearSolver::Sparse`], or a problem without
-    /// a [`BandForm`]), it is [`solve`](Self::solve).
+    /// a [`BandForm`](crate::BandForm)), it is [`solve`](Self::solve).
     ///
     /// The parts' sums differ from one thread's by rounding only, so the
     /// iterates agree with [`solve`](Self::solve)'s to rounding (and the
@@ -609,7 +609,7 @@ impl GaussNewton {
             initial_cost,
             status,
             iterations,
-            residual_evals,
+            evals: residual_evals,
             jacobian_evals,
             factorizations,
             cost_history,

@@ -82,7 +82,7 @@ pub struct GaussNewtonResult {
     /// Iterations (Jacobian evaluations).
     pub iterations: usize,
     /// Residual evaluations.
-    pub residual_evals: usize,
+    pub evals: usize,
     /// Jacobian evaluations.
     pub jacobian_evals: usize,
     /// Numerical Cholesky factorisations (one per trial step, more when
@@ -97,4 +97,17 @@ pub struct GaussNewtonResult {
     /// its helpers answered late (a busy machine); `None` when it did not
     /// (and always without helpers).
     pub one_thread_from: Option<usize>,
+}
+
+impl solve::Outcome for GaussNewtonResult {
+    fn summary(&self) -> solve::Summary {
+        solve::Summary {
+            cost: self.cost,
+            initial_cost: self.initial_cost,
+            iterations: self.iterations,
+            evals: self.evals,
+            termination: solve::Status::termination(&self.status),
+            solve_time: Some(self.solve_time),
+        }
+    }
 }

@@ -49,7 +49,7 @@ pub enum StepModel {
     /// ([`Eq3Problem`](crate::Eq3Problem) evaluates it exactly, per step),
     /// or else from central differences of the residuals along the step
     /// (two residual evaluations per iteration, counted in
-    /// `residual_evals`; a probe the problem cannot evaluate leaves the
+    /// `evals`; a probe the problem cannot evaluate leaves the
     /// choice as it was). Nothing is spent on the choice until the problem
     /// has given $S$ once.
     ///

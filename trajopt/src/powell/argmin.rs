@@ -14,7 +14,7 @@ use crate::error::Result;
 /// `CostFunction<Param = Vec<f64>, Output = f64>`; the start point comes
 /// from the executor's state (`configure(|s| s.param(x0))`). The executor's
 /// `max_iters` applies in addition to the settings' limits; convergence ends
-/// the run with `SolverConverged`, an exhausted `max_cost_evals` with
+/// the run with `SolverConverged`, an exhausted `max_evals` with
 /// `SolverExit`. Cost evaluations are reported under argmin's
 /// `"cost_count"`. Each iteration's key-value log holds `evals` and
 /// `decrease`.
@@ -59,7 +59,7 @@ impl PowellArgmin {
     }
 
     /// Cost evaluations so far, the start point's included.
-    pub fn cost_evals(&self) -> usize {
+    pub fn evals(&self) -> usize {
         self.engine.as_ref().map_or(0, |e| e.evals)
     }
 

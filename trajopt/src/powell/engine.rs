@@ -27,9 +27,9 @@ pub(super) struct Engine {
     pub(super) evals: usize,
     pub(super) iters: usize,
     max_iterations: usize,
-    max_cost_evals: usize,
-    tol_x: f64,
-    tol_f: f64,
+    max_evals: usize,
+    tol_step: f64,
+    tol_cost: f64,
     tol_line: f64,
     initial_step: f64,
     /// `settings.principal_axes`.
@@ -108,9 +108,9 @@ impl Engine {
             evals: 1,
             iters: 0,
             max_iterations: settings.max_iterations.unwrap_or(1000 * n),
-            max_cost_evals: settings.max_cost_evals.unwrap_or(1000 * n),
-            tol_x: settings.tol_x,
-            tol_f: settings.tol_f,
+            max_evals: settings.max_evals.unwrap_or(1000 * n),
+            tol_step: settings.tol_step,
+            tol_cost: settings.tol_cost,
             tol_line: settings.tol_line,
             initial_step: settings.initial_step,
             principal_axes: settings.principal_axes,
@@ -149,7 +149,7 @@ impl Engine {
             trial: &mut self.trial,
             eval,
             evals: &mut self.evals,
-            max_cost_evals: self.max_cost_evals,
+            max_evals: self.max_evals,
             stop_cost: self.stop_cost,
             hit: None,
         };
@@ -218,7 +218,7 @@ impl Engine {
             }
         }
         self.last_decrease = f_start - self.fx;
-        let status = if self.evals >= self.max_cost_evals {
+        let status = if self.evals >= self.max_evals {
             Some(PowellStatus::MaxEvaluations)
         } else if self.iters >= self.max_iterations {
             Some(PowellStatus::MaxIterations)
@@ -249,7 +249,7 @@ impl Engine {
         }
         let (_, hi) = feasible_interval(&self.x, &self.new_dir, self.bounds.as_ref());
         let reach = hi.min(1.0);
-        if reach <= 0.0 || self.evals >= self.max_cost_evals || self.reached {
+        if reach <= 0.0 || self.evals >= self.max_evals || self.reached {
             return Ok(());
         }
         fill_trial(&mut self.trial, &self.x, &self.new_dir, reach, self.bounds.as_ref());
@@ -352,7 +352,7 @@ impl Engine {
         if self.reached {
             return Some(PowellStatus::ReachedStopCost);
         }
-        if self.evals >= self.max_cost_evals {
+        if self.evals >= self.max_evals {
             // the sweep may have been cut short: not a convergence
             return Some(PowellStatus::MaxEvaluations);
         }
@@ -365,14 +365,14 @@ impl Engine {
             0.0
         };
         let tail = decrease / (1.0 - r);
-        if 2.0 * tail <= self.tol_f * (f_start.abs() + fx.abs()) + 1e-20 {
+        if 2.0 * tail <= self.tol_cost * (f_start.abs() + fx.abs()) + 1e-20 {
             return Some(PowellStatus::ConvergedCost);
         }
         let small_step = self
             .x
             .iter()
             .zip(&self.x_start)
-            .all(|(&x, &x0)| (x - x0).abs() <= self.tol_x * (1.0 + x.abs()));
+            .all(|(&x, &x0)| (x - x0).abs() <= self.tol_step * (1.0 + x.abs()));
         small_step.then_some(PowellStatus::ConvergedStep)
     }
 }

@@ -23,7 +23,7 @@ pub(super) struct Line<'a, F> {
     pub(super) trial: &'a mut Vec<f64>,
     pub(super) eval: &'a mut F,
     pub(super) evals: &'a mut usize,
-    pub(super) max_cost_evals: usize,
+    pub(super) max_evals: usize,
     /// Stop at the first value at or below this.
     pub(super) stop_cost: f64,
     /// The point that reached `stop_cost`, once one has.
@@ -112,7 +112,7 @@ where
     F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
 {
     fn exhausted(&self) -> bool {
-        *self.evals >= self.max_cost_evals || self.hit.is_some()
+        *self.evals >= self.max_evals || self.hit.is_some()
     }
 
     /// $\phi(\alpha)$, non-finite mapped to $+\infty$; $+\infty$ without an
@@ -444,7 +444,7 @@ mod tests {
             trial: &mut trial,
             eval: &mut eval,
             evals: &mut evals,
-            max_cost_evals: 10_000,
+            max_evals: 10_000,
             stop_cost: f64::NEG_INFINITY,
             hit: None,
         };
@@ -499,7 +499,7 @@ mod tests {
             trial: &mut trial,
             eval: &mut eval,
             evals: &mut evals,
-            max_cost_evals: 100,
+            max_evals: 100,
             stop_cost: f64::NEG_INFINITY,
             hit: None,
         };

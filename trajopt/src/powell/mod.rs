@@ -17,9 +17,9 @@
 //!    and $r = \min(d / d_\text{prev}, 0.99)$ its ratio to the previous
 //!    iteration's, the test holds if the decrease still to come on a
 //!    geometric tail, $d / (1 - r)$, is small:
-//!    $2 d / (1 - r) \le \mathrm{tol}_f (|f_0| + |f_n|) + 10^{-20}$, or if
+//!    $2 d / (1 - r) \le \mathrm{tol}_{cost} (|f_0| + |f_n|) + 10^{-20}$, or if
 //!    the iteration moved every coordinate by at most
-//!    $\mathrm{tol}_x (1 + |x_{n,j}|)$ (off by default). The first time it
+//!    $\mathrm{tol}_{step} (1 + |x_{n,j}|)$ (off by default). The first time it
 //!    holds, the direction set is reset to the initial coordinate
 //!    directions and the iterations go on; convergence is declared only
 //!    if it holds again on the next iteration, over the fresh set (see
@@ -116,8 +116,8 @@
 //! extended Rosenbrock ($n = 10$, $f^* = 0$). Three changes make a
 //! converged status mean a minimum:
 //!
-//! - the default `tol_f` is $10^{-10}$ (scipy: $10^{-4}$), and the step
-//!   test is off by default (`tol_x = 0`): in a narrow valley one sweep
+//! - the default `tol_cost` is $10^{-10}$ (scipy: $10^{-4}$), and the step
+//!   test is off by default (`tol_step = 0`): in a narrow valley one sweep
 //!   moves every coordinate by less than $10^{-8}$ relative while $f$ is
 //!   still far above its minimum;
 //! - the test bounds the decrease still to come, not the last one: when
@@ -163,7 +163,7 @@
 //! Small problems (up to a few tens of parameters) whose cost is cheap and
 //! has no derivatives. On the Moré-Garbow-Hillstrom set (35 problems, $n$
 //! from 2 to 12, from $x_0$, $10 x_0$ and $100 x_0$; 104 runs with a
-//! finite start), with `tol_f = tol_x = 0` and a budget of $2000 (n + 1)$
+//! finite start), with `tol_cost = tol_step = 0` and a budget of $2000 (n + 1)$
 //! evaluations, 81 runs reach $f_\text{best} + 10^{-8} (1 + |f_\text{best}|)$
 //! ($f_\text{best}$ the best minimum known) with a median of 672
 //! evaluations; before the line search reused curvatures, 75 with a
@@ -222,11 +222,11 @@
 //!
 //! | field | default | meaning |
 //! |---|---|---|
-//! | `tol_x` | 0 (off) | relative step tolerance per iteration |
-//! | `tol_f` | $10^{-10}$ | relative tolerance on the decrease still to come |
+//! | `tol_step` | 0 (off) | relative step tolerance per iteration |
+//! | `tol_cost` | $10^{-10}$ | relative tolerance on the decrease still to come |
 //! | `tol_line` | $10^{-2}$ | Brent's relative tolerance on $\alpha$ (scipy: `100 * xtol`) |
 //! | `max_iterations` | `None` = $1000 n$ | iterations (sweeps over the direction set) |
-//! | `max_cost_evals` | `None` = $1000 n$ | cost evaluations, start included |
+//! | `max_evals` | `None` = $1000 n$ | cost evaluations, start included |
 //! | `initial_step` | 1 | length of the initial coordinate directions |
 //! | `bounds` | `None` | box constraints |
 //! | `stop_cost` | `None` | stop at the first value at or below it |
@@ -315,11 +315,11 @@ where
 ///
 /// | field | default | range |
 /// |---|---|---|
-/// | `tol_x` | 0 | finite, $\ge 0$ |
-/// | `tol_f` | $10^{-10}$ | finite, $\ge 0$ |
+/// | `tol_step` | 0 | finite, $\ge 0$ |
+/// | `tol_cost` | $10^{-10}$ | finite, $\ge 0$ |
 /// | `tol_line` | $10^{-2}$ | finite, $\ge 0$ |
 /// | `max_iterations` | `None` ($1000 n$) | $\ge 1$ |
-/// | `max_cost_evals` | `None` ($1000 n$) | $\ge 1$ |
+/// | `max_evals` | `None` ($1000 n$) | $\ge 1$ |
 /// | `initial_step` | 1 | finite, $> 0$ |
 /// | `bounds` | `None` | `lower.len() == upper.len()`, no NaN, `lower <= upper` |
 /// | `stop_cost` | `None` | not NaN |
@@ -328,20 +328,20 @@ where
 /// The budgets are scipy's `minimize(method="Powell")` defaults
 /// (`maxiter = maxfev = 1000 n`); the tolerances are much tighter than
 /// scipy's `ftol = 1e-4`, which declares convergence far from the minimum
-/// (see the [module docs](self#stopping)). `tol_f = 1e-4, tol_x = 1e-8`
+/// (see the [module docs](self#stopping)). `tol_cost = 1e-4, tol_step = 1e-8`
 /// come close to scipy's stopping rule, but the convergence test still
 /// has to hold on a confirming sweep.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PowellSettings {
     /// The convergence test holds when an iteration moves every coordinate
-    /// $j$ by at most $\mathrm{tol}_x (1 + |x_j|)$ (0: never).
-    pub tol_x: f64,
+    /// $j$ by at most $\mathrm{tol}_{step} (1 + |x_j|)$ (0: never).
+    pub tol_step: f64,
     /// The convergence test holds when an iteration's decrease $d$ and its
     /// ratio $r \le 0.99$ to the previous one satisfy
-    /// $2 d / (1 - r) \le \mathrm{tol}_f (|f_0| + |f_n|) + 10^{-20}$.
+    /// $2 d / (1 - r) \le \mathrm{tol}_{cost} (|f_0| + |f_n|) + 10^{-20}$.
     /// Either test must hold on two consecutive iterations, the second
     /// over a fresh coordinate set, to stop.
-    pub tol_f: f64,
+    pub tol_cost: f64,
     /// Relative tolerance of Brent's line search on the step length
     /// $\alpha$ (absolute floor $10^{-11}$).
     pub tol_line: f64,
@@ -349,7 +349,7 @@ pub struct PowellSettings {
     pub max_iterations: Option<usize>,
     /// Maximum number of cost evaluations, the start point's included
     /// (`None`: $1000 n$). Never exceeded.
-    pub max_cost_evals: Option<usize>,
+    pub max_evals: Option<usize>,
     /// Length of the initial search directions $s e_i$: the first bracketing
     /// trial along direction $i$ moves coordinate $i$ by this much.
     pub initial_step: f64,
@@ -369,11 +369,11 @@ pub struct PowellSettings {
 impl Default for PowellSettings {
     fn default() -> Self {
         Self {
-            tol_x: 0.0,
-            tol_f: 1e-10,
+            tol_step: 0.0,
+            tol_cost: 1e-10,
             tol_line: 1e-2,
             max_iterations: None,
-            max_cost_evals: None,
+            max_evals: None,
             initial_step: 1.0,
             bounds: None,
             stop_cost: None,
@@ -393,8 +393,8 @@ impl PowellSettings {
     /// Checks every field against its range (see the table above).
     pub fn validate(&self) -> Result<()> {
         check_nonnegative([
-            ("tol_x", self.tol_x),
-            ("tol_f", self.tol_f),
+            ("tol_step", self.tol_step),
+            ("tol_cost", self.tol_cost),
             ("tol_line", self.tol_line),
         ])?;
         if self.stop_cost.is_some_and(f64::is_nan) {
@@ -403,8 +403,8 @@ impl PowellSettings {
         if self.max_iterations == Some(0) {
             return Err(invalid("max_iterations", "must be at least 1"));
         }
-        if self.max_cost_evals == Some(0) {
-            return Err(invalid("max_cost_evals", "must be at least 1"));
+        if self.max_evals == Some(0) {
+            return Err(invalid("max_evals", "must be at least 1"));
         }
         if !(self.initial_step.is_finite() && self.initial_step > 0.0) {
             return Err(invalid(
@@ -437,22 +437,22 @@ impl PowellSettings {
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
 #[non_exhaustive]
 pub enum PowellStatus {
-    /// The decrease still to come fell below `tol_f` (relative), also on a
+    /// The decrease still to come fell below `tol_cost` (relative), also on a
     /// confirming sweep over a fresh coordinate set.
     ConvergedCost,
-    /// No coordinate moved by more than `tol_x` (relative) in an iteration,
+    /// No coordinate moved by more than `tol_step` (relative) in an iteration,
     /// also on a confirming sweep over a fresh coordinate set.
     ConvergedStep,
     /// `max_iterations` iterations were done.
     MaxIterations,
-    /// The `max_cost_evals` budget of cost evaluations was used up.
+    /// The `max_evals` budget of cost evaluations was used up.
     MaxEvaluations,
     /// The [`Watch`]'s time limit passed (checked before every evaluation
     /// when a limit is set).
     TimeLimit,
     /// An observer of the [`Watch`] stopped the solve (after an iteration).
     Stopped,
-    /// An evaluation reached `stop_cost`; `cost_evals` counts the
+    /// An evaluation reached `stop_cost`; `evals` counts the
     /// evaluations up to that one.
     ReachedStopCost,
 }
@@ -504,8 +504,8 @@ pub struct PowellResult {
     /// Iterations (sweeps over the direction set) done.
     pub iterations: usize,
     /// Cost evaluations, the start point's included.
-    pub cost_evals: usize,
-    /// The evaluations' work in full evaluations: `cost_evals` for
+    pub evals: usize,
+    /// The evaluations' work in full evaluations: `evals` for
     /// [`Powell::solve`]; for [`Powell::solve_separable`] each evaluation
     /// counts as the fraction of the terms it evaluated.
     pub full_eval_equivalents: f64,
@@ -513,6 +513,19 @@ pub struct PowellResult {
     pub cost_history: Vec<f64>,
     /// Wall time of the solve.
     pub solve_time: Duration,
+}
+
+impl solve::Outcome for PowellResult {
+    fn summary(&self) -> solve::Summary {
+        solve::Summary {
+            cost: self.cost,
+            initial_cost: self.initial_cost,
+            iterations: self.iterations,
+            evals: self.evals,
+            termination: solve::Status::termination(&self.status),
+            solve_time: Some(self.solve_time),
+        }
+    }
 }
 
 /// Powell's conjugate-direction method (see the [module docs](self)).
@@ -574,7 +587,7 @@ impl Powell {
     /// // a limit already passed: the start only
     /// let mut watch = Watch::new().with_time_limit(Duration::ZERO);
     /// let r = Powell::new(PowellSettings::default())?.solve_watched(&f, &[0.0; 10], &mut watch)?;
-    /// assert_eq!((r.status, r.cost_evals, r.cost), (PowellStatus::TimeLimit, 1, 10.0));
+    /// assert_eq!((r.status, r.evals, r.cost), (PowellStatus::TimeLimit, 1, 10.0));
     /// # Ok::<(), trajopt::TrajoptError>(())
     /// ```
     ///
@@ -583,7 +596,7 @@ impl Powell {
     pub fn solve_watched(&self, f: &impl Objective, x0: &[f64], watch: &mut Watch<'_>) -> Result<PowellResult> {
         let mut eval = |x: &Vec<f64>| f.cost(x);
         let mut result = self.run(x0, &mut eval, watch)?;
-        result.full_eval_equivalents = result.cost_evals as f64;
+        result.full_eval_equivalents = result.evals as f64;
         Ok(result)
     }
 
@@ -594,7 +607,7 @@ impl Powell {
     /// search along a coordinate direction evaluates the few terms of that
     /// coordinate; along a dense direction, all of them.
     /// [`PowellResult::full_eval_equivalents`] counts each evaluation as
-    /// the fraction of the terms it evaluated; the budget `max_cost_evals`
+    /// the fraction of the terms it evaluated; the budget `max_evals`
     /// counts evaluations, partial or not.
     ///
     /// # Errors
@@ -653,7 +666,7 @@ impl Powell {
             initial_cost,
             status,
             iterations: engine.iters,
-            cost_evals: engine.evals,
+            evals: engine.evals,
             full_eval_equivalents: engine.evals as f64,
             cost_history,
             solve_time: start.elapsed(),
@@ -678,15 +691,15 @@ mod tests {
     fn settings_are_validated() {
         let bad = [
             PowellSettings {
-                tol_f: -1.0,
+                tol_cost: -1.0,
                 ..Default::default()
             },
             PowellSettings {
-                tol_x: f64::NAN,
+                tol_step: f64::NAN,
                 ..Default::default()
             },
             PowellSettings {
-                max_cost_evals: Some(0),
+                max_evals: Some(0),
                 ..Default::default()
             },
             PowellSettings {
@@ -757,18 +770,14 @@ mod tests {
 
     #[test]
     fn budget_is_never_exceeded() {
-        for max_cost_evals in [1, 2, 5, 17, 60] {
+        for max_evals in [1, 2, 5, 17, 60] {
             let powell = Powell::new(PowellSettings {
-                max_cost_evals: Some(max_cost_evals),
+                max_evals: Some(max_evals),
                 ..Default::default()
             })
             .expect("settings");
             let result = powell.solve(&rosenbrock, &[-1.2, 1.0]).expect("solve");
-            assert!(
-                result.cost_evals <= max_cost_evals,
-                "{} > {max_cost_evals}",
-                result.cost_evals
-            );
+            assert!(result.evals <= max_evals, "{} > {max_evals}", result.evals);
             assert_eq!(result.status, PowellStatus::MaxEvaluations);
             assert!(result.cost <= result.initial_cost);
         }
@@ -808,9 +817,9 @@ mod tests {
             assert_eq!(result.status, PowellStatus::ReachedStopCost);
             assert!(!result.status.is_converged());
             assert!(result.cost <= stop, "{stop}: {}", result.cost);
-            assert_eq!(Some(result.cost_evals), first_below.get(), "{stop}");
-            assert_eq!(result.cost_evals, calls.get());
-            assert!(result.cost_evals < full.cost_evals);
+            assert_eq!(Some(result.evals), first_below.get(), "{stop}");
+            assert_eq!(result.evals, calls.get());
+            assert!(result.evals < full.evals);
         }
     }
 

@@ -49,11 +49,11 @@ pub trait SeparableObjective: Objective {
 /// assert_eq!(terms.n_terms(), 51);
 /// // a coordinate touches a few of the 51 terms
 /// assert!(terms.terms_of(0).len() <= 3);
-/// let settings = PowellSettings { max_cost_evals: Some(2000), ..PowellSettings::default() };
+/// let settings = PowellSettings { max_evals: Some(2000), ..PowellSettings::default() };
 /// let result = Powell::new(settings)?.solve_separable(&terms, &theta0)?;
 /// assert!(result.cost < result.initial_cost);
 /// // most evaluations were partial
-/// assert!(result.full_eval_equivalents < 0.5 * result.cost_evals as f64);
+/// assert!(result.full_eval_equivalents < 0.5 * result.evals as f64);
 /// # Ok::<(), trajopt::TrajoptError>(())
 /// ```
 pub struct BandTerms<'a, P: ?Sized> {

@@ -79,7 +79,7 @@ fn run(
         problem.n_params(),
         problem.n_residuals(),
         r.iterations,
-        r.residual_evals,
+        r.evals,
         r.factorizations,
         r.status,
         r.cost,

@@ -67,7 +67,7 @@ fn overhead(powell: &Powell) -> anyhow::Result<()> {
         let objective = |x: &[f64]| -> trajopt::Result<f64> { Ok(trivial(x)) };
         let x0 = vec![-3.0; n];
         let result = powell.solve(&objective, &x0)?;
-        let evals = result.cost_evals;
+        let evals = result.evals;
         let solve = median_seconds(|| {
             std::hint::black_box(powell.solve(&objective, std::hint::black_box(&x0))?);
             Ok(())
@@ -111,7 +111,7 @@ fn main() -> anyhow::Result<()> {
         println!(
             "{{\"problem\":\"{name}\",\"n\":{},\"seconds\":{seconds:e},\"evals\":{},\"iterations\":{},\"cost\":{:e},\"status\":\"{:?}\",\"x\":[{}]}}",
             x0.len(),
-            result.cost_evals,
+            result.evals,
             result.iterations,
             result.cost,
             result.status,
