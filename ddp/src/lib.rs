@@ -1,6 +1,9 @@
 #![doc = include_str!("../README.md")]
+//! # Feature flags
+#![doc = document_features::document_features!()]
 #![warn(missing_docs)]
 
+#[cfg(any(test, feature = "proptest"))]
 mod diff;
 pub mod error;
 mod linalg;

@@ -311,6 +311,13 @@ impl GaussNewton {
         let mut residual_evals = 1;
         let bounds = problem.bounds();
         if let Some(b) = bounds {
+            if !cfg!(feature = "bounds") {
+                return Err(TrajoptError::InvalidParameter {
+                    name: "bounds",
+                    reason: "a bounded problem needs trajopt's `bounds` feature (its QP steps are solved by clarabel)"
+                        .into(),
+                });
+            }
             b.validate()?;
             if b.a.ncols() != n_p {
                 return Err(TrajoptError::DimensionMismatch {
@@ -623,6 +630,24 @@ impl GaussNewton {
 mod tests {
     use super::*;
     use crate::problems::pendulum_swingup;
+
+    /// Without the `bounds` feature (no QP solver) a bounded problem is
+    /// refused with an error naming the feature, never solved as if free;
+    /// run by CI with `--no-default-features`.
+    #[cfg(not(feature = "bounds"))]
+    #[test]
+    fn a_bounded_problem_needs_the_bounds_feature() {
+        let (p, theta0) = pendulum_swingup(30, 10.0).expect("problem");
+        let p = p.with_control_bounds(&[-1.0], &[1.0]).expect("bounds");
+        let err = GaussNewton::new(GaussNewtonSettings::default())
+            .expect("settings")
+            .solve(&p, &theta0)
+            .expect_err("refused");
+        assert!(
+            matches!(&err, TrajoptError::InvalidParameter { name: "bounds", reason } if reason.contains("`bounds` feature")),
+            "{err:?}"
+        );
+    }
 
     /// Threads without the cap, whatever the machine's cores: two (the
     /// split system) and three (three parts summed in order) reach one
