@@ -303,15 +303,15 @@ fn move_aside(log: &Path, tail: &[u8]) -> Result<PathBuf> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ScratchDir;
     use crate::fault::{FaultPlan, install};
-    use crate::test_support::Scratch;
     use proptest::prelude::*;
     use serde_json::{Value, json};
 
     #[test]
     fn a_whole_line_in_the_middle_that_does_not_parse_is_an_error_naming_it() {
-        let dir = Scratch::new("append-corrupt");
-        let path = dir.0.join("runs.jsonl");
+        let dir = ScratchDir::new("append-corrupt").expect("scratch dir");
+        let path = dir.path().join("runs.jsonl");
         fs::write(&path, "{\"a\":1}\nnot json\n{\"a\":2}\n").expect("write");
         let e = AppendLog::open::<Value>(&path).expect_err("corrupt").to_string();
         assert!(e.contains("runs.jsonl line 2"), "{e}");
@@ -323,8 +323,8 @@ mod tests {
 
     #[test]
     fn a_last_line_that_does_not_parse_is_torn_even_with_its_newline() {
-        let dir = Scratch::new("append-badlast");
-        let path = dir.0.join("runs.jsonl");
+        let dir = ScratchDir::new("append-badlast").expect("scratch dir");
+        let path = dir.path().join("runs.jsonl");
         fs::write(&path, "{\"a\":1}\n{\"a\":\n").expect("write");
         let (mut log, contents) = AppendLog::open::<Value>(&path).expect("open");
         let torn = contents.torn.expect("torn");
@@ -339,11 +339,11 @@ mod tests {
 
     #[test]
     fn a_failed_append_poisons_the_log_and_leaves_whole_records() {
-        let dir = Scratch::new("append-poison");
-        let path = dir.0.join("runs.jsonl");
+        let dir = ScratchDir::new("append-poison").expect("scratch dir");
+        let path = dir.path().join("runs.jsonl");
         let mut log = AppendLog::create(&path).expect("create");
         log.append(&json!({"a": 1})).expect("first");
-        let guard = install(FaultPlan::fail_nth(1, &[OpKind::Write]).under(&dir.0).torn());
+        let guard = install(FaultPlan::fail_nth(1, &[OpKind::Write]).under(dir.path()).torn());
         let e = log.append(&json!({"a": 2})).expect_err("injected").to_string();
         drop(guard);
         assert!(e.contains("runs.jsonl"), "{e}");
@@ -362,8 +362,8 @@ mod tests {
             values in proptest::collection::vec(any::<(u32, String)>(), 0..12),
             cut in 0.0f64..1.0,
         ) {
-            let dir = Scratch::new("append-prop");
-            let path = dir.0.join("runs.jsonl");
+            let dir = ScratchDir::new("append-prop").expect("scratch dir");
+            let path = dir.path().join("runs.jsonl");
             let mut log = AppendLog::create(&path).expect("create");
             for v in &values {
                 log.append(v).expect("append");
@@ -398,11 +398,11 @@ mod tests {
         /// without the new one, never a part of it.
         #[test]
         fn an_append_under_a_failure_is_whole_or_absent(n in 1u64..6, torn in any::<bool>()) {
-            let dir = Scratch::new("append-fault");
-            let path = dir.0.join("runs.jsonl");
+            let dir = ScratchDir::new("append-fault").expect("scratch dir");
+            let path = dir.path().join("runs.jsonl");
             let mut log = AppendLog::create(&path).expect("create");
             log.append(&1u32).expect("first");
-            let mut plan = FaultPlan::fail_nth(n, &[]).under(&dir.0).persist();
+            let mut plan = FaultPlan::fail_nth(n, &[]).under(dir.path()).persist();
             plan.torn = torn;
             let guard = install(plan);
             let _ = log.append(&22u32);

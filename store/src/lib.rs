@@ -7,6 +7,7 @@
 //! | [`AppendLog`] | JSON lines appended whole (one write, then `sync_data`); a torn last line is moved aside to `LOG.torn-MS-PID` and reported on the next open |
 //! | [`replace_file`] | a file holds its old or its new contents, never a mix: a uniquely named temporary file, synced, renamed, the directory synced; symbolic links and permissions kept |
 //! | [`Manifest`] | a directory records the program, task and settings that made it, once; a program reopening it with another task or other settings is refused, naming the keys |
+//! | [`ScratchDir`] | a unique temporary directory removed on drop, for tests and examples |
 //! | [`fault`] | tests fail the Nth open, write, sync, rename, ... of the crate ([`FaultPlan`]), from any crate |
 //!
 //! Every error names its file ([`StoreError`]).
@@ -44,6 +45,7 @@ pub mod error;
 pub mod fault;
 mod manifest;
 mod replace;
+mod scratch;
 
 pub use append::{AppendLog, LogContents, TornTail, read_log};
 pub use block::with_block;
@@ -51,6 +53,7 @@ pub use error::{Result, StoreError};
 pub use fault::{FaultGuard, FaultPlan, OpKind};
 pub use manifest::{Manifest, ManifestStatus, differing_keys, digest};
 pub use replace::{is_temporary, replace_file};
+pub use scratch::ScratchDir;
 
 /// The commit the workspace's code was built from, as results name it:
 /// `commit <hash>` (7 hex digits), with `-dirty` when a tracked code file
@@ -71,33 +74,6 @@ pub fn parse_code_version(version: &str) -> (Option<&str>, bool) {
             None => (Some(rest), false),
         },
         None => (None, false),
-    }
-}
-
-#[cfg(test)]
-mod test_support {
-    /// A scratch directory, removed when dropped.
-    pub(crate) struct Scratch(pub(crate) std::path::PathBuf);
-
-    impl Scratch {
-        pub(crate) fn new(tag: &str) -> Self {
-            use std::sync::atomic::{AtomicU64, Ordering};
-            static N: AtomicU64 = AtomicU64::new(0);
-            let p = std::env::temp_dir().join(format!(
-                "nprl-store-{tag}-{}-{}",
-                std::process::id(),
-                N.fetch_add(1, Ordering::Relaxed)
-            ));
-            let _ = std::fs::remove_dir_all(&p);
-            std::fs::create_dir_all(&p).expect("scratch dir");
-            Self(p)
-        }
-    }
-
-    impl Drop for Scratch {
-        fn drop(&mut self) {
-            let _ = std::fs::remove_dir_all(&self.0);
-        }
     }
 }
 

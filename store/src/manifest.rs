@@ -219,8 +219,8 @@ pub fn differing_keys(a: &serde_json::Value, b: &serde_json::Value) -> Vec<Strin
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ScratchDir;
     use crate::fault::{FaultPlan, install};
-    use crate::test_support::Scratch;
     use serde_json::json;
 
     fn manifest(task: &str, settings: serde_json::Value) -> Manifest {
@@ -229,8 +229,8 @@ mod tests {
 
     #[test]
     fn another_task_or_settings_is_refused_and_the_manifest_kept() {
-        let dir = Scratch::new("manifest");
-        let path = dir.0.join("manifest.json");
+        let dir = ScratchDir::new("manifest").expect("scratch dir");
+        let path = dir.path().join("manifest.json");
         let m = manifest("pendulum", json!({"seed": 1, "planner": {"lambda": 1000.0}}));
         assert_eq!(m.create_or_check(&path).expect("create"), ManifestStatus::Created);
         let before = std::fs::read(&path).expect("read");
@@ -253,9 +253,9 @@ mod tests {
 
     #[test]
     fn a_manifest_that_cannot_be_written_is_absent() {
-        let dir = Scratch::new("manifest-fault");
-        let path = dir.0.join("manifest.json");
-        let guard = install(FaultPlan::fail_nth(1, &[OpKind::Rename]).under(&dir.0));
+        let dir = ScratchDir::new("manifest-fault").expect("scratch dir");
+        let path = dir.path().join("manifest.json");
+        let guard = install(FaultPlan::fail_nth(1, &[OpKind::Rename]).under(dir.path()));
         assert!(manifest("pendulum", json!({})).create_or_check(&path).is_err());
         drop(guard);
         assert!(Manifest::read(&path).expect("read").is_none());

@@ -130,28 +130,28 @@ fn create_temporary(dir: &Path, name: &str) -> Result<(PathBuf, fs::File)> {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::ScratchDir;
     use crate::fault::{FaultPlan, install};
-    use crate::test_support::Scratch;
 
     #[test]
     fn replaces_contents_and_leaves_nothing_else() {
-        let dir = Scratch::new("replace-basic");
-        let f = dir.0.join("a.json");
+        let dir = ScratchDir::new("replace-basic").expect("scratch dir");
+        let f = dir.path().join("a.json");
         replace_file(&f, b"one").expect("create");
         replace_file(&f, b"two").expect("replace");
         assert_eq!(fs::read(&f).expect("read"), b"two");
-        assert_eq!(fs::read_dir(&dir.0).expect("dir").count(), 1);
+        assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 1);
     }
 
     #[cfg(unix)]
     #[test]
     fn keeps_permissions_and_replaces_a_links_target() {
         use std::os::unix::fs::PermissionsExt as _;
-        let dir = Scratch::new("replace-link");
-        let real = dir.0.join("real.md");
+        let dir = ScratchDir::new("replace-link").expect("scratch dir");
+        let real = dir.path().join("real.md");
         fs::write(&real, "old").expect("write");
         fs::set_permissions(&real, fs::Permissions::from_mode(0o600)).expect("chmod");
-        let link = dir.0.join("README.md");
+        let link = dir.path().join("README.md");
         std::os::unix::fs::symlink("real.md", &link).expect("symlink");
         replace_file(&link, b"new").expect("replace");
         assert!(fs::symlink_metadata(&link).expect("link").file_type().is_symlink());
@@ -162,8 +162,8 @@ mod tests {
 
     #[test]
     fn threads_replacing_one_file_never_collide() {
-        let dir = Scratch::new("replace-threads");
-        let f = dir.0.join("experiments.json");
+        let dir = ScratchDir::new("replace-threads").expect("scratch dir");
+        let f = dir.path().join("experiments.json");
         std::thread::scope(|s| {
             for t in 0..4 {
                 let f = &f;
@@ -174,7 +174,7 @@ mod tests {
                 });
             }
         });
-        assert_eq!(fs::read_dir(&dir.0).expect("dir").count(), 1);
+        assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 1);
     }
 
     proptest::proptest! {
@@ -191,10 +191,10 @@ mod tests {
             persist in proptest::prelude::any::<bool>(),
             torn in proptest::prelude::any::<bool>(),
         ) {
-            let dir = Scratch::new("replace-prop");
-            let f = dir.0.join("report.md");
+            let dir = ScratchDir::new("replace-prop").expect("scratch dir");
+            let f = dir.path().join("report.md");
             replace_file(&f, &old).expect("old");
-            let mut plan = FaultPlan::fail_nth(n, &[]).under(&dir.0);
+            let mut plan = FaultPlan::fail_nth(n, &[]).under(dir.path());
             plan.persist = persist;
             plan.torn = torn;
             let guard = install(plan);
@@ -207,7 +207,7 @@ mod tests {
                 proptest::prop_assert!(result.is_ok());
                 proptest::prop_assert_eq!(&now, &new);
             }
-            let others: Vec<String> = fs::read_dir(&dir.0)
+            let others: Vec<String> = fs::read_dir(dir.path())
                 .expect("dir")
                 .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
                 .filter(|n| n != "report.md")
@@ -223,17 +223,17 @@ mod tests {
     /// the new contents and no temporary file is left.
     #[test]
     fn a_failure_at_any_operation_leaves_old_or_new() {
-        let dir = Scratch::new("replace-fault");
-        let f = dir.0.join("r.json");
+        let dir = ScratchDir::new("replace-fault").expect("scratch dir");
+        let f = dir.path().join("r.json");
         for n in 1.. {
             replace_file(&f, b"old contents").expect("old");
-            let guard = install(FaultPlan::fail_nth(n, &[]).under(&dir.0).torn());
+            let guard = install(FaultPlan::fail_nth(n, &[]).under(dir.path()).torn());
             let result = replace_file(&f, b"new contents, longer");
             let fired = guard.fired();
             drop(guard);
             let now = fs::read(&f).expect("read");
             assert!(now == b"old contents" || now == b"new contents, longer", "{now:?}");
-            let names: Vec<String> = fs::read_dir(&dir.0)
+            let names: Vec<String> = fs::read_dir(dir.path())
                 .expect("dir")
                 .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
                 .collect();

@@ -17,7 +17,7 @@ use swingup::experiments::{Experiment, ExperimentSettings, ExperimentsReport, Ru
 use swingup::output::grid::{GridEvent, GridMode, GridOptions, run_grid};
 
 mod common;
-use common::Scratch;
+use common::scratch;
 
 /// The smallest grid: three lambdas, one seed, one trial (the imitation).
 fn settings() -> ExperimentSettings {
@@ -87,16 +87,16 @@ fn check_directory(dir: &Path, context: &str) {
 /// faults tried.
 fn every_fault(tag: &str, baseline: &ExperimentsReport, plan: impl Fn(u64, &Path) -> FaultPlan) -> u64 {
     for n in 1.. {
-        let dir = Scratch::new(&format!("crash-{tag}-{n}"));
-        let guard = store::fault::install(plan(n, &dir.0));
-        let first = run_grid(&options(&dir.0, GridMode::Fresh { force: false }), &quiet);
+        let dir = scratch(&format!("crash-{tag}-{n}"));
+        let guard = store::fault::install(plan(n, dir.path()));
+        let first = run_grid(&options(dir.path(), GridMode::Fresh { force: false }), &quiet);
         let fired = guard.fired();
         drop(guard);
         let context = format!("{tag}: fault at operation {n}");
         if fired == 0 {
             let report = first.unwrap_or_else(|e| panic!("{context}: no fault, yet {e}"));
             assert_eq!(timeless(&report), timeless(baseline), "{context}");
-            check_directory(&dir.0, &context);
+            check_directory(dir.path(), &context);
             return n - 1;
         }
         let e = format!(
@@ -104,22 +104,22 @@ fn every_fault(tag: &str, baseline: &ExperimentsReport, plan: impl Fn(u64, &Path
             anyhow::Error::from(first.expect_err("an injected failure is an error"))
         );
         assert!(
-            e.contains(&dir.0.display().to_string()),
+            e.contains(&dir.path().display().to_string()),
             "{context}: the error names no file: {e}"
         );
-        let resumed =
-            run_grid(&options(&dir.0, GridMode::Resume), &quiet).unwrap_or_else(|e| panic!("{context}: resume: {e}"));
+        let resumed = run_grid(&options(dir.path(), GridMode::Resume), &quiet)
+            .unwrap_or_else(|e| panic!("{context}: resume: {e}"));
         assert_eq!(timeless(&resumed), timeless(baseline), "{context}");
-        check_directory(&dir.0, &context);
+        check_directory(dir.path(), &context);
     }
     unreachable!()
 }
 
 #[test]
 fn a_grid_survives_a_failure_at_every_write_sync_and_rename() {
-    let base = Scratch::new("crash-baseline");
-    let baseline = run_grid(&options(&base.0, GridMode::Fresh { force: false }), &quiet).expect("baseline grid");
-    check_directory(&base.0, "baseline");
+    let base = scratch("crash-baseline");
+    let baseline = run_grid(&options(base.path(), GridMode::Fresh { force: false }), &quiet).expect("baseline grid");
+    check_directory(base.path(), "baseline");
     let kinds = [OpKind::Write, OpKind::Sync, OpKind::Rename];
     // a full disk, once
     let once = every_fault("once", &baseline, |n, dir| FaultPlan::fail_nth(n, &kinds).under(dir));
@@ -137,7 +137,7 @@ fn a_grid_survives_a_failure_at_every_write_sync_and_rename() {
 /// are kept, and a resume completes the grid.
 #[test]
 fn a_full_disk_stops_the_grid_at_once_naming_the_file() {
-    let dir = Scratch::new("crash-full-disk");
+    let dir = scratch("crash-full-disk");
     let pool = rayon::ThreadPoolBuilder::new().num_threads(1).build().expect("pool");
     let saved = std::sync::atomic::AtomicUsize::new(0);
     let show = |e: GridEvent<'_>| {
@@ -147,10 +147,10 @@ fn a_full_disk_stops_the_grid_at_once_naming_the_file() {
     };
     let guard = store::fault::install(
         FaultPlan::fail_nth(2, &[OpKind::Write])
-            .under(&dir.0.join("runs.jsonl"))
+            .under(&dir.path().join("runs.jsonl"))
             .persist(),
     );
-    let result = pool.install(|| run_grid(&options(&dir.0, GridMode::Fresh { force: false }), &show));
+    let result = pool.install(|| run_grid(&options(dir.path(), GridMode::Fresh { force: false }), &show));
     drop(guard);
     let e = format!("{:#}", anyhow::Error::from(result.expect_err("the disk is full")));
     assert!(e.contains("runs.jsonl") && e.contains("the grid stopped there"), "{e}");
@@ -159,12 +159,15 @@ fn a_full_disk_stops_the_grid_at_once_naming_the_file() {
         1,
         "ran on after the failed save"
     );
-    let contents = store::read_log::<RunSummary>(&dir.0.join("runs.jsonl")).expect("runs");
+    let contents = store::read_log::<RunSummary>(&dir.path().join("runs.jsonl")).expect("runs");
     assert_eq!((contents.records.len(), contents.torn.is_none()), (1, true));
-    assert!(!dir.0.join("experiments.json").exists(), "a report of a failed grid");
-    let report = run_grid(&options(&dir.0, GridMode::Resume), &quiet).expect("resume");
+    assert!(
+        !dir.path().join("experiments.json").exists(),
+        "a report of a failed grid"
+    );
+    let report = run_grid(&options(dir.path(), GridMode::Resume), &quiet).expect("resume");
     assert_eq!(report.runs.len(), 3);
-    check_directory(&dir.0, "after the full disk");
+    check_directory(dir.path(), "after the full disk");
 }
 
 /// The trials of a learning run's report, without what depends on the clock.
@@ -196,17 +199,17 @@ fn a_learning_run_survives_a_failure_at_every_write_and_rename() {
         }
         c.output().expect("the swingup program runs")
     };
-    let base = Scratch::new("crash-learn-baseline");
-    assert!(learn(&base.0, &[], None).status.success());
-    let baseline = trials_of(&base.0);
+    let base = scratch("crash-learn-baseline");
+    assert!(learn(base.path(), &[], None).status.success());
+    let baseline = trials_of(base.path());
     assert_eq!(baseline.len(), 2);
     for n in 1.. {
-        let dir = Scratch::new(&format!("crash-learn-{n}"));
-        let plan = format!("op=write+rename,nth={n},path={}", dir.0.display());
-        let first = learn(&dir.0, &[], Some(plan));
+        let dir = scratch(&format!("crash-learn-{n}"));
+        let plan = format!("op=write+rename,nth={n},path={}", dir.path().display());
+        let first = learn(dir.path(), &[], Some(plan));
         let context = format!("learn: fault at operation {n}");
         if first.status.success() {
-            assert_eq!(trials_of(&dir.0), baseline, "{context}");
+            assert_eq!(trials_of(dir.path()), baseline, "{context}");
             assert!(n > 20, "only {n} operations counted");
             break;
         }
@@ -215,18 +218,18 @@ fn a_learning_run_survives_a_failure_at_every_write_and_rename() {
             e.contains("injected fault") && !e.contains("panicked"),
             "{context}: {e}"
         );
-        let again = if dir.0.join("config.toml").exists() {
-            learn(&dir.0, &["--resume"], None)
+        let again = if dir.path().join("config.toml").exists() {
+            learn(dir.path(), &["--resume"], None)
         } else {
-            learn(&dir.0, &["--force"], None)
+            learn(dir.path(), &["--force"], None)
         };
         assert!(
             again.status.success(),
             "{context}: {}",
             String::from_utf8_lossy(&again.stderr)
         );
-        assert_eq!(trials_of(&dir.0), baseline, "{context}");
-        for entry in std::fs::read_dir(&dir.0).expect("dir") {
+        assert_eq!(trials_of(dir.path()), baseline, "{context}");
+        for entry in std::fs::read_dir(dir.path()).expect("dir") {
             let name = entry.expect("entry").file_name().to_string_lossy().into_owned();
             assert!(!store::is_temporary(&name), "{context}: temporary file {name} left");
         }

@@ -7,7 +7,7 @@ use std::path::Path;
 use std::process::{Command, Output, Stdio};
 
 mod common;
-use common::Scratch;
+use common::scratch;
 
 fn swingup(args: &[&str], out: &Path) -> Output {
     swingup_env(args, out, &[])
@@ -72,19 +72,22 @@ fn lines(path: &Path) -> Vec<String> {
 /// edited by hand to other settings than its runs' is refused.
 #[test]
 fn case_1_a_refused_rerun_never_rewrites_the_settings() {
-    let dir = Scratch::new("issue37-case1");
-    ok(&swingup(&grid("1", &[]), &dir.0));
-    let settings = std::fs::read(dir.0.join("settings.json")).expect("settings");
-    refused(&swingup(&grid("3", &[]), &dir.0), &["holds finished runs"]);
-    assert_eq!(std::fs::read(dir.0.join("settings.json")).expect("settings"), settings);
-    refused(&swingup(&grid("3", &["--resume"]), &dir.0), &["max_trials differs"]);
-    ok(&swingup(&grid("1", &["--resume"]), &dir.0));
+    let dir = scratch("issue37-case1");
+    ok(&swingup(&grid("1", &[]), dir.path()));
+    let settings = std::fs::read(dir.path().join("settings.json")).expect("settings");
+    refused(&swingup(&grid("3", &[]), dir.path()), &["holds finished runs"]);
+    assert_eq!(
+        std::fs::read(dir.path().join("settings.json")).expect("settings"),
+        settings
+    );
+    refused(&swingup(&grid("3", &["--resume"]), dir.path()), &["max_trials differs"]);
+    ok(&swingup(&grid("1", &["--resume"]), dir.path()));
     // edited by hand to say 3 trials: its runs were made with 1
     let mut v: serde_json::Value = serde_json::from_slice(&settings).expect("json");
     v["settings"]["max_trials"] = 3.into();
-    std::fs::write(dir.0.join("settings.json"), v.to_string()).expect("edit");
+    std::fs::write(dir.path().join("settings.json"), v.to_string()).expect("edit");
     refused(
-        &swingup(&grid("3", &["--resume", "--report-only"]), &dir.0),
+        &swingup(&grid("3", &["--resume", "--report-only"]), dir.path()),
         &["runs.jsonl record 1", "other settings"],
     );
 }
@@ -94,26 +97,26 @@ fn case_1_a_refused_rerun_never_rewrites_the_settings() {
 /// again, and the next resume reads the log cleanly.
 #[test]
 fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
-    let dir = Scratch::new("issue37-case3");
-    ok(&swingup(&grid("1", &[]), &dir.0));
-    let log = dir.0.join("runs.jsonl");
+    let dir = scratch("issue37-case3");
+    ok(&swingup(&grid("1", &[]), dir.path()));
+    let log = dir.path().join("runs.jsonl");
     let text = std::fs::read_to_string(&log).expect("runs");
     assert_eq!(text.lines().count(), 3);
     // a kill in the middle of writing the last record
     std::fs::write(&log, &text[..text.len() - 40]).expect("tear");
-    let o = swingup(&grid("1", &["--resume"]), &dir.0);
+    let o = swingup(&grid("1", &["--resume"]), dir.path());
     ok(&o);
     let e = stderr(&o);
     assert!(e.contains("runs.jsonl line 3") && e.contains("runs.jsonl.torn-"), "{e}");
     let after = std::fs::read_to_string(&log).expect("runs");
     assert!(after.ends_with('\n') && after.lines().count() == 3, "{after}");
-    let side: Vec<_> = std::fs::read_dir(&dir.0)
+    let side: Vec<_> = std::fs::read_dir(dir.path())
         .expect("dir")
         .filter_map(|e| e.ok())
         .filter(|e| e.file_name().to_string_lossy().starts_with("runs.jsonl.torn-"))
         .collect();
     assert_eq!(side.len(), 1);
-    let o = swingup(&grid("1", &["--resume"]), &dir.0);
+    let o = swingup(&grid("1", &["--resume"]), dir.path());
     ok(&o);
     assert!(!stderr(&o).contains("warning"), "{}", stderr(&o));
     assert_eq!(std::fs::read_to_string(&log).expect("runs"), after);
@@ -125,27 +128,27 @@ fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
 /// parts' files (never a `runs-backup.jsonl`, which sorted first and won).
 #[test]
 fn case_4_shards_with_other_settings_are_not_merged() {
-    let dir = Scratch::new("issue37-case4");
-    ok(&swingup(&grid("1", &["--shard", "1/2"]), &dir.0));
-    ok(&swingup(&grid("2", &["--shard", "2/2"]), &dir.0));
+    let dir = scratch("issue37-case4");
+    ok(&swingup(&grid("1", &["--shard", "1/2"]), dir.path()));
+    ok(&swingup(&grid("2", &["--shard", "2/2"]), dir.path()));
     refused(
-        &swingup(&grid("2", &["--resume", "--report-only"]), &dir.0),
+        &swingup(&grid("2", &["--resume", "--report-only"]), dir.path()),
         &["settings-1-of-2.json", "max_trials differs"],
     );
-    assert!(dir.0.join("settings-2-of-2.json").exists());
+    assert!(dir.path().join("settings-2-of-2.json").exists());
     // an edited backup of a runs file is not read
-    let dir = Scratch::new("issue37-case4-backup");
-    ok(&swingup(&grid("1", &[]), &dir.0));
-    let mut backup = lines(&dir.0.join("runs.jsonl"));
+    let dir = scratch("issue37-case4-backup");
+    ok(&swingup(&grid("1", &[]), dir.path()));
+    let mut backup = lines(&dir.path().join("runs.jsonl"));
     for l in &mut backup {
         let mut v: serde_json::Value = serde_json::from_str(l).expect("json");
         v["success_trial"] = 1.into();
         *l = v.to_string();
     }
-    std::fs::write(dir.0.join("runs-backup.jsonl"), backup.join("\n") + "\n").expect("backup");
-    ok(&swingup(&grid("1", &["--resume", "--report-only"]), &dir.0));
+    std::fs::write(dir.path().join("runs-backup.jsonl"), backup.join("\n") + "\n").expect("backup");
+    ok(&swingup(&grid("1", &["--resume", "--report-only"]), dir.path()));
     let report: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.0.join("experiments.json")).expect("report")).expect("json");
+        serde_json::from_slice(&std::fs::read(dir.path().join("experiments.json")).expect("report")).expect("json");
     let runs = report["runs"].as_array().expect("runs");
     assert_eq!(runs.len(), 3);
     assert!(
@@ -158,10 +161,10 @@ fn case_4_shards_with_other_settings_are_not_merged() {
 /// the report are saved.
 #[test]
 fn case_6_a_closed_stdout_loses_nothing() {
-    let dir = Scratch::new("issue37-case6");
+    let dir = scratch("issue37-case6");
     let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(["learn", "--model", "true", "--max-trials", "2", "--out"])
-        .arg(&dir.0)
+        .arg(dir.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -179,13 +182,13 @@ fn case_6_a_closed_stdout_loses_nothing() {
     assert!(status.success(), "{status}: {err}");
     assert!(!err.contains("panicked"), "{err}");
     for f in ["trial_01.json", "trial_02.json", "report.json", "report.md"] {
-        assert!(dir.0.join(f).exists(), "{f} lost: {err}");
+        assert!(dir.path().join(f).exists(), "{f} lost: {err}");
     }
     // a grid likewise: its runs and its report
-    let dir = Scratch::new("issue37-case6-grid");
+    let dir = scratch("issue37-case6-grid");
     let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(grid("1", &["--out"]))
-        .arg(&dir.0)
+        .arg(dir.path())
         .stdout(Stdio::piped())
         .stderr(Stdio::piped())
         .spawn()
@@ -196,19 +199,19 @@ fn case_6_a_closed_stdout_loses_nothing() {
     let o = child.wait_with_output().expect("wait");
     assert!(o.status.success(), "{}", stderr(&o));
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
-    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 3);
-    assert!(dir.0.join("experiments.json").exists());
+    assert_eq!(lines(&dir.path().join("runs.jsonl")).len(), 3);
+    assert!(dir.path().join("experiments.json").exists());
 }
 
 /// Case 7: `config.toml` is never rewritten by a resume, and one edited
 /// by hand after the run was made is refused.
 #[test]
 fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
-    let dir = Scratch::new("issue37-case7");
-    ok(&swingup(&["learn", "--model", "true", "--max-trials", "2"], &dir.0));
-    let config = dir.0.join("config.toml");
+    let dir = scratch("issue37-case7");
+    ok(&swingup(&["learn", "--model", "true", "--max-trials", "2"], dir.path()));
+    let config = dir.path().join("config.toml");
     let saved = std::fs::read(&config).expect("config");
-    ok(&swingup(&["learn", "--resume", "--max-trials", "1"], &dir.0));
+    ok(&swingup(&["learn", "--resume", "--max-trials", "1"], dir.path()));
     assert_eq!(std::fs::read(&config).expect("config"), saved, "rewritten by --resume");
     // lambda edited by hand: the trials were made with the other one
     let text = String::from_utf8(saved).expect("utf8");
@@ -216,36 +219,36 @@ fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
     assert_ne!(edited, text);
     std::fs::write(&config, edited).expect("edit");
     refused(
-        &swingup(&["learn", "--resume", "--max-trials", "3"], &dir.0),
+        &swingup(&["learn", "--resume", "--max-trials", "3"], dir.path()),
         &["config.toml", "planner.lambda differs", "manifest.json"],
     );
-    assert!(!dir.0.join("trial_03.json").exists());
+    assert!(!dir.path().join("trial_03.json").exists());
 }
 
 /// Case 10: a learning run's directory records its task: a cart-pole run
 /// into a pendulum run's directory is refused, and the other way round.
 #[test]
 fn case_10_a_run_of_another_task_is_refused() {
-    let dir = Scratch::new("issue37-case10");
-    ok(&swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0));
+    let dir = scratch("issue37-case10");
+    ok(&swingup(&["learn", "--model", "true", "--max-trials", "1"], dir.path()));
     refused(
-        &swingup(&["learn", "--task", "cartpole", "--max-trials", "1"], &dir.0),
+        &swingup(&["learn", "--task", "cartpole", "--max-trials", "1"], dir.path()),
         &["holds another run, of the pendulum task", "--force"],
     );
-    assert!(!dir.0.join("cartpole.json").exists());
+    assert!(!dir.path().join("cartpole.json").exists());
     let manifest: serde_json::Value =
-        serde_json::from_slice(&std::fs::read(dir.0.join("manifest.json")).expect("manifest")).expect("json");
+        serde_json::from_slice(&std::fs::read(dir.path().join("manifest.json")).expect("manifest")).expect("json");
     assert_eq!(manifest["task"], "pendulum");
     // a cart-pole run's directory (its record, as the program writes it)
-    let dir = Scratch::new("issue37-case10-cartpole");
-    std::fs::write(dir.0.join("cartpole.json"), "{\"trials\": []}").expect("write");
+    let dir = scratch("issue37-case10-cartpole");
+    std::fs::write(dir.path().join("cartpole.json"), "{\"trials\": []}").expect("write");
     refused(
-        &swingup(&["learn", "--model", "true", "--max-trials", "1"], &dir.0),
+        &swingup(&["learn", "--model", "true", "--max-trials", "1"], dir.path()),
         &["holds another run, of the cartpole task", "--force"],
     );
-    assert!(!dir.0.join("config.toml").exists() && !dir.0.join("trial_01.json").exists());
+    assert!(!dir.path().join("config.toml").exists() && !dir.path().join("trial_01.json").exists());
     assert_eq!(
-        std::fs::read_to_string(dir.0.join("cartpole.json")).expect("kept"),
+        std::fs::read_to_string(dir.path().join("cartpole.json")).expect("kept"),
         "{\"trials\": []}"
     );
 }
@@ -256,13 +259,13 @@ fn case_10_a_run_of_another_task_is_refused() {
 #[test]
 fn case_11_shards_started_together_and_merged() {
     for attempt in 0..3 {
-        let dir = Scratch::new(&format!("issue37-case11-{attempt}"));
+        let dir = scratch(&format!("issue37-case11-{attempt}"));
         let children: Vec<_> = ["1/2", "2/2"]
             .iter()
             .map(|s| {
                 Command::new(env!("CARGO_BIN_EXE_swingup"))
                     .args(grid("1", &["--shard", s, "--out"]))
-                    .arg(&dir.0)
+                    .arg(dir.path())
                     .stdout(Stdio::null())
                     .stderr(Stdio::piped())
                     .spawn()
@@ -273,11 +276,11 @@ fn case_11_shards_started_together_and_merged() {
             let o = c.wait_with_output().expect("wait");
             assert!(o.status.success(), "attempt {attempt}: {}", stderr(&o));
         }
-        let o = swingup(&grid("1", &["--resume", "--report-only"]), &dir.0);
+        let o = swingup(&grid("1", &["--resume", "--report-only"]), dir.path());
         ok(&o);
-        assert!(!dir.0.join("runs.jsonl").exists() && !dir.0.join("settings.json").exists());
+        assert!(!dir.path().join("runs.jsonl").exists() && !dir.path().join("settings.json").exists());
         let report: serde_json::Value =
-            serde_json::from_slice(&std::fs::read(dir.0.join("experiments.json")).expect("report")).expect("json");
+            serde_json::from_slice(&std::fs::read(dir.path().join("experiments.json")).expect("report")).expect("json");
         assert_eq!(report["runs"].as_array().expect("runs").len(), 3);
     }
 }
@@ -287,10 +290,10 @@ fn case_11_shards_started_together_and_merged() {
 /// the file, with the earlier runs kept.
 #[test]
 fn case_2_a_full_disk_stops_the_program_naming_the_file() {
-    let dir = Scratch::new("issue37-case2");
+    let dir = scratch("issue37-case2");
     let o = swingup_env(
         &grid("1", &[]),
-        &dir.0,
+        dir.path(),
         &[
             ("NPRL_STORE_FAULT", "op=write,nth=2,persist,path=runs.jsonl"),
             ("RAYON_NUM_THREADS", "1"),
@@ -298,9 +301,9 @@ fn case_2_a_full_disk_stops_the_program_naming_the_file() {
     );
     refused(&o, &["runs.jsonl", "the grid stopped there"]);
     assert_eq!(stdout(&o).matches("seed 1:").count(), 1, "{}", stdout(&o));
-    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 1);
-    ok(&swingup(&grid("1", &["--resume"]), &dir.0));
-    assert_eq!(lines(&dir.0.join("runs.jsonl")).len(), 3);
+    assert_eq!(lines(&dir.path().join("runs.jsonl")).len(), 1);
+    ok(&swingup(&grid("1", &["--resume"]), dir.path()));
+    assert_eq!(lines(&dir.path().join("runs.jsonl")).len(), 3);
 }
 
 /// Case 8, in part (the marker quoted in prose is not fixed here):
@@ -310,16 +313,19 @@ fn case_2_a_full_disk_stops_the_program_naming_the_file() {
 #[test]
 fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
     use std::os::unix::fs::PermissionsExt as _;
-    let dir = Scratch::new("issue37-case8");
-    let real = dir.0.join("real.md");
+    let dir = scratch("issue37-case8");
+    let real = dir.path().join("real.md");
     std::fs::write(&real, "intro\n<!-- t:start -->\nold\n<!-- t:end -->\n").expect("write");
     std::fs::set_permissions(&real, std::fs::Permissions::from_mode(0o600)).expect("chmod");
-    let readme = dir.0.join("README.md");
+    let readme = dir.path().join("README.md");
     std::os::unix::fs::symlink("real.md", &readme).expect("symlink");
-    std::fs::write(dir.0.join("README.tmp"), "mine").expect("write");
+    std::fs::write(dir.path().join("README.tmp"), "mine").expect("write");
     swingup::output::run_report::update_between(&readme, "<!-- t:start -->", "<!-- t:end -->", "new\n")
         .expect("update");
-    assert_eq!(std::fs::read_to_string(dir.0.join("README.tmp")).expect("kept"), "mine");
+    assert_eq!(
+        std::fs::read_to_string(dir.path().join("README.tmp")).expect("kept"),
+        "mine"
+    );
     assert!(
         std::fs::symlink_metadata(&readme)
             .expect("link")
@@ -338,15 +344,15 @@ fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
 /// stays where it is until a resume that is not refused moves it aside.
 #[test]
 fn a_refused_resume_leaves_a_torn_record_alone() {
-    let dir = Scratch::new("issue37-refused-torn");
-    ok(&swingup(&grid("1", &[]), &dir.0));
-    let log = dir.0.join("runs.jsonl");
+    let dir = scratch("issue37-refused-torn");
+    ok(&swingup(&grid("1", &[]), dir.path()));
+    let log = dir.path().join("runs.jsonl");
     let text = std::fs::read_to_string(&log).expect("runs");
     let torn = &text[..text.len() - 40];
     std::fs::write(&log, torn).expect("tear");
-    refused(&swingup(&grid("2", &["--resume"]), &dir.0), &["max_trials differs"]);
+    refused(&swingup(&grid("2", &["--resume"]), dir.path()), &["max_trials differs"]);
     assert_eq!(std::fs::read_to_string(&log).expect("runs"), torn);
-    let names: Vec<String> = std::fs::read_dir(&dir.0)
+    let names: Vec<String> = std::fs::read_dir(dir.path())
         .expect("dir")
         .filter_map(|e| e.ok())
         .map(|e| e.file_name().to_string_lossy().into_owned())
@@ -359,7 +365,7 @@ fn a_refused_resume_leaves_a_torn_record_alone() {
 /// before the output directory is created, naming the key.
 #[test]
 fn bad_configurations_are_refused_before_any_directory_is_made() {
-    let dir = Scratch::new("issue37-validate");
+    let dir = scratch("issue37-validate");
     let defaults = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .arg("config")
         .output()
@@ -384,17 +390,17 @@ fn bad_configurations_are_refused_before_any_directory_is_made() {
             })
             .collect();
         assert_ne!(edited, format!("{text}\n"), "{key} not in the defaults");
-        let file = dir.0.join(format!("{key}.toml"));
+        let file = dir.path().join(format!("{key}.toml"));
         std::fs::write(&file, &edited).expect("config");
-        let out = dir.0.join(format!("run-{key}"));
+        let out = dir.path().join(format!("run-{key}"));
         let o = swingup(&["learn", "--config", file.to_str().expect("utf-8")], &out);
         refused(&o, words);
         assert!(!out.exists(), "{key}: the refused run made {}", out.display());
     }
     // substeps: in the robot's table, set alone (the others keep the robot's defaults)
-    let file = dir.0.join("substeps.toml");
+    let file = dir.path().join("substeps.toml");
     std::fs::write(&file, "[robot]\nsubsteps = 4000000000\n").expect("config");
-    let out = dir.0.join("run-substeps");
+    let out = dir.path().join("run-substeps");
     refused(
         &swingup(&["learn", "--config", file.to_str().expect("utf-8")], &out),
         &["robot.substeps", "1 to 1000"],
@@ -402,7 +408,7 @@ fn bad_configurations_are_refused_before_any_directory_is_made() {
     assert!(!out.exists());
     // a partial table is read over the plant's defaults, as the docs say
     std::fs::write(&file, "max_trials = 1\n[robot]\ngravity = 9.5\n").expect("config");
-    let out = dir.0.join("run-partial");
+    let out = dir.path().join("run-partial");
     ok(&swingup(&["learn", "--config", file.to_str().expect("utf-8")], &out));
     let saved = std::fs::read_to_string(out.join("config.toml")).expect("config.toml");
     assert!(
@@ -415,13 +421,13 @@ fn bad_configurations_are_refused_before_any_directory_is_made() {
 /// `--out` or README before their work (minutes to hours), not after.
 #[test]
 fn outputs_are_checked_before_the_work() {
-    let dir = Scratch::new("issue37-outputs");
-    let file = dir.0.join("a-file");
+    let dir = scratch("issue37-outputs");
+    let file = dir.path().join("a-file");
     std::fs::write(&file, "not a directory").expect("file");
     let o = swingup(&["sensitivity", "--seeds", "1"], &file.join("out"));
     refused(&o, &["a-file"]);
     assert!(!stdout(&o).contains("planning with"), "{}", stdout(&o));
-    let readme = dir.0.join("README.md");
+    let readme = dir.path().join("README.md");
     std::fs::write(&readme, "quoted `<!-- sensitivity:start -->` only\n").expect("readme");
     let o = swingup(
         &[
@@ -431,19 +437,19 @@ fn outputs_are_checked_before_the_work() {
             "--update-readme",
             readme.to_str().expect("utf-8"),
         ],
-        &dir.0.join("s"),
+        &dir.path().join("s"),
     );
     refused(&o, &["README.md", "sensitivity:start"]);
     assert!(!stdout(&o).contains("planning with"), "{}", stdout(&o));
     let o = swingup(
         &grid("1", &["--update-readme", readme.to_str().expect("utf-8")]),
-        &dir.0.join("g"),
+        &dir.path().join("g"),
     );
     refused(&o, &["README.md", "claims:start"]);
-    assert!(!dir.0.join("g").join("runs.jsonl").exists());
+    assert!(!dir.path().join("g").join("runs.jsonl").exists());
     let o = swingup(
         &["experiments", "lambda", "--quick", "--seeds", "100000"],
-        &dir.0.join("g2"),
+        &dir.path().join("g2"),
     );
     refused(&o, &["seeds", "10000"]);
 }
@@ -452,13 +458,13 @@ fn outputs_are_checked_before_the_work() {
 /// highest-numbered `runs/swingup-NNN`), not the lowest-numbered one.
 #[test]
 fn resume_without_out_continues_the_latest_run() {
-    let dir = Scratch::new("issue37-latest");
+    let dir = scratch("issue37-latest");
     for n in ["swingup-001", "swingup-003"] {
-        std::fs::create_dir_all(dir.0.join("runs").join(n)).expect("run dir");
+        std::fs::create_dir_all(dir.path().join("runs").join(n)).expect("run dir");
     }
     let o = Command::new(env!("CARGO_BIN_EXE_swingup"))
         .args(["learn", "--resume"])
-        .current_dir(&dir.0)
+        .current_dir(dir.path())
         .output()
         .expect("runs");
     // the empty latest run has nothing to resume: the error names it
@@ -491,9 +497,9 @@ fn timeless_runs(dir: &Path) -> Vec<serde_json::Value> {
 /// and the same report.
 #[test]
 fn a_grid_killed_at_any_point_and_resumed_equals_an_uninterrupted_one() {
-    let dir = Scratch::new("issue37-kill");
+    let dir = scratch("issue37-kill");
     let args = grid("2", &[]);
-    let whole = dir.0.join("whole");
+    let whole = dir.path().join("whole");
     let started = std::time::Instant::now();
     ok(&swingup(&args, &whole));
     let duration = started.elapsed();
@@ -509,7 +515,7 @@ fn a_grid_killed_at_any_point_and_resumed_equals_an_uninterrupted_one() {
     // sequence covers the interval evenly whatever the count)
     for k in 1..=5u32 {
         let at = (f64::from(k) * 0.618_033_988_75).fract();
-        let part = dir.0.join(format!("killed-{k}"));
+        let part = dir.path().join(format!("killed-{k}"));
         let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
             .args(&args)
             .arg("--out")

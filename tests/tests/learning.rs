@@ -3,29 +3,14 @@
 //! pendulum up and balances it. Asserts on the written report, and that an
 //! interrupted run resumed gives the same trials.
 
-use std::path::PathBuf;
-
 use swingup::config::{Config, ModelKind, Start};
 use swingup::learn::run;
 use swingup::output::run_report;
 use swingup::record::{TrialKind, TrialRecord};
 
 /// A fresh scratch directory, removed afterwards.
-struct Scratch(PathBuf);
-
-impl Scratch {
-    fn new(tag: &str) -> Self {
-        let dir = std::env::temp_dir().join(format!("swingup-learning-{tag}-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("scratch directory");
-        Self(dir)
-    }
-}
-
-impl Drop for Scratch {
-    fn drop(&mut self) {
-        let _ = std::fs::remove_dir_all(&self.0);
-    }
+fn scratch(tag: &str) -> store::ScratchDir {
+    store::ScratchDir::new(&format!("learning-{tag}")).expect("scratch directory")
 }
 
 fn config(max_trials: usize) -> Config {
@@ -37,11 +22,11 @@ fn config(max_trials: usize) -> Config {
 
 #[test]
 fn imitation_fails_and_learning_succeeds() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = Scratch::new("default");
+    let dir = scratch("default");
     let cfg = config(4);
     let record = run(&cfg, vec![], &mut |_: &TrialRecord| {})?;
-    run_report::write_run(&dir.0, &record)?;
-    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.0.join("report.json"))?)?;
+    run_report::write_run(dir.path(), &record)?;
+    let json: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(dir.path().join("report.json"))?)?;
     let trials = json["trials"].as_array().ok_or("no trials in report.json")?;
     // trial 1 imitates and does not get halfway up (claim C1)
     assert_eq!(record.trials[0].kind, TrialKind::Imitation);
@@ -62,16 +47,16 @@ fn imitation_fails_and_learning_succeeds() -> Result<(), Box<dyn std::error::Err
 
 #[test]
 fn an_interrupted_run_resumes_to_the_same_trials() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = Scratch::new("resume");
+    let dir = scratch("resume");
     let whole = run(&config(3), vec![], &mut |_: &TrialRecord| {})?;
     // "interrupted" after one trial: only trial 1 was saved
     let mut saved = Vec::new();
     let first = run(&config(1), vec![], &mut |t: &TrialRecord| saved.push(t.clone()))?;
     assert_eq!(first.trials.len(), 1);
     for t in &saved {
-        run_report::write_trial(&dir.0, t)?;
+        run_report::write_trial(dir.path(), t)?;
     }
-    let previous = run_report::read_trials(&dir.0)?;
+    let previous = run_report::read_trials(dir.path())?;
     let resumed = run(&config(3), previous, &mut |_: &TrialRecord| {})?;
     assert_eq!(whole.trials.len(), resumed.trials.len());
     assert_eq!(whole.success_trial, resumed.success_trial);
