@@ -140,7 +140,8 @@ pub fn lwr_instance() -> Result<Instance> {
         .get(..2)
         .ok_or_else(|| fail("fewer than 2 trials".into()))?;
     let (model, _) = swingup::models::learned::learn_model(&cfg, trials).map_err(|e| fail(e.to_string()))?;
-    let demo = cfg.demonstration().map_err(|e| fail(e.to_string()))?;
+    let demo = swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+        .map_err(|e| fail(e.to_string()))?;
     let (problem, start) =
         swingup::planning::eq3::build_problem(&cfg, &demo, model, None).map_err(|e| fail(e.to_string()))?;
     Ok(Instance {

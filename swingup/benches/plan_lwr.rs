@@ -37,7 +37,8 @@ fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration, PlanSu
     cfg.model.kind = ModelKind::Lwr;
     let record = run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}).expect("learning run");
     let (model, summary) = learn_model(&cfg, &record.trials[..2]).expect("model");
-    let demo = cfg.demonstration().expect("demo");
+    let demo =
+        swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demo");
     let p = plan(&cfg, &demo, &model, None).expect("plan");
     let previous = record.trials[1].plan.clone().expect("trial 2 is planned");
     let w = plan_from(&cfg, &demo, &model, None, Some(&previous)).expect("warm plan");

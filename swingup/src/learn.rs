@@ -57,7 +57,7 @@ use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, bou
 use crate::planning::plan_and_gains;
 use crate::planning::support::{DataSupport, data_support};
 use crate::plant::basin::Catch;
-use crate::plant::demo::Demonstration;
+use crate::plant::demo::{Demonstration, demonstration};
 use crate::plant::{Plant, PlantState, from_upright};
 use crate::record::{ModelSummary, MpcTrace, PlanSummary, RunRecord, TrialKind, TrialRecord, TrialTiming};
 use faer::Mat;
@@ -93,8 +93,8 @@ impl<F: FnMut(&TrialRecord)> Progress for F {
 /// it is done (to be saved).
 pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress) -> crate::Result<RunRecord> {
     cfg.validate()?;
-    let demo = cfg.demonstration()?;
-    let lqr = cfg.robot_catch()?;
+    let demo = demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)?;
+    let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test())?;
     let robot = Plant::new(cfg.robot);
     let mut trials = previous;
     crate::error::ensure_data!(
@@ -504,7 +504,7 @@ mod tests {
     use super::*;
 
     fn demo(cfg: &Config) -> Demonstration {
-        cfg.demonstration().expect("demonstration")
+        demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demonstration")
     }
 
     /// Exploration commands stay within the amplitude (a B-spline lies in
@@ -576,7 +576,7 @@ mod tests {
         cfg.model.kind = ModelKind::True;
         cfg.mpc.budget_ms = 1e-9;
         let robot = Plant::new(cfg.robot);
-        let lqr = cfg.robot_catch().expect("lqr");
+        let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test()).expect("lqr");
         let d = demo(&cfg);
         let imitation = execute(
             &cfg,
@@ -613,7 +613,7 @@ mod tests {
     fn observed_window_needs_a_long_enough_trial() {
         let cfg = Config::default();
         let robot = Plant::new(cfg.robot);
-        let lqr = cfg.robot_catch().expect("lqr");
+        let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test()).expect("lqr");
         let d = demo(&cfg);
         let t = execute(
             &cfg,

@@ -175,11 +175,12 @@ fn check_config(text: &str) -> bool {
         "config.toml changes when read back"
     );
     if affordable(&cfg) {
-        if let Ok(demo) = cfg.demonstration() {
+        if let Ok(demo) = swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+        {
             assert_eq!(demo.controls.len(), cfg.horizon);
             assert_eq!(demo.states.len(), cfg.horizon + 1);
         }
-        let _ = cfg.robot_catch();
+        let _ = swingup::plant::basin::Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test());
     }
     true
 }

@@ -6,9 +6,8 @@
 use lwr::{Degree, Kernel};
 use serde::{Deserialize, Serialize};
 
-use crate::plant::basin::{BalanceTest, Basin, BasinSettings, Catch, CatchRule, calibrate};
-use crate::plant::demo::{Demonstration, HumanSwingup, demonstrate};
-use crate::plant::lqr::Lqr;
+use crate::plant::basin::{BalanceTest, CatchSpec};
+use crate::plant::demo::HumanSwingup;
 
 mod checks;
 use crate::plant::{PlantParams, PlantPatch};
@@ -551,51 +550,18 @@ impl Default for ModelConfig {
 }
 
 impl Config {
-    /// The human's demonstration on this configuration's `human` plant:
-    /// `horizon` samples of swing-up (the run's balancing part, `balance`
-    /// samples, is simulated to check the catch and then dropped).
-    ///
-    /// # Errors
-    /// [`Error::Controller`](crate::Error::Controller) when no LQR catch
-    /// can be designed for the human's plant.
-    pub fn demonstration(&self) -> crate::Result<Demonstration> {
-        demonstrate(&self.human, &self.human_swingup, self.horizon, self.balance)
-            .map(|(demo, _)| demo)
-            .ok_or(crate::Error::Controller { plant: "human" })
-    }
-
-    /// The robot's balancing LQR, with the weights every run uses, and
-    /// when it takes over ([`Config::catch`]; with the basin rule and no
-    /// `catch_level`, the level is calibrated here).
-    ///
-    /// # Errors
-    /// [`Error::Controller`](crate::Error::Controller) when the design
-    /// fails for the robot's plant; [`Error::Data`](crate::Error::Data) when
-    /// no basin can be calibrated.
-    pub fn robot_catch(&self) -> crate::Result<Catch> {
-        let lqr = self.robot_lqr()?;
-        let rule = match self.catch {
-            CatchKind::Box => CatchRule::Box {
+    /// How the robot's catch is chosen ([`Catch::design`](crate::plant::basin::Catch::design)
+    /// builds it): [`Config::catch`] with its angle, rate or level.
+    pub fn catch_spec(&self) -> CatchSpec {
+        match self.catch {
+            CatchKind::Box => CatchSpec::Box {
                 angle: self.catch_angle,
                 rate: self.catch_rate,
             },
-            CatchKind::Basin => CatchRule::Basin {
-                level: match self.catch_level {
-                    Some(level) => level,
-                    None => self.robot_basin(&lqr, &BasinSettings::default())?.level,
-                },
+            CatchKind::Basin => CatchSpec::Basin {
+                level: self.catch_level,
             },
-        };
-        Ok(Catch { lqr, rule })
-    }
-
-    /// The robot's balancing LQR.
-    ///
-    /// # Errors
-    /// [`Error::Controller`](crate::Error::Controller) when the design
-    /// fails for the robot's plant.
-    pub fn robot_lqr(&self) -> crate::Result<Lqr> {
-        Lqr::design(&self.robot, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant: "robot" })
+        }
     }
 
     /// A run's balancing phase on the robot, as [`crate::plant::basin`] simulates it.
@@ -607,15 +573,6 @@ impl Config {
             success_angle: self.success_angle,
             tail: ((self.success_seconds / self.robot.dt).round() as usize).min(self.balance),
         }
-    }
-
-    /// The calibrated region of attraction of `lqr` on the robot.
-    ///
-    /// # Errors
-    /// [`Error::Data`](crate::Error::Data) naming why no level was found.
-    pub fn robot_basin(&self, lqr: &Lqr, settings: &BasinSettings) -> crate::Result<Basin> {
-        calibrate(lqr, &self.balance_test(), settings)
-            .map_err(|e| crate::Error::Data(format!("calibrating the catch (catch = \"basin\"): {e}")))
     }
 }
 

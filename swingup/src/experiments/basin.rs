@@ -5,8 +5,10 @@
 use serde::{Deserialize, Serialize};
 
 use crate::config::Config;
-use crate::plant::basin::{BasinSettings, Catch, CatchRule};
+use crate::plant::basin::{BasinSettings, Catch, CatchRule, robot_basin};
+use crate::plant::demo::demonstration;
 use crate::plant::from_upright;
+use crate::plant::lqr::Lqr;
 
 /// Angles from upright of the map's columns: -1.2 to 1.2 rad.
 const MAP_ANGLES: usize = 25;
@@ -61,14 +63,14 @@ pub struct BasinReport {
 /// basin found.
 pub fn basin_report(cfg: &Config, settings: &BasinSettings) -> crate::Result<BasinReport> {
     cfg.validate()?;
-    let lqr = cfg.robot_lqr()?;
-    let basin = cfg.robot_basin(&lqr, settings)?;
+    let lqr = Lqr::balancing(&cfg.robot, "robot")?;
+    let basin = robot_basin(&lqr, &cfg.balance_test(), settings)?;
     let test = cfg.balance_test();
     let catch = Catch {
         lqr,
         rule: CatchRule::Basin { level: basin.level },
     };
-    let demo = cfg.demonstration()?;
+    let demo = demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)?;
     let hand = demo
         .states
         .iter()

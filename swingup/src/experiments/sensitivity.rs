@@ -38,6 +38,8 @@ use crate::models::PendulumRegression;
 use crate::models::learned::learn_model;
 use crate::models::truth::TrueRegression;
 use crate::planning::eq3::plan;
+use crate::plant::basin::Catch;
+use crate::plant::demo::demonstration;
 use crate::plant::{Plant, PlantParams};
 use crate::record::TrialKind;
 
@@ -120,8 +122,8 @@ pub fn open_loop_tolerance(
 ) -> crate::Result<Vec<SensitivityRow>> {
     cfg.validate()?;
     crate::error::ensure_data!(seeds >= 1, "sensitivity needs at least one seed");
-    let demo = cfg.demonstration()?;
-    let lqr = cfg.robot_catch()?;
+    let demo = demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)?;
+    let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test())?;
     let robot = Plant::new(cfg.robot);
     perturbations
         .par_iter()
@@ -461,7 +463,7 @@ fn successful_data_summary(rows: &[SuccessfulDataRow], gravity_rms: f64) -> Stri
 pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> crate::Result<ModelErrorReport> {
     cfg.validate()?;
     crate::error::ensure_data!(seeds >= 1 && max_trials >= 1, "need at least one seed and one trial");
-    let demo = cfg.demonstration()?;
+    let demo = demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)?;
     let truth = TrueRegression::new(cfg.robot)?;
     let exact = plan(cfg, &demo, KnownHand::new(truth, cfg.robot.dt), None)?;
     let points: Vec<[f64; 5]> = exact

@@ -412,7 +412,8 @@ mod tests {
     use crate::models::truth::TrueRegression;
 
     fn demo(cfg: &Config) -> Demonstration {
-        cfg.demonstration().expect("demonstration")
+        crate::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
+            .expect("demonstration")
     }
 
     /// From scratch the task cost's tracking part is zero upright at rest

@@ -335,7 +335,58 @@ pub struct Catch {
     pub rule: CatchRule,
 }
 
+/// How the catch is chosen: plain settings, from the configuration
+/// ([`Config::catch_spec`](crate::config::Config::catch_spec)).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub enum CatchSpec {
+    /// [`CatchRule::Box`].
+    Box {
+        /// Largest angle from upright (rad).
+        angle: f64,
+        /// Largest angular speed (rad/s).
+        rate: f64,
+    },
+    /// [`CatchRule::Basin`] at `level`, or calibrated by [`calibrate`] when
+    /// `None`.
+    Basin {
+        /// The level $c$, if given.
+        level: Option<f64>,
+    },
+}
+
+/// The calibrated region of attraction of `lqr` in the balancing phase
+/// `test` ([`calibrate`], its error as the crate's).
+///
+/// # Errors
+/// [`Error::Data`](crate::Error::Data) naming why no level was found.
+pub fn robot_basin(lqr: &Lqr, test: &BalanceTest, settings: &BasinSettings) -> crate::Result<Basin> {
+    calibrate(lqr, test, settings)
+        .map_err(|e| crate::Error::Data(format!("calibrating the catch (catch = \"basin\"): {e}")))
+}
+
 impl Catch {
+    /// The robot's balancing controller ([`Lqr::balancing`]) and when it
+    /// takes over (`spec`; a basin without a level is calibrated here on
+    /// `test`, deterministically).
+    ///
+    /// # Errors
+    /// [`Error::Controller`](crate::Error::Controller) when the design
+    /// fails for `robot`; [`Error::Data`](crate::Error::Data) when no basin
+    /// can be calibrated.
+    pub fn design(robot: &PlantParams, spec: CatchSpec, test: &BalanceTest) -> crate::Result<Self> {
+        let lqr = Lqr::balancing(robot, "robot")?;
+        let rule = match spec {
+            CatchSpec::Box { angle, rate } => CatchRule::Box { angle, rate },
+            CatchSpec::Basin { level } => CatchRule::Basin {
+                level: match level {
+                    Some(level) => level,
+                    None => robot_basin(&lqr, test, &BasinSettings::default())?.level,
+                },
+            },
+        };
+        Ok(Self { lqr, rule })
+    }
+
     /// Whether the controller takes over at observed state `s`.
     pub fn holds(&self, s: &[f64; 4]) -> bool {
         match self.rule {

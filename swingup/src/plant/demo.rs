@@ -77,6 +77,24 @@ pub fn near_upright(s: &[f64; 4], angle: f64, rate: f64) -> bool {
     from_upright(s[0]).abs() < angle && s[1].abs() < rate
 }
 
+/// The human's demonstration on plant `human` with strategy `strategy`:
+/// `horizon` samples of swing-up (the run's balancing part, `balance`
+/// samples, is simulated to check the catch and then dropped).
+///
+/// # Errors
+/// [`Error::Controller`](crate::Error::Controller) when no LQR catch can be
+/// designed for the human's plant.
+pub fn demonstration(
+    human: &PlantParams,
+    strategy: &HumanSwingup,
+    horizon: usize,
+    balance: usize,
+) -> crate::Result<Demonstration> {
+    demonstrate(human, strategy, horizon, balance)
+        .map(|(demo, _)| demo)
+        .ok_or(crate::Error::Controller { plant: "human" })
+}
+
 /// Runs the human on `params` for `horizon` samples of swing-up (the
 /// demonstration) followed by `balance` samples with the catch; returns the
 /// demonstration and the whole run's states (to check that it succeeded).

@@ -22,6 +22,16 @@ pub struct Lqr {
 }
 
 impl Lqr {
+    /// The balancing controller every run uses (and the human's catch):
+    /// weights (10, 1, 1, 1) on the state, 0.1 on the command, for the
+    /// plant `params` (named `plant` in the error).
+    ///
+    /// # Errors
+    /// [`Error::Controller`](crate::Error::Controller) when the design fails.
+    pub fn balancing(params: &PlantParams, plant: &'static str) -> crate::Result<Self> {
+        Self::design(params, [10.0, 1.0, 1.0, 1.0], 0.1).ok_or(crate::Error::Controller { plant })
+    }
+
     /// The LQR for `params` with weights $Q = \mathrm{diag}(q)$, $R = r$.
     /// `None` if the Riccati iteration does not converge.
     pub fn design(params: &PlantParams, q: [f64; 4], r: f64) -> Option<Self> {
