@@ -336,6 +336,48 @@ pub trait Outcome {
     fn summary(&self) -> Summary;
 }
 
+/// Implements [`Outcome`] for result types with the workspace's common
+/// fields (`cost`, `initial_cost`, `iterations`, `evals`, a `status`
+/// implementing [`Status`], and `solve_time: Duration`), so that each
+/// solver crate states its results' shape once.
+///
+/// ```
+/// use std::time::Duration;
+/// use solve::{Outcome, Termination};
+///
+/// struct MyResult {
+///     cost: f64,
+///     initial_cost: f64,
+///     iterations: usize,
+///     evals: usize,
+///     status: Termination,
+///     solve_time: Duration,
+/// }
+/// solve::outcome!(MyResult);
+///
+/// let r = MyResult { cost: 1.0, initial_cost: 4.0, iterations: 3, evals: 7, status: Termination::Converged, solve_time: Duration::from_millis(2) };
+/// let s = r.summary();
+/// assert_eq!((s.cost, s.evals, s.termination), (1.0, 7, Termination::Converged));
+/// assert_eq!(s.solve_time, Some(Duration::from_millis(2)));
+/// ```
+#[macro_export]
+macro_rules! outcome {
+    ($($result:ty),+ $(,)?) => {$(
+        impl $crate::Outcome for $result {
+            fn summary(&self) -> $crate::Summary {
+                $crate::Summary {
+                    cost: self.cost,
+                    initial_cost: self.initial_cost,
+                    iterations: self.iterations,
+                    evals: self.evals,
+                    termination: $crate::Status::termination(&self.status),
+                    solve_time: Some(self.solve_time),
+                }
+            }
+        }
+    )+};
+}
+
 /// Defines a crate's two input checks over its own error type, so that the
 /// solver crates share one definition: `check_finite(what, values)` fails
 /// with `$error::NotFinite { what, index, value }` at the first non-finite

@@ -136,18 +136,7 @@ pub struct DdpResult {
     pub solve_time: Duration,
 }
 
-impl solve::Outcome for DdpResult {
-    fn summary(&self) -> solve::Summary {
-        solve::Summary {
-            cost: self.cost,
-            initial_cost: self.initial_cost,
-            iterations: self.iterations,
-            evals: self.evals,
-            termination: solve::Status::termination(&self.status),
-            solve_time: Some(self.solve_time),
-        }
-    }
-}
+solve::outcome!(DdpResult);
 
 impl DdpResult {
     /// The local linear policy (Eq. 2) at step `t`:

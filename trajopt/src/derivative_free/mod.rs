@@ -233,18 +233,7 @@ pub struct DerivativeFreeResult {
     pub solve_time: Duration,
 }
 
-impl solve::Outcome for DerivativeFreeResult {
-    fn summary(&self) -> solve::Summary {
-        solve::Summary {
-            cost: self.cost,
-            initial_cost: self.initial_cost,
-            iterations: self.iterations,
-            evals: self.evals,
-            termination: solve::Status::termination(&self.status),
-            solve_time: Some(self.solve_time),
-        }
-    }
-}
+solve::outcome!(DerivativeFreeResult);
 
 /// The derivative-free least-squares solver (see the [module docs](self)).
 #[derive(Debug, Clone)]

@@ -99,15 +99,4 @@ pub struct GaussNewtonResult {
     pub one_thread_from: Option<usize>,
 }
 
-impl solve::Outcome for GaussNewtonResult {
-    fn summary(&self) -> solve::Summary {
-        solve::Summary {
-            cost: self.cost,
-            initial_cost: self.initial_cost,
-            iterations: self.iterations,
-            evals: self.evals,
-            termination: solve::Status::termination(&self.status),
-            solve_time: Some(self.solve_time),
-        }
-    }
-}
+solve::outcome!(GaussNewtonResult);

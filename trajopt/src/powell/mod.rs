@@ -515,18 +515,7 @@ pub struct PowellResult {
     pub solve_time: Duration,
 }
 
-impl solve::Outcome for PowellResult {
-    fn summary(&self) -> solve::Summary {
-        solve::Summary {
-            cost: self.cost,
-            initial_cost: self.initial_cost,
-            iterations: self.iterations,
-            evals: self.evals,
-            termination: solve::Status::termination(&self.status),
-            solve_time: Some(self.solve_time),
-        }
-    }
-}
+solve::outcome!(PowellResult);
 
 /// Powell's conjugate-direction method (see the [module docs](self)).
 ///
