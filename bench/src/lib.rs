@@ -30,6 +30,7 @@ pub mod compare;
 pub mod error;
 pub mod files;
 pub mod instance;
+pub mod lwr_instance;
 pub mod minima;
 pub mod nist;
 pub mod plot;

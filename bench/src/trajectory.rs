@@ -1,6 +1,7 @@
 //! The trajectory set: the swing-ups of `trajopt::problems::trajectory`
 //! (Eq. 3 form) with their twins of `ddp::problems` (DDP form), and the
-//! learned-LWR swing-up plan of `swingup` (`pendulum-lwr`).
+//! learned-LWR swing-up plan of `swingup` (`pendulum-lwr`, saved in
+//! `bench/data/pendulum-lwr.json`: [`crate::lwr_instance`]).
 //!
 //! **Figure of merit.** The Eq. 3 criterion penalises dynamic
 //! inconsistency by $\lambda$ while DDP rolls out exactly, so neither
@@ -118,40 +119,23 @@ pub fn instances(filter: Option<&str>) -> Result<Vec<Instance>> {
 }
 
 /// The Eq. 3 problem of the swing-up plan with the pure LWR model learned
-/// from trials 1 and 2 of seed 1 (as `swingup/benches/plan_lwr.rs`), from
-/// the planner's own start (the knot points fitted to the demonstration),
-/// at the default configuration's final $\lambda$.
+/// from trials 1 and 2 of seed 1, from the planner's own start (the knot
+/// points fitted to the demonstration), as saved in
+/// `bench/data/pendulum-lwr.json` ([`crate::lwr_instance`]).
 ///
 /// # Errors
-/// A failed learning run, model or problem (the message names it).
+/// A file that does not parse or defines no valid problem (the message
+/// names what).
 pub fn lwr_instance() -> Result<Instance> {
-    use swingup::config::{Config, ModelKind};
-    let fail = |e: String| model_error(format!("{LWR_INSTANCE}: {e}"));
-    let mut cfg = Config {
-        seed: 1,
-        max_trials: 2,
-        ..Config::default()
-    };
-    cfg.model.kind = ModelKind::Lwr;
-    let record = swingup::learn::run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {})
-        .map_err(|e| fail(e.to_string()))?;
-    let trials = record
-        .trials
-        .get(..2)
-        .ok_or_else(|| fail("fewer than 2 trials".into()))?;
-    let (model, _) = swingup::models::learned::learn_model(&cfg, trials).map_err(|e| fail(e.to_string()))?;
-    let demo = swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance)
-        .map_err(|e| fail(e.to_string()))?;
-    let (problem, start) =
-        swingup::planning::eq3::build_problem(&cfg, &demo, model, None).map_err(|e| fail(e.to_string()))?;
+    let (problem, start) = crate::lwr_instance::shared_problem()?;
     Ok(Instance {
         set: SET,
         problem: LWR_INSTANCE.into(),
         scale: 1.0,
-        residuals: trajopt::LeastSquaresProblem::n_residuals(&problem),
+        residuals: trajopt::LeastSquaresProblem::n_residuals(problem.as_ref()),
         start,
         f_star: None,
-        least_squares: Arc::new(problem),
+        least_squares: problem,
         rollout: None,
     })
 }

@@ -229,3 +229,25 @@ fn the_checker_finds_a_cycle_and_reads_paths() {
     let paths = paths_after(&code, "crate::");
     assert_eq!(paths, vec![vec!["models", "learned"], vec!["planning", "eq3", "plan"]]);
 }
+
+/// The crates people reuse, the benchmark included, do not depend on the
+/// `swingup` program (its `[dependencies]` and `[dev-dependencies]` alike):
+/// the workspace's layers run library -> program, never back.
+#[test]
+fn no_library_crate_depends_on_the_program() {
+    for krate in ["lwr", "splines", "systems", "solve", "store", "trajopt", "ddp", "bench"] {
+        let manifest = Path::new(env!("CARGO_MANIFEST_DIR"))
+            .join("..")
+            .join(krate)
+            .join("Cargo.toml");
+        let text = fs::read_to_string(&manifest).expect("Cargo.toml");
+        let value: toml::Table = text.parse().expect("valid TOML");
+        for table in ["dependencies", "dev-dependencies", "build-dependencies"] {
+            let deps = value.get(table).and_then(toml::Value::as_table);
+            assert!(
+                !deps.is_some_and(|d| d.contains_key("swingup")),
+                "{krate}'s [{table}] names the swingup program"
+            );
+        }
+    }
+}
