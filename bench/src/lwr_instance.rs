@@ -137,34 +137,15 @@ impl Model for LearnedPendulum {
     }
 
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
-        let u = u[0];
-        let w1 = x[1] + self.delta_omega(&[x[0], x[1], x[2], x[3], u], None);
-        let dt = self.dt;
-        next[0] = x[0] + 0.5 * dt * (x[1] + w1);
-        next[1] = w1;
-        next[2] = x[2] + dt * x[3] + 0.5 * dt * dt * u;
-        next[3] = x[3] + dt * u;
+        let g = self.delta_omega(&[x[0], x[1], x[2], x[3], u[0]], None);
+        systems::hand_pendulum::step(self.dt, x, u[0], g, next);
         Ok(())
     }
 
     fn jacobians(&self, x: &[f64], u: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
-        let mut j = [0.0; 5];
-        self.delta_omega(&[x[0], x[1], x[2], x[3], u[0]], Some(&mut j));
-        let (dt, h) = (self.dt, 0.5 * self.dt);
-        fx.fill(0.0);
-        // the change of theta_dot is g, so its row is g's gradient plus 1 on theta_dot
-        let dw: [f64; 5] = std::array::from_fn(|c| j[c] + if c == 1 { 1.0 } else { 0.0 });
-        for c in 0..4 {
-            fx[4 + c] = dw[c];
-            fx[c] = h * dw[c] + if c == 1 { h } else { 0.0 } + if c == 0 { 1.0 } else { 0.0 };
-        }
-        fx[8 + 2] = 1.0;
-        fx[8 + 3] = dt;
-        fx[12 + 3] = 1.0;
-        fu[0] = h * dw[4];
-        fu[1] = dw[4];
-        fu[2] = 0.5 * dt * dt;
-        fu[3] = dt;
+        let mut grad = [0.0; 5];
+        self.delta_omega(&[x[0], x[1], x[2], x[3], u[0]], Some(&mut grad));
+        systems::hand_pendulum::jacobians(self.dt, &grad, fx, fu);
         Ok(true)
     }
 
@@ -200,11 +181,7 @@ impl Model for LearnedPendulum {
     }
 
     fn jacobian_structure(&self, fx: &mut [bool], fu: &mut [bool]) {
-        // the hand's rows do not depend on the pendulum
-        for (i, v) in fx.iter_mut().enumerate() {
-            *v = i / 4 < 2 || i % 4 >= 2;
-        }
-        fu.fill(true);
+        systems::hand_pendulum::jacobian_structure(fx, fu);
     }
 }
 

@@ -2,6 +2,7 @@
 
 mod acrobot;
 mod cart_pole;
+pub mod hand_pendulum;
 pub mod model;
 mod pendulum;
 mod registry;
