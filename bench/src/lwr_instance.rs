@@ -33,6 +33,7 @@ use std::sync::Arc;
 use faer::Mat;
 use serde::{Deserialize, Serialize};
 use splines::BSplineBasis;
+use systems::hand_pendulum::SoftBounds;
 use trajopt::{Eq3Problem, Lambda, Model, ModelResult, StageCost, TrackingCost};
 
 use crate::error::{BenchError, Result};
@@ -189,18 +190,7 @@ impl Model for LearnedPendulum {
 #[derive(Debug, Clone)]
 pub struct BoundedTracking {
     tracking: TrackingCost,
-    x_max: f64,
-    u_max: f64,
-    sqrt_wb: f64,
-}
-
-/// $(|v| - m)_+$ and its derivative in $v$.
-fn hinge(v: f64, m: f64) -> (f64, f64) {
-    if v.abs() > m {
-        (v.abs() - m, v.signum())
-    } else {
-        (0.0, 0.0)
-    }
+    bounds: SoftBounds,
 }
 
 impl StageCost for BoundedTracking {
@@ -210,28 +200,19 @@ impl StageCost for BoundedTracking {
 
     fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         self.tracking.residuals(k, x, u, &mut r[..5])?;
-        r[5] = self.sqrt_wb * hinge(x[2], self.x_max).0;
-        r[6] = u.map_or(0.0, |u| self.sqrt_wb * hinge(u[0], self.u_max).0);
+        self.bounds.residuals(x, u, &mut r[5..]);
         Ok(())
     }
 
     fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         self.tracking.jacobians(k, x, u, &mut jx[..20], &mut ju[..5])?;
-        jx[20..].fill(0.0);
-        ju[5..].fill(0.0);
-        jx[5 * 4 + 2] = self.sqrt_wb * hinge(x[2], self.x_max).1;
-        if let Some(u) = u {
-            ju[6] = self.sqrt_wb * hinge(u[0], self.u_max).1;
-        }
+        self.bounds.jacobians(x, u, &mut jx[20..], &mut ju[5..]);
         Ok(())
     }
 
     fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
         self.tracking.jacobian_structure(&mut jx[..20], &mut ju[..5]);
-        jx[20..].fill(false);
-        ju[5..].fill(false);
-        jx[5 * 4 + 2] = true;
-        ju[6] = true;
+        SoftBounds::jacobian_structure(&mut jx[20..], &mut ju[5..]);
     }
 }
 
@@ -309,9 +290,11 @@ impl LwrInstanceFile {
         }
         let cost = BoundedTracking {
             tracking,
-            x_max: self.x_max,
-            u_max: self.u_max,
-            sqrt_wb: self.bound_weight.sqrt(),
+            bounds: SoftBounds {
+                x_max: self.x_max,
+                u_max: self.u_max,
+                sqrt_weight: self.bound_weight.sqrt(),
+            },
         };
         let model = LearnedPendulum {
             dt: self.dt,

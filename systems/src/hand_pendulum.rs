@@ -48,6 +48,57 @@ pub fn jacobian_structure(fx: &mut [bool], fu: &mut [bool]) {
     fu.fill(true);
 }
 
+/// The swing-up's soft bounds on the hand's position $x$ and the command
+/// $u$: the residuals $\sqrt{w_b}\,(|x| - x_{max})_+$ and
+/// $\sqrt{w_b}\,(|u| - u_{max})_+$ (a hinge squared in the cost, so
+/// continuously differentiable), the command's 0 at the terminal stage.
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct SoftBounds {
+    /// The hand's bound $x_{max}$.
+    pub x_max: f64,
+    /// The command's bound $u_{max}$.
+    pub u_max: f64,
+    /// $\sqrt{w_b}$.
+    pub sqrt_weight: f64,
+}
+
+/// $(|v| - m)_+$ and its derivative in $v$.
+fn hinge(v: f64, m: f64) -> (f64, f64) {
+    if v.abs() > m {
+        (v.abs() - m, v.signum())
+    } else {
+        (0.0, 0.0)
+    }
+}
+
+impl SoftBounds {
+    /// The two residuals at state `x` and command `u` (`None` at the
+    /// terminal stage) into `r[0..2]`.
+    pub fn residuals(&self, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) {
+        r[0] = self.sqrt_weight * hinge(x[2], self.x_max).0;
+        r[1] = u.map_or(0.0, |u| self.sqrt_weight * hinge(u[0], self.u_max).0);
+    }
+
+    /// Their Jacobians, written whole: `jx` (2 x 4) and `ju` (2 x 1),
+    /// row-major.
+    pub fn jacobians(&self, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) {
+        jx[..8].fill(0.0);
+        ju[..2].fill(0.0);
+        jx[2] = self.sqrt_weight * hinge(x[2], self.x_max).1;
+        if let Some(u) = u {
+            ju[1] = self.sqrt_weight * hinge(u[0], self.u_max).1;
+        }
+    }
+
+    /// Which entries of [`jacobians`](Self::jacobians) may be nonzero.
+    pub fn jacobian_structure(jx: &mut [bool], ju: &mut [bool]) {
+        jx[..8].fill(false);
+        ju[..2].fill(false);
+        jx[2] = true;
+        ju[1] = true;
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -97,5 +148,27 @@ mod tests {
         for (a, b) in next.iter().zip(want) {
             assert!((a - b).abs() < 1e-15, "{next:?} vs {want:?}");
         }
+    }
+
+    /// Inside the bounds the residuals vanish; outside they are the
+    /// excess times sqrt(w_b), with derivative its sign.
+    #[test]
+    fn soft_bounds_are_hinges() {
+        let b = SoftBounds {
+            x_max: 0.7,
+            u_max: 12.0,
+            sqrt_weight: 10.0,
+        };
+        let mut r = [1.0; 2];
+        b.residuals(&[0.1, 0.2, 0.5, 0.4], Some(&[3.0]), &mut r);
+        assert_eq!(r, [0.0, 0.0]);
+        b.residuals(&[0.1, 0.2, -0.9, 0.4], Some(&[-13.0]), &mut r);
+        assert!((r[0] - 2.0).abs() < 1e-12 && (r[1] - 10.0).abs() < 1e-12, "{r:?}");
+        let (mut jx, mut ju) = ([1.0; 8], [1.0; 2]);
+        b.jacobians(&[0.1, 0.2, -0.9, 0.4], Some(&[-13.0]), &mut jx, &mut ju);
+        assert_eq!(jx, [0.0, 0.0, -10.0, 0.0, 0.0, 0.0, 0.0, 0.0]);
+        assert_eq!(ju, [0.0, -10.0]);
+        b.residuals(&[0.1, 0.2, 0.9, 0.4], None, &mut r);
+        assert_eq!(r[1], 0.0, "no command at the terminal stage");
     }
 }

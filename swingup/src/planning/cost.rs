@@ -13,6 +13,7 @@
 use std::sync::Arc;
 use trajopt::ModelResult;
 
+use systems::hand_pendulum::SoftBounds;
 use trajopt::{StageCost, TrackingCost};
 
 use crate::planning::support::DataSupport;
@@ -21,9 +22,7 @@ use crate::planning::support::DataSupport;
 #[derive(Debug, Clone)]
 pub struct SwingupCost {
     tracking: TrackingCost,
-    x_max: f64,
-    u_max: f64,
-    sqrt_wb: f64,
+    bounds: SoftBounds,
     support: Option<Arc<DataSupport>>,
 }
 
@@ -45,9 +44,11 @@ impl SwingupCost {
         );
         Ok(Self {
             tracking,
-            x_max,
-            u_max,
-            sqrt_wb: weight.sqrt(),
+            bounds: SoftBounds {
+                x_max,
+                u_max,
+                sqrt_weight: weight.sqrt(),
+            },
             support: None,
         })
     }
@@ -60,15 +61,6 @@ impl SwingupCost {
     }
 }
 
-/// $(|v| - m)_+$ and its derivative in $v$.
-fn hinge(v: f64, m: f64) -> (f64, f64) {
-    if v.abs() > m {
-        (v.abs() - m, v.signum())
-    } else {
-        (0.0, 0.0)
-    }
-}
-
 impl StageCost for SwingupCost {
     fn n_residuals(&self) -> usize {
         7 + usize::from(self.support.is_some())
@@ -76,8 +68,7 @@ impl StageCost for SwingupCost {
 
     fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
         self.tracking.residuals(k, x, u, &mut r[..5])?;
-        r[5] = self.sqrt_wb * hinge(x[2], self.x_max).0;
-        r[6] = u.map_or(0.0, |u| self.sqrt_wb * hinge(u[0], self.u_max).0);
+        self.bounds.residuals(x, u, &mut r[5..7]);
         if let Some(s) = &self.support {
             r[7] = u.map_or(0.0, |u| s.residual(&[x[0], x[1], x[2], x[3], u[0]], None));
         }
@@ -87,27 +78,23 @@ impl StageCost for SwingupCost {
     fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
         // rows of 4 state columns and 1 control column
         self.tracking.jacobians(k, x, u, &mut jx[..20], &mut ju[..5])?;
-        jx[20..].fill(0.0);
-        ju[5..].fill(0.0);
-        jx[5 * 4 + 2] = self.sqrt_wb * hinge(x[2], self.x_max).1;
-        if let Some(u) = u {
-            ju[6] = self.sqrt_wb * hinge(u[0], self.u_max).1;
-            if let Some(s) = &self.support {
-                let mut g = [0.0; 5];
-                s.residual(&[x[0], x[1], x[2], x[3], u[0]], Some(&mut g));
-                jx[28..32].copy_from_slice(&g[..4]);
-                ju[7] = g[4];
-            }
+        jx[28..].fill(0.0);
+        ju[7..].fill(0.0);
+        self.bounds.jacobians(x, u, &mut jx[20..28], &mut ju[5..7]);
+        if let (Some(u), Some(s)) = (u, &self.support) {
+            let mut g = [0.0; 5];
+            s.residual(&[x[0], x[1], x[2], x[3], u[0]], Some(&mut g));
+            jx[28..32].copy_from_slice(&g[..4]);
+            ju[7] = g[4];
         }
         Ok(())
     }
 
     fn jacobian_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
         self.tracking.jacobian_structure(&mut jx[..20], &mut ju[..5]);
-        jx[20..].fill(false);
-        ju[5..].fill(false);
-        jx[5 * 4 + 2] = true;
-        ju[6] = true;
+        jx[28..].fill(false);
+        ju[7..].fill(false);
+        SoftBounds::jacobian_structure(&mut jx[20..28], &mut ju[5..7]);
         if self.support.is_some() {
             jx[28..32].fill(true);
             ju[7] = true;
