@@ -344,8 +344,6 @@ impl GaussNewton {
         let mut jacobian_evals = 0;
         let mut cost_history = Vec::new();
 
-        // the band form only when it is narrow (a basis with wide supports,
-        // such as a multilevel wavelet, makes it dense)
         // the back end, chosen once: the band form (looked up here, held by
         // the system) only when it is narrow (a basis with wide supports,
         // such as a multilevel wavelet, makes it dense)
