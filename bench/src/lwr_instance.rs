@@ -101,9 +101,15 @@ impl LearnedPendulum {
     /// $g(z)$ and, when asked, $\partial g / \partial z$.
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
         let prior = self.prior[0] + (0..5).map(|j| self.prior[j + 1] * z[j]).sum::<f64>();
-        let q: Vec<f64> = self.inputs.iter().map(|&j| z[j]).collect();
+        // z on the LWR's inputs, on the stack (this runs at every knot of
+        // every evaluation)
+        let mut q = [0.0; 5];
+        for (q, &j) in q.iter_mut().zip(&self.inputs) {
+            *q = z[j];
+        }
+        let q = &q[..self.inputs.len()];
         let (resid, j_resid) = match jacobian.is_some() {
-            true => match self.lwr.predict_mean_with_jacobian(&q) {
+            true => match self.lwr.predict_mean_with_jacobian(q) {
                 Ok((mean, j)) => {
                     let mut full = [0.0; 5];
                     for (c, &jj) in self.inputs.iter().enumerate() {
@@ -113,7 +119,7 @@ impl LearnedPendulum {
                 }
                 Err(_) => (f64::NAN, [0.0; 5]),
             },
-            false => (self.lwr.predict_mean(&q).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
+            false => (self.lwr.predict_mean(q).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
         };
         // no weighted data (or a failed fit): the prior alone
         let (resid, j_resid) = if resid.is_finite() && j_resid.iter().all(|v| v.is_finite()) {
