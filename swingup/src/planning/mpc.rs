@@ -337,6 +337,15 @@ mod tests {
     use super::*;
     use trajopt::{LinearModel, TrackingCost};
 
+    /// A warm start over 30 steps that the model does not follow (a ramp
+    /// in the first state at a constant rate of 2): a replan has work to do.
+    fn inconsistent_warm_start() -> WindowPlan {
+        WindowPlan {
+            states: Mat::from_fn(31, 2, |k, i| if i == 0 { k as f64 / 30.0 } else { 2.0 }),
+            controls: Mat::zeros(30, 1),
+        }
+    }
+
     /// A double integrator at 60 Hz and a cost driving it to 1 at rest.
     fn setup(samples: usize) -> (Window, LinearModel, TrackingCost) {
         let dt = 1.0 / 60.0;
@@ -528,10 +537,7 @@ mod tests {
         let (window, model, cost) = setup(30);
         let x0 = [0.0, 0.0];
         let problem = window.problem(&model, cost, 1e3, &x0, 1e4).expect("problem");
-        let warm = WindowPlan {
-            states: Mat::from_fn(31, 2, |k, i| if i == 0 { k as f64 / 30.0 } else { 2.0 }),
-            controls: Mat::zeros(30, 1),
-        };
+        let warm = inconsistent_warm_start();
         let settings = ReplanSettings {
             budget: Some(Duration::ZERO),
             ..ReplanSettings::default()
@@ -596,10 +602,7 @@ mod tests {
         };
         let x0 = [0.0, 0.0];
         let problem = window.problem(&model, cost, 1e3, &x0, 1e4).expect("problem");
-        let warm = WindowPlan {
-            states: Mat::from_fn(31, 2, |k, i| if i == 0 { k as f64 / 30.0 } else { 2.0 }),
-            controls: Mat::zeros(30, 1),
-        };
+        let warm = inconsistent_warm_start();
         let settings = ReplanSettings {
             max_iterations: 50,
             tol_cost: 0.0,
