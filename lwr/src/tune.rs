@@ -127,8 +127,8 @@ pub enum TuneStatus {
     Stopped,
 }
 
-impl TuneStatus {
-    fn interrupted(why: Interrupt) -> Self {
+impl From<Interrupt> for TuneStatus {
+    fn from(why: Interrupt) -> Self {
         match why {
             Interrupt::TimeLimit => Self::TimeLimit,
             Interrupt::Observer => Self::Stopped,
@@ -149,11 +149,125 @@ impl solve::Status for TuneStatus {
 
 /// Why the search must stop before its next evaluation, if it must: the
 /// evaluation budget, then the watch's time limit.
+/// The coordinate search's state, as [`solve::drive`] runs it: one
+/// iteration is one sweep over the coordinates.
+struct Search<'t, E> {
+    tune: &'t TuneSettings,
+    /// Evaluates at a point, given the largest objective the search would
+    /// accept there, and records it in the history.
+    eval: E,
+    coords: Vec<usize>,
+    x: Vec<f64>,
+    f: f64,
+    last_nonzero: Vec<f64>,
+    history: Vec<TuneStep>,
+    factor: f64,
+    sweeps: usize,
+}
+
+impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> Search<'_, E> {
+    /// Evaluates at `y` and moves there if it is below `accept`.
+    fn try_point(&mut self, y: Vec<f64>, bound: f64, accept: impl Fn(f64) -> bool) -> Option<f64> {
+        let fy = (self.eval)(&y, bound, &mut self.history);
+        if !accept(fy) {
+            return None;
+        }
+        self.x = y;
+        if let Some(h) = self.history.last_mut() {
+            h.accepted = true;
+        }
+        Some(fy)
+    }
+}
+
+impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> solve::Iterate for Search<'_, E> {
+    type Status = TuneStatus;
+    type Error = std::convert::Infallible;
+    const NAME: &'static str = "lwr-tune";
+
+    fn next_iter(&mut self, watch: &Watch<'_>) -> std::result::Result<Option<TuneStatus>, Self::Error> {
+        let tune = self.tune;
+        if self.factor < tune.min_factor {
+            return Ok(Some(TuneStatus::Converged));
+        }
+        let mut improved = false;
+        for i in 0..self.coords.len() {
+            let c = self.coords[i];
+            if let Some(why) = halted(self.history.len(), tune, watch) {
+                return Ok(Some(why));
+            }
+            let f = self.f;
+            if self.x[c] == 0.0 {
+                // try turning a dropped input back on
+                let mut y = self.x.clone();
+                y[c] = self.last_nonzero[c];
+                let bound = f * (1.0 - tune.zero_tolerance);
+                if let Some(fy) = self.try_point(y, bound, |fy| fy < bound) {
+                    self.f = fy;
+                    improved = true;
+                }
+                continue;
+            }
+            let mut moved = false;
+            for dir in [self.factor, 1.0 / self.factor] {
+                loop {
+                    if let Some(why) = halted(self.history.len(), tune, watch) {
+                        return Ok(Some(why));
+                    }
+                    let mut y = self.x.clone();
+                    y[c] *= dir;
+                    let bound = self.f * (1.0 - MIN_IMPROVEMENT);
+                    match self.try_point(y, bound, |fy| fy < bound) {
+                        Some(fy) => {
+                            self.f = fy;
+                            moved = true;
+                        }
+                        None => break,
+                    }
+                }
+                if moved {
+                    break;
+                }
+            }
+            improved |= moved;
+            if c > 0 && tune.try_zero {
+                if let Some(why) = halted(self.history.len(), tune, watch) {
+                    return Ok(Some(why));
+                }
+                let mut y = self.x.clone();
+                y[c] = 0.0;
+                let (f, was) = (self.f, self.x[c]);
+                let bound = f * (1.0 + tune.zero_tolerance);
+                if let Some(fy) = self.try_point(y, bound, |fy| fy <= bound) {
+                    self.last_nonzero[c] = was;
+                    improved |= fy < f * (1.0 - MIN_IMPROVEMENT);
+                    self.f = fy;
+                }
+            }
+        }
+        if !improved {
+            self.factor = self.factor.sqrt();
+        }
+        self.sweeps += 1;
+        // reported only when the search goes on (a last sweep converged)
+        Ok((self.factor < tune.min_factor).then_some(TuneStatus::Converged))
+    }
+
+    fn snapshot(&self) -> solve::Snapshot<'_> {
+        solve::Snapshot {
+            iteration: self.sweeps,
+            evals: self.history.len(),
+            cost: self.f,
+            x: &self.x,
+        }
+    }
+}
+
 fn halted(evals: usize, tune: &TuneSettings, watch: &Watch<'_>) -> Option<TuneStatus> {
     if evals >= tune.max_evals {
         return Some(TuneStatus::MaxEvals);
     }
-    watch.out_of_time().map(TuneStatus::interrupted)
+    watch.out_of_time().map(TuneStatus::from)
 }
 
 /// One evaluated point of the search.
@@ -275,8 +389,8 @@ impl LwrModel {
         tune.validate()?;
         let d = self.database().n_inputs();
         let base = self.settings().clone();
-        let mut x: Vec<f64> = std::iter::once(base.bandwidth).chain(base.scales_for(d)).collect();
-        let mut last_nonzero: Vec<f64> = x.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect();
+        let x: Vec<f64> = std::iter::once(base.bandwidth).chain(base.scales_for(d)).collect();
+        let last_nonzero: Vec<f64> = x.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect();
         let mut history = Vec::new();
         // evaluates at x; with `stop_early`, stops once the objective is
         // certainly above `bound`, the largest value the caller would accept.
@@ -329,7 +443,7 @@ impl LwrModel {
             });
             f
         };
-        let mut f = eval(&x, f64::INFINITY, &mut history);
+        let f = eval(&x, f64::INFINITY, &mut history);
         if let Some(h) = history.last_mut() {
             h.accepted = true;
         }
@@ -341,88 +455,19 @@ impl LwrModel {
         if tune.tune_scales {
             coords.extend(1..=d);
         }
-        let mut factor = tune.initial_factor;
-        let mut status = TuneStatus::Converged;
-        let mut sweeps = 0;
-        'search: while factor >= tune.min_factor {
-            let mut improved = false;
-            for &c in &coords {
-                if let Some(why) = halted(history.len(), tune, watch) {
-                    status = why;
-                    break 'search;
-                }
-                if x[c] == 0.0 {
-                    // try turning a dropped input back on
-                    let mut y = x.clone();
-                    y[c] = last_nonzero[c];
-                    let fy = eval(&y, f * (1.0 - tune.zero_tolerance), &mut history);
-                    if fy < f * (1.0 - tune.zero_tolerance) {
-                        x = y;
-                        f = fy;
-                        improved = true;
-                        if let Some(h) = history.last_mut() {
-                            h.accepted = true;
-                        }
-                    }
-                    continue;
-                }
-                let mut moved = false;
-                for dir in [factor, 1.0 / factor] {
-                    loop {
-                        if let Some(why) = halted(history.len(), tune, watch) {
-                            status = why;
-                            break 'search;
-                        }
-                        let mut y = x.clone();
-                        y[c] *= dir;
-                        let fy = eval(&y, f * (1.0 - MIN_IMPROVEMENT), &mut history);
-                        if fy < f * (1.0 - MIN_IMPROVEMENT) {
-                            x = y;
-                            f = fy;
-                            moved = true;
-                            if let Some(h) = history.last_mut() {
-                                h.accepted = true;
-                            }
-                        } else {
-                            break;
-                        }
-                    }
-                    if moved {
-                        break;
-                    }
-                }
-                improved |= moved;
-                if c > 0 && tune.try_zero {
-                    if let Some(why) = halted(history.len(), tune, watch) {
-                        status = why;
-                        break 'search;
-                    }
-                    let mut y = x.clone();
-                    y[c] = 0.0;
-                    let fy = eval(&y, f * (1.0 + tune.zero_tolerance), &mut history);
-                    if fy <= f * (1.0 + tune.zero_tolerance) {
-                        last_nonzero[c] = x[c];
-                        x = y;
-                        improved |= fy < f * (1.0 - MIN_IMPROVEMENT);
-                        f = fy;
-                        if let Some(h) = history.last_mut() {
-                            h.accepted = true;
-                        }
-                    }
-                }
-            }
-            if !improved {
-                factor = factor.sqrt();
-            }
-            sweeps += 1;
-            // reported only when the search goes on (a last sweep converged)
-            if factor >= tune.min_factor
-                && let Some(why) = watch.iteration("lwr-tune", sweeps, history.len(), f, &x)
-            {
-                status = TuneStatus::interrupted(why);
-                break;
-            }
-        }
+        let mut search = Search {
+            tune,
+            eval,
+            coords,
+            x,
+            f,
+            last_nonzero,
+            history,
+            factor: tune.initial_factor,
+            sweeps: 0,
+        };
+        let Ok(status) = solve::drive(&mut search, watch);
+        let Search { mut x, f, history, .. } = search;
         let evals = history.len();
         let (mut f, mut initial) = (f, initial);
         if stride > 1 {

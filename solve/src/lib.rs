@@ -183,6 +183,101 @@ impl<'a> Watch<'a> {
     }
 }
 
+/// Where an iterating solver stands after an iteration: what its
+/// observers see ([`Progress`] without the name and the clock).
+#[derive(Debug, Clone, Copy)]
+pub struct Snapshot<'a> {
+    /// Iterations completed.
+    pub iteration: usize,
+    /// Evaluations of the objective so far.
+    pub evals: usize,
+    /// The best cost so far.
+    pub cost: f64,
+    /// The best point so far.
+    pub x: &'a [f64],
+}
+
+/// An iterative solver as a step function over its own iteration state,
+/// run by the one driver, [`drive`] (the shape of argmin's `Solver`:
+/// the state is made by the solver's entry point, `next_iter` is one
+/// iteration, [`drive`] owns the loop).
+///
+/// Each solver keeps its own convergence tests and its iteration and
+/// evaluation budgets inside `next_iter`, where they interleave with the
+/// work (a budget can end a line search half-way); the driver owns the
+/// loop, the observers and the wall-time limit between iterations, and
+/// turns an interrupt into the solver's status. `next_iter` may poll
+/// [`Watch::out_of_time`] inside a long iteration.
+pub trait Iterate {
+    /// The solver's status (says which test or budget ended the solve).
+    type Status: From<Interrupt>;
+    /// The solver's error.
+    type Error;
+    /// The solver's name, as observers see it ([`Progress::solver`]).
+    const NAME: &'static str;
+
+    /// Runs one iteration; `Some(status)` when the solve has ended.
+    ///
+    /// # Errors
+    /// The solver's own failures (a model that fails to evaluate, ...).
+    fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<Self::Status>, Self::Error>;
+
+    /// The state after the last iteration, as the observers see it.
+    fn snapshot(&self) -> Snapshot<'_>;
+}
+
+/// The one driver of every iterative solver in the workspace: runs
+/// [`Iterate::next_iter`] until it returns a status, reporting each
+/// completed iteration to the watch ([`Watch::iteration`]); an observer's
+/// stop or a passed time limit ends the solve with the solver's status
+/// for that interrupt.
+///
+/// # Errors
+/// The first error of [`Iterate::next_iter`].
+///
+/// ```
+/// use solve::{drive, Interrupt, Iterate, Snapshot, Watch};
+///
+/// #[derive(Debug, PartialEq)]
+/// enum Status { Converged, Interrupted(Interrupt) }
+/// impl From<Interrupt> for Status {
+///     fn from(why: Interrupt) -> Self { Status::Interrupted(why) }
+/// }
+///
+/// // Newton's iteration for sqrt(2)
+/// struct Sqrt2 { x: [f64; 1], it: usize }
+/// impl Iterate for Sqrt2 {
+///     type Status = Status;
+///     type Error = std::convert::Infallible;
+///     const NAME: &'static str = "sqrt2";
+///     fn next_iter(&mut self, _: &Watch<'_>) -> Result<Option<Status>, Self::Error> {
+///         let x = self.x[0];
+///         self.x[0] = 0.5 * (x + 2.0 / x);
+///         self.it += 1;
+///         Ok(((self.x[0] - x).abs() < 1e-15).then_some(Status::Converged))
+///     }
+///     fn snapshot(&self) -> Snapshot<'_> {
+///         let c = self.x[0] * self.x[0] - 2.0;
+///         Snapshot { iteration: self.it, evals: self.it, cost: c * c, x: &self.x }
+///     }
+/// }
+///
+/// let mut s = Sqrt2 { x: [1.0], it: 0 };
+/// assert_eq!(drive(&mut s, &mut Watch::new()), Ok(Status::Converged));
+/// assert!((s.x[0] - 2f64.sqrt()).abs() < 1e-15 && s.it < 10);
+/// ```
+pub fn drive<I: Iterate>(solver: &mut I, watch: &mut Watch<'_>) -> Result<I::Status, I::Error> {
+    loop {
+        if let Some(status) = solver.next_iter(watch)? {
+            return Ok(status);
+        }
+        let at = solver.snapshot();
+        if let Some(why) = watch.iteration(I::NAME, at.iteration, at.evals, at.cost, at.x) {
+            return Ok(why.into());
+        }
+    }
+}
+
 /// One recorded iteration of a [`Trace`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct TraceRecord {
@@ -277,6 +372,12 @@ impl Termination {
     /// solve.
     pub fn is_budget(self) -> bool {
         matches!(self, Self::MaxIterations | Self::MaxEvaluations | Self::TimeLimit)
+    }
+}
+
+impl From<Interrupt> for Termination {
+    fn from(why: Interrupt) -> Self {
+        Self::from_interrupt(why)
     }
 }
 
@@ -486,6 +587,90 @@ mod tests {
         assert_eq!(second.records.len(), 2);
         assert_eq!(second.records[1].evaluations, 4);
         assert_eq!(second.records[1].x.as_deref(), Some(&[2.0][..]));
+    }
+
+    /// A solver that never converges on its own: halves its cost.
+    struct Halving {
+        x: [f64; 1],
+        it: usize,
+        ends_at: usize,
+    }
+
+    impl Iterate for Halving {
+        type Status = Termination;
+        type Error = String;
+        const NAME: &'static str = "halving";
+        fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<Termination>, String> {
+            if let Some(why) = watch.out_of_time() {
+                return Ok(Some(why.into()));
+            }
+            if self.it == self.ends_at {
+                return Ok(Some(Termination::MaxIterations));
+            }
+            if self.x[0] < 0.0 {
+                return Err("negative".into());
+            }
+            self.x[0] *= 0.5;
+            self.it += 1;
+            Ok(None)
+        }
+        fn snapshot(&self) -> Snapshot<'_> {
+            Snapshot {
+                iteration: self.it,
+                evals: 2 * self.it,
+                cost: self.x[0],
+                x: &self.x,
+            }
+        }
+    }
+
+    #[test]
+    fn the_driver_reports_every_iteration_and_ends_on_the_first_stop() {
+        // the solver's own end
+        let mut s = Halving {
+            x: [1.0],
+            it: 0,
+            ends_at: 7,
+        };
+        let mut trace = Trace::new();
+        let mut watch = Watch::new().with_observer(&mut trace);
+        assert_eq!(drive(&mut s, &mut watch), Ok(Termination::MaxIterations));
+        drop(watch);
+        assert_eq!(trace.records.len(), 7);
+        assert_eq!(trace.records[6].evaluations, 14);
+        assert_eq!(trace.records[2].cost, 0.125);
+        // an observer's stop after the iteration it saw
+        let mut s = Halving {
+            x: [1.0],
+            it: 0,
+            ends_at: 100,
+        };
+        let mut stop = |p: &Progress<'_>| {
+            if p.iteration == 4 {
+                Control::Stop
+            } else {
+                Control::Continue
+            }
+        };
+        let mut watch = Watch::new().with_observer(&mut stop);
+        assert_eq!(drive(&mut s, &mut watch), Ok(Termination::Stopped));
+        assert_eq!(s.it, 4);
+        // a passed time limit, from inside the step or after it
+        let mut s = Halving {
+            x: [1.0],
+            it: 0,
+            ends_at: 100,
+        };
+        let mut watch = Watch::new().with_time_limit(Duration::ZERO);
+        assert_eq!(drive(&mut s, &mut watch), Ok(Termination::TimeLimit));
+        assert_eq!(s.it, 0);
+        // an error ends the drive
+        let mut s = Halving {
+            x: [-1.0],
+            it: 0,
+            ends_at: 100,
+        };
+        assert_eq!(drive(&mut s, &mut Watch::new()), Err("negative".to_string()));
     }
 
     #[test]

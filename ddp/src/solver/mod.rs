@@ -144,137 +144,42 @@ impl Ddp {
 const NAME: &str = "ddp";
 
 impl<D: Dynamics, C: Cost> Work<'_, D, C> {
-    /// The outer loop: linearise, backward pass (raising $\mu$ until it
-    /// succeeds), convergence test, line search, update of $\mu$.
+    /// The solve: the warm start's rollout, the iterations (run by
+    /// [`solve::drive`]), and a policy at the returned trajectory.
     ///
     /// # Errors
     /// A failed step of the dynamics in the warm start's rollout.
     fn run(&mut self, watch: &mut Watch<'_>) -> Result<DdpResult> {
         let s = self.s;
-        let mut cost = match self.initial_rollout()? {
+        let cost = match self.initial_rollout()? {
             Rollout::Ok(c) => c,
             Rollout::Diverged(step) => return Ok(self.result_diverged(step)),
         };
-        let initial_cost = cost;
-        let mut costs = vec![cost];
-        let (mut regs, mut steps) = (Vec::new(), Vec::new());
-        let mut reg = Schedule::new(s.reg_init, s.reg_factor, s.reg_min);
-        let mut status = DdpStatus::MaxIterations;
-        let mut need_derivatives = true;
-        let mut policy_current = false;
-        let mut iterations = 0;
-        // the initial rollout, then every trial one
-        let mut rollouts = 1;
-        'outer: loop {
-            if let Some(why) = watch.out_of_time() {
-                status = DdpStatus::interrupted(why);
-                break;
-            }
-            if need_derivatives {
-                if !self.linearise() {
-                    status = DdpStatus::NonFiniteDerivatives;
-                    break;
-                }
-                need_derivatives = false;
-            }
-            let (dv1, dv2) = loop {
-                policy_current = false;
-                match self.backward(reg.mu) {
-                    Some(dv) => break dv,
-                    None => {
-                        reg.increase();
-                        if reg.mu > s.reg_max {
-                            status = DdpStatus::NotPositiveDefinite;
-                            break 'outer;
-                        }
-                    }
-                }
-            };
-            policy_current = true;
-            if self.converged(dv1 + dv2, cost) {
-                if reg.mu <= 10.0 * s.reg_min {
-                    status = DdpStatus::Converged;
-                    break;
-                }
-                // a heavily regularised step is small without being converged:
-                // confirm with an unregularised backward pass
-                match self.backward(0.0) {
-                    Some((d1, d2)) if self.converged(d1 + d2, cost) => {
-                        reg.mu = 0.0;
-                        status = DdpStatus::Converged;
-                        break;
-                    }
-                    _ => {
-                        if self.backward(reg.mu).is_none() {
-                            policy_current = false;
-                            status = DdpStatus::NotPositiveDefinite;
-                            break;
-                        }
-                    }
-                }
-            }
-            if iterations == s.max_iterations {
-                break;
-            }
-            iterations += 1;
-            regs.push(reg.mu);
-
-            let mut alpha = 1.0;
-            let mut accepted = None;
-            let mut all_diverged = true;
-            for _ in 0..s.n_line_search {
-                if let Some(why) = watch.out_of_time() {
-                    status = DdpStatus::interrupted(why);
-                    break 'outer;
-                }
-                rollouts += 1;
-                if let Rollout::Ok(trial) = self.forward(alpha) {
-                    all_diverged = false;
-                    let expected = -alpha * (dv1 + alpha * dv2);
-                    let actual = cost - trial;
-                    let ok = if expected > 0.0 {
-                        actual / expected > s.min_reduction_ratio
-                    } else {
-                        actual > 0.0
-                    };
-                    if ok && trial <= cost {
-                        accepted = Some((alpha, trial));
-                        break;
-                    }
-                }
-                alpha *= s.line_search_factor;
-            }
-            match accepted {
-                Some((alpha, trial)) => {
-                    std::mem::swap(&mut self.xs, &mut self.xs_try);
-                    std::mem::swap(&mut self.us, &mut self.us_try);
-                    std::mem::swap(&mut self.stage, &mut self.stage_try);
-                    cost = trial;
-                    steps.push(alpha);
-                    costs.push(cost);
-                    need_derivatives = true;
-                    policy_current = false;
-                    reg.decrease();
-                }
-                None => {
-                    steps.push(0.0);
-                    costs.push(cost);
-                    reg.increase();
-                    if reg.mu > s.reg_max {
-                        status = if all_diverged {
-                            DdpStatus::RolloutDiverged
-                        } else {
-                            DdpStatus::NoDescent
-                        };
-                        break;
-                    }
-                }
-            }
-            if let Some(why) = watch.iteration(NAME, iterations, rollouts, cost, &self.us) {
-                status = DdpStatus::interrupted(why);
-                break;
-            }
-        }
+        let mut it = Iteration {
+            work: self,
+            cost,
+            costs: vec![cost],
+            regs: Vec::new(),
+            steps: Vec::new(),
+            reg: Schedule::new(s.reg_init, s.reg_factor, s.reg_min),
+            need_derivatives: true,
+            policy_current: false,
+            iterations: 0,
+            // the initial rollout, then every trial one
+            rollouts: 1,
+        };
+        let Ok(mut status) = solve::drive(&mut it, watch);
+        let Iteration {
+            cost,
+            costs,
+            regs,
+            steps,
+            mut reg,
+            need_derivatives,
+            mut policy_current,
+            iterations,
+            ..
+        } = it;
         // a policy at the returned trajectory, if one was not just computed
         if !policy_current
             && matches!(
@@ -299,7 +204,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
         }
         let history = History {
             cost,
-            initial_cost,
+            initial_cost: costs[0],
             cost_history: costs,
             regularizations: regs,
             step_sizes: steps,
@@ -307,5 +212,138 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             iterations,
         };
         Ok(self.result(status, history, policy_current))
+    }
+}
+
+/// The iteration state of one DDP solve, as [`solve::drive`] runs it.
+struct Iteration<'w, 'a, D, C> {
+    work: &'w mut Work<'a, D, C>,
+    cost: f64,
+    costs: Vec<f64>,
+    regs: Vec<f64>,
+    steps: Vec<f64>,
+    reg: Schedule,
+    need_derivatives: bool,
+    policy_current: bool,
+    iterations: usize,
+    rollouts: usize,
+}
+
+impl<D: Dynamics, C: Cost> solve::Iterate for Iteration<'_, '_, D, C> {
+    type Status = DdpStatus;
+    type Error = std::convert::Infallible;
+    const NAME: &'static str = NAME;
+
+    /// One iteration: linearise, backward pass (raising $\mu$ until it
+    /// succeeds), convergence test, line search, update of $\mu$.
+    fn next_iter(&mut self, watch: &Watch<'_>) -> std::result::Result<Option<DdpStatus>, Self::Error> {
+        let w = &mut *self.work;
+        let s = w.s;
+        if let Some(why) = watch.out_of_time() {
+            return Ok(Some(why.into()));
+        }
+        if self.need_derivatives {
+            if !w.linearise() {
+                return Ok(Some(DdpStatus::NonFiniteDerivatives));
+            }
+            self.need_derivatives = false;
+        }
+        let (dv1, dv2) = loop {
+            self.policy_current = false;
+            match w.backward(self.reg.mu) {
+                Some(dv) => break dv,
+                None => {
+                    self.reg.increase();
+                    if self.reg.mu > s.reg_max {
+                        return Ok(Some(DdpStatus::NotPositiveDefinite));
+                    }
+                }
+            }
+        };
+        self.policy_current = true;
+        if w.converged(dv1 + dv2, self.cost) {
+            if self.reg.mu <= 10.0 * s.reg_min {
+                return Ok(Some(DdpStatus::Converged));
+            }
+            // a heavily regularised step is small without being converged:
+            // confirm with an unregularised backward pass
+            match w.backward(0.0) {
+                Some((d1, d2)) if w.converged(d1 + d2, self.cost) => {
+                    self.reg.mu = 0.0;
+                    return Ok(Some(DdpStatus::Converged));
+                }
+                _ => {
+                    if w.backward(self.reg.mu).is_none() {
+                        self.policy_current = false;
+                        return Ok(Some(DdpStatus::NotPositiveDefinite));
+                    }
+                }
+            }
+        }
+        if self.iterations == s.max_iterations {
+            return Ok(Some(DdpStatus::MaxIterations));
+        }
+        self.iterations += 1;
+        self.regs.push(self.reg.mu);
+
+        let mut alpha = 1.0;
+        let mut accepted = None;
+        let mut all_diverged = true;
+        for _ in 0..s.n_line_search {
+            if let Some(why) = watch.out_of_time() {
+                return Ok(Some(why.into()));
+            }
+            self.rollouts += 1;
+            if let Rollout::Ok(trial) = w.forward(alpha) {
+                all_diverged = false;
+                let expected = -alpha * (dv1 + alpha * dv2);
+                let actual = self.cost - trial;
+                let ok = if expected > 0.0 {
+                    actual / expected > s.min_reduction_ratio
+                } else {
+                    actual > 0.0
+                };
+                if ok && trial <= self.cost {
+                    accepted = Some((alpha, trial));
+                    break;
+                }
+            }
+            alpha *= s.line_search_factor;
+        }
+        match accepted {
+            Some((alpha, trial)) => {
+                std::mem::swap(&mut w.xs, &mut w.xs_try);
+                std::mem::swap(&mut w.us, &mut w.us_try);
+                std::mem::swap(&mut w.stage, &mut w.stage_try);
+                self.cost = trial;
+                self.steps.push(alpha);
+                self.costs.push(self.cost);
+                self.need_derivatives = true;
+                self.policy_current = false;
+                self.reg.decrease();
+            }
+            None => {
+                self.steps.push(0.0);
+                self.costs.push(self.cost);
+                self.reg.increase();
+                if self.reg.mu > s.reg_max {
+                    return Ok(Some(if all_diverged {
+                        DdpStatus::RolloutDiverged
+                    } else {
+                        DdpStatus::NoDescent
+                    }));
+                }
+            }
+        }
+        Ok(None)
+    }
+
+    fn snapshot(&self) -> solve::Snapshot<'_> {
+        solve::Snapshot {
+            iteration: self.iterations,
+            evals: self.rollouts,
+            cost: self.cost,
+            x: &self.work.us,
+        }
     }
 }

@@ -56,9 +56,10 @@ impl DdpStatus {
             Self::Converged | Self::MaxIterations | Self::TimeLimit | Self::Stopped
         )
     }
+}
 
-    /// The status for a watch's interrupt.
-    pub(super) fn interrupted(why: solve::Interrupt) -> Self {
+impl From<solve::Interrupt> for DdpStatus {
+    fn from(why: solve::Interrupt) -> Self {
         match why {
             solve::Interrupt::TimeLimit => Self::TimeLimit,
             solve::Interrupt::Observer => Self::Stopped,

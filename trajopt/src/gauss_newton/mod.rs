@@ -90,14 +90,17 @@
 //!
 //! # Layout
 //!
-//! This file holds the iteration (the damped step, the gain ratio, the
-//! stopping tests, the adaptive model choice); [`settings`] and [`result`]
-//! the public types; `damping.rs` the damping and shift rules; and
+//! This file holds the solver's entry points and the set-up (the start,
+//! the bounds, the back end chosen once per solve); `iteration.rs` one
+//! iteration (the damped step, the gain ratio, the stopping tests, the
+//! adaptive model choice) as a step function run by [`solve::drive`];
+//! [`settings`] and [`result`] the public types; `damping.rs` the damping and shift rules; and
 //! `normal_equations/` the three ways of forming and solving the normal
 //! equations behind one trait (`sparse.rs`, `band.rs`, and `split.rs` for
 //! two threads).
 
 mod damping;
+mod iteration;
 mod normal_equations;
 pub mod result;
 pub mod settings;
@@ -105,13 +108,10 @@ pub mod settings;
 use std::time::Instant;
 
 use crate::error::{Result, TrajoptError, check_point};
-use crate::least_squares::{LeastSquaresProblem, Point};
+use crate::least_squares::LeastSquaresProblem;
 use crate::parallel::Helpers;
-use damping::{
-    ACCURATE, PROBE, SHIFT_DECREASE, SHIFT_DECREASE_ACCURATE, SHIFT_INCREASE, SHIFT_MAX, SHIFT_MIN, lower_damping,
-    raise_damping,
-};
-use normal_equations::{BandSystem, Damping, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
+use iteration::{Iteration, Start};
+use normal_equations::{BandSystem, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
 pub use result::{GaussNewtonResult, GaussNewtonStatus};
 use solve::Watch;
@@ -341,8 +341,6 @@ impl GaussNewton {
             }
         }
         let initial_cost = cost;
-        let mut jacobian_evals = 0;
-        let mut cost_history = Vec::new();
 
         // the back end, chosen once: the band form (looked up here, held by
         // the system) only when it is narrow (a basis with wide supports,
@@ -356,8 +354,7 @@ impl GaussNewton {
         };
         // kept to go on with one thread when the helpers wait for cores
         let band_layout = band.clone();
-        let mut one_thread_from = None;
-        let mut system: Box<dyn NormalEquations<P> + '_> = match band {
+        let system: Box<dyn NormalEquations<P> + '_> = match band {
             Some((form, layout)) => {
                 layout.validate(n_p)?;
                 match helpers {
@@ -375,251 +372,30 @@ impl GaussNewton {
             )?),
         };
 
-        let mut grad = vec![0.0; n_p];
-        let mut scale = vec![0.0; n_p];
-        // the largest diag(J^T J) seen so far, per parameter
-        let mut scale_max = vec![0.0; n_p];
-        let mut step = vec![0.0; n_p];
-        let mut h_step = vec![0.0; n_p];
-        let mut trial = vec![0.0; n_p];
-        let mut r_trial = vec![0.0; n_r];
-        let mut mu = s.initial_damping;
-        let mut nu = 2.0;
-        let mut status = GaussNewtonStatus::MaxIterations;
-        let mut iterations = 0;
-        // the shift making J^T J + S positive definite, relative to D
-        let mut shift = 0.0f64;
-        // whether the last accepted step was a Newton step whose reduction
-        // the model predicted within ACCURATE (relative)
-        let mut accurate = false;
-        let mut factorizations = 0;
-        // adaptive: which model the next iteration uses, and the residuals
-        // on either side of a step (its curvature probe)
-        let adaptive = s.adaptive() && bounds.is_none();
-        let mut prefer_newton = true;
-        // whether the problem has given S yet (no probes before: a problem
-        // without second derivatives takes Gauss-Newton steps at no extra cost)
-        let mut s_seen = false;
-        let (mut r_plus, mut r_minus) = if adaptive {
-            (vec![0.0; n_r], vec![0.0; n_r])
-        } else {
-            (Vec::new(), Vec::new())
-        };
-
-        'outer: while iterations < s.max_iterations {
-            if let (true, true, Some((form, layout))) = (s.one_thread_fallback, system.helpers_degraded(), &band_layout)
-            {
-                // the helpers wait for cores (a busy machine): one thread is faster
-                one_thread_from = Some(iterations + 1);
-                system = Box::new(BandSystem::new(*form, layout.clone(), s.second_order(), None));
-            }
-            if let Some(why) = watch.out_of_time() {
-                status = GaussNewtonStatus::interrupted(why);
-                break;
-            }
-            iterations += 1;
-            jacobian_evals += 1;
-            let want_s = !adaptive || prefer_newton;
-            let Some(mut newton) = system.assemble(problem, Point { theta: &theta, r: &r }, &mut grad, want_s)? else {
-                status = GaussNewtonStatus::NumericalError;
-                break;
-            };
-            s_seen |= newton;
-            // the damping scale: diag(J^T J) now, or its running maximum (positive)
-            system.jtj_diagonal(&mut scale);
-            match s.damping_scale {
-                DampingScale::RunningMax => damping::running_max_scale(&mut scale, &mut scale_max),
-                _ => {
-                    for d in &mut scale {
-                        *d = d.max(1e-12);
-                    }
-                }
-            }
-            let g_inf = grad.iter().fold(0.0f64, |a, g| a.max(g.abs()));
-            if g_inf <= s.tol_grad * cost.max(1.0) {
-                status = GaussNewtonStatus::ConvergedGradient;
-                break;
-            }
-
-            // inner loop: raise the damping until a step is accepted
-            if newton {
-                shift *= if accurate {
-                    SHIFT_DECREASE * SHIFT_DECREASE_ACCURATE
-                } else {
-                    SHIFT_DECREASE
-                };
-            }
-            loop {
-                let damping = Damping {
-                    newton,
-                    total: if newton { mu + shift } else { mu },
-                    scale: &scale,
-                };
-                let solved = match bounds {
-                    // bounded: the damped model minimised subject to the bounds (a QP)
-                    Some(b) => system
-                        .as_sparse()
-                        .is_some_and(|sparse| sparse.bounded_step(damping, &grad, b, &theta, &mut step)),
-                    None => {
-                        factorizations += 1;
-                        for (d, g) in step.iter_mut().zip(&grad) {
-                            *d = -g;
-                        }
-                        system.damped_step(damping, &mut step)
-                    }
-                };
-                if !(solved && step.iter().all(|v| v.is_finite())) {
-                    if newton {
-                        // J^T J + S + mu D is indefinite: shift it, or
-                        // take a Gauss-Newton step if it takes a large shift
-                        shift = (shift * SHIFT_INCREASE).max(SHIFT_MIN);
-                        if shift > SHIFT_MAX {
-                            newton = false;
-                            if !system.ensure_gauss_newton(problem, Point { theta: &theta, r: &r })? {
-                                status = GaussNewtonStatus::NumericalError;
-                                break 'outer;
-                            }
-                        }
-                        continue;
-                    }
-                    // not positive definite: more damping
-                    if !raise_damping(&mut mu, &mut nu) {
-                        status = GaussNewtonStatus::NumericalError;
-                        break 'outer;
-                    }
-                    continue;
-                }
-                let step_norm = sum_sq(&step).sqrt();
-                let theta_norm = sum_sq(&theta).sqrt();
-                if step_norm <= s.tol_step * (theta_norm + s.tol_step) {
-                    // a negligible step is convergence only if the damping did
-                    // not force it: with mu >= 1 the damping term outweighs the
-                    // curvature and the gradient is still large
-                    status = if mu < 1.0 {
-                        GaussNewtonStatus::ConvergedStep
-                    } else {
-                        GaussNewtonStatus::Stalled
-                    };
-                    break 'outer;
-                }
-                // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
-                // (with S, the second-order Taylor model of F)
-                system.model_mul(newton, &step, &mut h_step);
-                let predicted: f64 = -step
-                    .iter()
-                    .zip(grad.iter().zip(&h_step))
-                    .map(|(d, (g, hd))| d * (2.0 * g + hd))
-                    .sum::<f64>();
-                if predicted >= 0.0 && predicted <= s.tol_cost * cost && mu < 1.0 {
-                    // the (barely damped) model has nothing left to gain: further
-                    // steps would only compare rounding errors
-                    status = GaussNewtonStatus::ConvergedCost;
-                    break 'outer;
-                }
-                for j in 0..n_p {
-                    trial[j] = theta[j] + step[j];
-                }
-                system.residuals(problem, &trial, &mut r_trial)?;
-                residual_evals += 1;
-                let trial_cost = sum_sq(&r_trial);
-                let rho = if predicted > 0.0 && trial_cost.is_finite() {
-                    (cost - trial_cost) / predicted
-                } else {
-                    -1.0
-                };
-                // whether `trial` was overwritten by curvature probes
-                let mut probes_in_trial = false;
-                if adaptive && s_seen && trial_cost.is_finite() {
-                    // delta^T S delta = sum_i r_i delta^T (grad^2 r_i) delta: from the
-                    // problem, or by central differences of r along the step
-                    let exact = problem
-                        .second_order()
-                        .and_then(|so| so.form(&theta, &r, &step).ok().flatten());
-                    let s_form = match exact {
-                        Some(form) => form,
-                        None => {
-                            probes_in_trial = true;
-                            let mut probed = true;
-                            for (sign, out) in [(1.0, &mut r_plus), (-1.0, &mut r_minus)] {
-                                for j in 0..n_p {
-                                    trial[j] = theta[j] + sign * PROBE * step[j];
-                                }
-                                probed &= problem.residuals(&trial, out).is_ok();
-                            }
-                            residual_evals += 2;
-                            if probed {
-                                (0..n_r)
-                                    .map(|i| r[i] * (r_plus[i] - 2.0 * r[i] + r_minus[i]))
-                                    .sum::<f64>()
-                                    / (PROBE * PROBE)
-                            } else {
-                                f64::NAN
-                            }
-                        }
-                    };
-                    if s_form.is_finite() {
-                        prefer_newton = damping::prefer_newton(newton, predicted, s_form, cost - trial_cost);
-                    }
-                }
-                if rho > 0.0 && trial_cost.is_finite() && trial_cost <= cost {
-                    let decrease = cost - trial_cost;
-                    if probes_in_trial {
-                        for j in 0..n_p {
-                            trial[j] = theta[j] + step[j];
-                        }
-                    }
-                    std::mem::swap(&mut theta, &mut trial);
-                    std::mem::swap(&mut r, &mut r_trial);
-                    cost = trial_cost;
-                    cost_history.push(cost);
-                    lower_damping(&mut mu, rho);
-                    accurate = newton && (rho - 1.0).abs() < ACCURATE;
-                    nu = 2.0;
-                    if decrease <= s.tol_cost * cost {
-                        status = GaussNewtonStatus::ConvergedCost;
-                        break 'outer;
-                    }
-                    let evals = evaluations.map_or(residual_evals, |count| count());
-                    if let Some(why) = watch.iteration(NAME, iterations, evals, cost, &theta) {
-                        status = GaussNewtonStatus::interrupted(why);
-                        break 'outer;
-                    }
-                    break;
-                }
-                // a rejected step whose predicted gain is below the cost's
-                // own rounding (n_r eps F bounds that of a sum of n_r
-                // squares) cannot be told from noise: nothing is left to gain
-                // (more damping would only shrink the step until it stalls)
-                if trial_cost.is_finite()
-                    && predicted >= 0.0
-                    && predicted <= n_r as f64 * f64::EPSILON * cost
-                    && mu < 1.0
-                {
-                    status = GaussNewtonStatus::ConvergedCost;
-                    break 'outer;
-                }
-                if let Some(why) = watch.out_of_time() {
-                    status = GaussNewtonStatus::interrupted(why);
-                    break 'outer;
-                }
-                if !raise_damping(&mut mu, &mut nu) {
-                    status = GaussNewtonStatus::NumericalError;
-                    break 'outer;
-                }
-            }
-        }
-        Ok(GaussNewtonResult {
-            x: theta,
+        let mut it = Iteration::new(Start {
+            problem,
+            settings: s,
+            band_layout,
+            evaluations,
+            system,
+            theta,
+            r,
             cost,
+            residual_evals,
+        });
+        let status = solve::drive(&mut it, watch)?;
+        Ok(GaussNewtonResult {
+            x: it.theta,
+            cost: it.cost,
             initial_cost,
             status,
-            iterations,
-            evals: residual_evals,
-            jacobian_evals,
-            factorizations,
-            cost_history,
+            iterations: it.iterations,
+            evals: it.residual_evals,
+            jacobian_evals: it.jacobian_evals,
+            factorizations: it.factorizations,
+            cost_history: it.cost_history,
             solve_time: start.elapsed(),
-            one_thread_from,
+            one_thread_from: it.one_thread_from,
         })
     }
 }

@@ -34,9 +34,8 @@ pub enum GaussNewtonStatus {
     Stopped,
 }
 
-impl GaussNewtonStatus {
-    /// The status for a watch's interrupt.
-    pub(crate) fn interrupted(why: solve::Interrupt) -> Self {
+impl From<solve::Interrupt> for GaussNewtonStatus {
+    fn from(why: solve::Interrupt) -> Self {
         match why {
             solve::Interrupt::TimeLimit => Self::TimeLimit,
             solve::Interrupt::Observer => Self::Stopped,

@@ -462,8 +462,10 @@ impl PowellStatus {
     pub fn is_converged(self) -> bool {
         matches!(self, Self::ConvergedCost | Self::ConvergedStep)
     }
+}
 
-    fn interrupted(why: Interrupt) -> Self {
+impl From<Interrupt> for PowellStatus {
+    fn from(why: Interrupt) -> Self {
         match why {
             Interrupt::TimeLimit => Self::TimeLimit,
             Interrupt::Observer => Self::Stopped,
@@ -616,39 +618,17 @@ impl Powell {
         watch: &mut Watch<'_>,
     ) -> Result<PowellResult> {
         let start = Instant::now();
-        let mut engine = Engine::start(&self.settings, x0, eval)?;
+        let engine = Engine::start(&self.settings, x0, &mut *eval)?;
         let initial_cost = engine.fx;
-        let mut cost_history = Vec::new();
-        let timed = watch.time_limit().is_some();
-        let status = loop {
-            // every call runs one iteration until one returns a status;
-            // with a time limit, every evaluation first checks the clock
-            let step = if timed {
-                let mut checked = |x: &Vec<f64>| match watch.out_of_time() {
-                    Some(why) => Err(Halt::Interrupt(why)),
-                    None => eval(x).map_err(Halt::Error),
-                };
-                engine.iterate(&mut checked)
-            } else {
-                engine.iterate(&mut |x: &Vec<f64>| eval(x).map_err(Halt::Error))
-            };
-            let status = match step {
-                Ok(status) => status,
-                Err(Halt::Error(e)) => return Err(e),
-                Err(Halt::Interrupt(why)) => {
-                    // the engine counts an evaluation before making it
-                    engine.evals -= 1;
-                    break PowellStatus::interrupted(why);
-                }
-            };
-            cost_history.push(engine.fx);
-            if let Some(status) = status {
-                break status;
-            }
-            if let Some(why) = watch.iteration(NAME, engine.iters, engine.evals, engine.fx, &engine.x) {
-                break PowellStatus::interrupted(why);
-            }
+        let mut run = Run {
+            engine,
+            eval,
+            cost_history: Vec::new(),
         };
+        let status = solve::drive(&mut run, watch)?;
+        let Run {
+            engine, cost_history, ..
+        } = run;
         Ok(PowellResult {
             x: engine.x,
             cost: engine.fx,
@@ -660,6 +640,55 @@ impl Powell {
             cost_history,
             solve_time: start.elapsed(),
         })
+    }
+}
+
+/// One Powell solve as the driver runs it: the engine, its objective and
+/// the costs after each iteration.
+struct Run<'e, F> {
+    engine: Engine,
+    eval: &'e mut F,
+    cost_history: Vec<f64>,
+}
+
+impl<F: FnMut(&Vec<f64>) -> Result<f64>> solve::Iterate for Run<'_, F> {
+    type Status = PowellStatus;
+    type Error = TrajoptError;
+    const NAME: &'static str = NAME;
+
+    fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<PowellStatus>> {
+        let eval = &mut *self.eval;
+        // with a time limit, every evaluation first checks the clock
+        let step = if watch.time_limit().is_some() {
+            let mut checked = |x: &Vec<f64>| match watch.out_of_time() {
+                Some(why) => Err(Halt::Interrupt(why)),
+                None => eval(x).map_err(Halt::Error),
+            };
+            self.engine.iterate(&mut checked)
+        } else {
+            self.engine.iterate(&mut |x: &Vec<f64>| eval(x).map_err(Halt::Error))
+        };
+        match step {
+            Ok(status) => {
+                self.cost_history.push(self.engine.fx);
+                Ok(status)
+            }
+            Err(Halt::Error(e)) => Err(e),
+            Err(Halt::Interrupt(why)) => {
+                // the engine counts an evaluation before making it
+                self.engine.evals -= 1;
+                Ok(Some(why.into()))
+            }
+        }
+    }
+
+    fn snapshot(&self) -> solve::Snapshot<'_> {
+        solve::Snapshot {
+            iteration: self.engine.iters,
+            evals: self.engine.evals,
+            cost: self.engine.fx,
+            x: &self.engine.x,
+        }
     }
 }
 
