@@ -36,7 +36,7 @@ fn setup() -> (Config, LearnedModel, swingup::plant::demo::Demonstration, PlanSu
     };
     cfg.model.kind = ModelKind::Lwr;
     let record = run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}).expect("learning run");
-    let (model, summary) = learn_model(&cfg, &record.trials[..2]).expect("model");
+    let (model, summary) = learn_model(&cfg.model, cfg.robot.dt, &record.trials[..2]).expect("model");
     let demo =
         swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demo");
     let p = plan(&cfg, &demo, &model, None).expect("plan");
@@ -138,7 +138,7 @@ fn plan_with_lwr(c: &mut Criterion) {
         group.bench_with_input(BenchmarkId::new("window", samples), &samples, |b, _| {
             b.iter(|| {
                 one.install(|| {
-                    let cost = window_cost(&cfg, &demo, 1, samples).expect("cost");
+                    let cost = window_cost(&cfg.planner, cfg.start, &demo, 1, samples).expect("cost");
                     let problem = window
                         .problem(&model, cost, cfg.planner.lambda, &x0, cfg.planner.initial_state_weight)
                         .expect("problem");

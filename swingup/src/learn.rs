@@ -135,7 +135,7 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
             scheduled.planner.lambda = cfg.planner.lambda * cfg.planner.lambda_growth.powi(index as i32 - 2);
             let cfg = &scheduled;
             let started = Instant::now();
-            let support = data_support(cfg, &trials)?;
+            let support = data_support(&cfg.planner, &trials)?;
             let support_seconds = started.elapsed().as_secs_f64();
             let at = PlannedTrial {
                 cfg,
@@ -156,7 +156,7 @@ pub fn run(cfg: &Config, previous: Vec<TrialRecord>, progress: &mut dyn Progress
                 ModelKind::Lwr | ModelKind::LwrParametric => {
                     let started = Instant::now();
                     progress.phase(index, &format!("learning the model from {n_points} samples"));
-                    let (model, summary) = learn_model(cfg, &trials)?;
+                    let (model, summary) = learn_model(&cfg.model, cfg.robot.dt, &trials)?;
                     progress.phase(index, &planning);
                     at.run(model, summary, started.elapsed().as_secs_f64())?
                 }
@@ -397,7 +397,7 @@ fn execute_mpc<G: PendulumRegression>(
         }
         let obs = observed[k];
         if k - planned_at >= m.every {
-            let cost = window_cost(cfg, reference, k, m.window)?.with_support(support.clone());
+            let cost = window_cost(&cfg.planner, cfg.start, reference, k, m.window)?.with_support(support.clone());
             let problem = window.problem(
                 &*model,
                 cost,

@@ -34,7 +34,7 @@ fn generate() -> (impl LeastSquaresProblem, Vec<f64>, LwrInstanceFile) {
     );
     let record = swingup::learn::run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}).expect("learning run");
     let trials = &record.trials[..2];
-    let (model, _) = swingup::models::learned::learn_model(&cfg, trials).expect("model");
+    let (model, _) = swingup::models::learned::learn_model(&cfg.model, cfg.robot.dt, trials).expect("model");
     let demo = demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demonstration");
     assert_eq!(model.dt, demo.dt, "one sample period for the model and the plan");
 

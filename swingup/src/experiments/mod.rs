@@ -554,7 +554,7 @@ pub fn rollouts(cfg: &Config, record: &RunRecord) -> crate::Result<Vec<Rollout>>
     let mut out = Vec::new();
     for after in 1..=3usize {
         let Some(next) = record.trials.get(after) else { break };
-        let (model, _) = learn_model(cfg, &record.trials[..after])?;
+        let (model, _) = learn_model(&cfg.model, cfg.robot.dt, &record.trials[..after])?;
         let mut s = [0.0; 4];
         let (mut left, mut blew, mut err) = (None, None, 0.0f64);
         let mut next_state = [0.0; 4];

@@ -310,7 +310,7 @@ pub fn with_successful_data(cfg: &Config, seeds: u64, trials: usize) -> crate::R
             }
             let mut lwr = Config { seed, ..cfg.clone() };
             lwr.model.kind = ModelKind::Lwr;
-            let (model, _) = learn_model(&lwr, &previous)?;
+            let (model, _) = learn_model(&lwr.model, lwr.robot.dt, &previous)?;
             let path_error = previous[1].plan.as_ref().map_or(f64::NAN, |p| {
                 let errors: Vec<f64> = p
                     .states
@@ -497,7 +497,7 @@ pub fn learned_model_error(cfg: &Config, seeds: u64, max_trials: usize) -> crate
             let record = run(&c, vec![], &mut |_: &crate::record::TrialRecord| {})?;
             (1..=record.trials.len())
                 .map(|n| {
-                    let (model, _) = learn_model(&c, &record.trials[..n])?;
+                    let (model, _) = learn_model(&c.model, c.robot.dt, &record.trials[..n])?;
                     let (mut seen, mut beyond) = (vec![], vec![]);
                     for z in &points {
                         let e = model.regression.delta_omega(z, None) - truth.delta_omega(z, None);

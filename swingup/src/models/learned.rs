@@ -3,15 +3,20 @@
 
 use lwr::{LwrSettings, TuneSettings};
 
-use crate::config::{Config, LwrPrior, ModelKind};
+use crate::config::{LwrPrior, ModelConfig, ModelKind};
 use crate::models::nonparametric::ALL_INPUTS;
 use crate::models::selection;
 use crate::models::{INPUTS, KnownHand, LearnedModel, LinearRegression, LwrRegression, PendulumRegression};
 use crate::record::{ModelSummary, TrialRecord, training_data};
 
-/// Fits the LWR model to all trials so far and tunes its metric by
-/// leave-one-out cross-validation.
-pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(LearnedModel, ModelSummary)> {
+/// Fits the LWR model of `settings` to all trials so far (sampled every
+/// `dt` seconds) and tunes its metric by leave-one-out cross-validation.
+pub fn learn_model(
+    settings: &ModelConfig,
+    dt: f64,
+    trials: &[TrialRecord],
+) -> crate::Result<(LearnedModel, ModelSummary)> {
+    let m = settings;
     let (xs, ys) = training_data(trials);
     crate::error::ensure_data!(!xs.is_empty(), "no data to learn from");
     // initial metric: each input divided by its spread
@@ -24,23 +29,18 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
         .collect();
     let base_scales: Vec<f64> = spread.iter().map(|s| 1.0 / s).collect();
     let settings = LwrSettings {
-        kernel: cfg.model.kernel,
-        degree: cfg.model.degree,
-        bandwidth: cfg.model.bandwidth,
-        scales: base_scales
-            .iter()
-            .zip(&cfg.model.input_scales)
-            .map(|(b, r)| b * r)
-            .collect(),
-        ridge: cfg.model.ridge,
-        slope_ridge: cfg.model.slope_ridge,
-        intercept_ridge: cfg.model.prior_weight,
-        gaussian_cutoff: cfg.model.cutoff,
+        kernel: m.kernel,
+        degree: m.degree,
+        bandwidth: m.bandwidth,
+        scales: base_scales.iter().zip(&m.input_scales).map(|(b, r)| b * r).collect(),
+        ridge: m.ridge,
+        slope_ridge: m.slope_ridge,
+        intercept_ridge: m.prior_weight,
+        gaussian_cutoff: m.cutoff,
         ..LwrSettings::default()
     };
-    let parametric = cfg.model.kind == ModelKind::LwrParametric;
-    let dt = cfg.robot.dt;
-    let prior_kind = cfg.model.prior;
+    let parametric = m.kind == ModelKind::LwrParametric;
+    let prior_kind = m.prior;
     let fit_prior = |xs: &[[f64; 5]],
                      ys: &[[f64; 1]],
                      inputs: &[usize]|
@@ -58,9 +58,9 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
         })
     };
     // validate() holds cv_blocks >= 2 when the selection is on
-    let selection = if cfg.model.select_inputs && xs.len() >= 2 {
+    let selection = if m.select_inputs && xs.len() >= 2 {
         let lengths: Vec<usize> = trials.iter().map(|t| t.commands.len()).collect();
-        let groups = selection::trial_groups(&lengths, cfg.model.cv_blocks);
+        let groups = selection::trial_groups(&lengths, m.cv_blocks);
         selection::select_inputs(&xs, &ys, &groups, &settings, &fit_prior)?
     } else {
         Vec::new()
@@ -71,9 +71,9 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
     let name = if parametric { "parametric" } else { "linear" };
     let mut model = LwrRegression::fit_on(&xs, &ys, &inputs, settings, prior, name)?;
     let lwr = model.lwr_mut();
-    let (settings, loo_nmse) = if cfg.model.tune_evals > 0 {
+    let (settings, loo_nmse) = if m.tune_evals > 0 {
         let tuned = lwr.tune(&TuneSettings {
-            max_evals: cfg.model.tune_evals,
+            max_evals: m.tune_evals,
             ..TuneSettings::default()
         })?;
         (tuned.settings, tuned.objective)
@@ -98,7 +98,7 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
         f64::NAN
     };
     let summary = ModelSummary {
-        kind: if cfg.model.kind == ModelKind::LwrParametric {
+        kind: if m.kind == ModelKind::LwrParametric {
             "lwr-parametric"
         } else {
             "lwr"
@@ -124,7 +124,7 @@ pub fn learn_model(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<(Learn
             .collect(),
         selection_cv: selection.iter().map(|s| s.cv_nmse).collect(),
     };
-    Ok((KnownHand::new(model, cfg.robot.dt), summary))
+    Ok((KnownHand::new(model, dt), summary))
 }
 
 /// The summary of the true model (no data are fitted).

@@ -51,7 +51,7 @@ pub const MAX_STATE_NORM: f64 = 100.0;
 /// A demonstration with inconsistent lengths or non-finite values, or
 /// invalid weights or bounds.
 pub fn task_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<ResidualCost<SwingupCost>> {
-    let stage = crate::planning::eq3::swingup_cost(cfg, demo)?;
+    let stage = crate::planning::eq3::swingup_cost(&cfg.planner, cfg.start, demo)?;
     let n = demo.horizon();
     Ok(ResidualCost::new(stage, 4, 1, n))
 }

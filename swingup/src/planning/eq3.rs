@@ -16,7 +16,7 @@ use trajopt::{
     TrackingCost,
 };
 
-use crate::config::{BasisKind, Config, DifferenceKind, Differences, Solver, Start};
+use crate::config::{BasisKind, Config, DifferenceKind, Differences, PlannerConfig, Solver, Start};
 use crate::error::ResultExt;
 use crate::planning::cost::SwingupCost;
 use crate::planning::support::DataSupport;
@@ -26,8 +26,9 @@ use crate::record::PlanSummary;
 /// The planner's stage cost: Eq. 5 tracking of the demonstration (with
 /// [`Start::Scratch`]: of upright at rest over the whole window, $u^d = 0$),
 /// a terminal target upright at rest with the hand home, and the soft bounds
-/// (shared by every planner, so that their costs compare).
-pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<SwingupCost> {
+/// (shared by every planner, so that their costs compare), with the
+/// planner's weights and bounds and the reference `start` says.
+pub fn swingup_cost(planner: &PlannerConfig, start: Start, demo: &Demonstration) -> crate::Result<SwingupCost> {
     let n = demo.horizon();
     crate::error::ensure_data!(n >= 1, "the demonstration has no controls");
     crate::error::ensure_data!(
@@ -36,7 +37,7 @@ pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<Swingup
         demo.states.len(),
         n + 1
     );
-    window_cost(cfg, demo, 0, n)
+    window_cost(planner, start, demo, 0, n)
 }
 
 /// The stage cost of a window of `samples` steps from step `start` of the
@@ -44,17 +45,22 @@ pub fn swingup_cost(cfg: &Config, demo: &Demonstration) -> crate::Result<Swingup
 /// [`swingup_cost`] over those steps, upright at rest with $u^d = 0$ from
 /// the end of the demonstration on; the terminal target is the reference
 /// at the window's end.
-pub fn window_cost(cfg: &Config, demo: &Demonstration, start: usize, samples: usize) -> crate::Result<SwingupCost> {
-    let p = &cfg.planner;
+pub fn window_cost(
+    p: &PlannerConfig,
+    start: Start,
+    demo: &Demonstration,
+    from: usize,
+    samples: usize,
+) -> crate::Result<SwingupCost> {
     let n = demo.horizon();
     let upright = [std::f64::consts::PI, 0.0, 0.0, 0.0];
-    let tracked = cfg.start == Start::Demonstration;
+    let tracked = start == Start::Demonstration;
     // the demonstration's last state is replaced by upright at rest
-    let state_ref = Mat::from_fn(samples + 1, 4, |k, i| match start + k {
+    let state_ref = Mat::from_fn(samples + 1, 4, |k, i| match from + k {
         j if tracked && j < n => demo.states[j][i],
         _ => upright[i],
     });
-    let control_ref = Mat::from_fn(samples, 1, |k, _| match start + k {
+    let control_ref = Mat::from_fn(samples, 1, |k, _| match from + k {
         j if tracked && j < n => demo.controls[j],
         _ => 0.0,
     });
@@ -70,18 +76,13 @@ pub fn window_cost(cfg: &Config, demo: &Demonstration, start: usize, samples: us
 
 /// The bases of the state and control trajectories over the
 /// demonstration's window.
-fn bases(cfg: &Config, demo: &Demonstration) -> crate::Result<(PlanBasis, PlanBasis)> {
+fn bases(planner: &PlannerConfig, demo: &Demonstration) -> crate::Result<(PlanBasis, PlanBasis)> {
     let n = demo.horizon();
     let t_end = demo.dt * n as f64;
-    Ok(match cfg.planner.basis {
+    Ok(match planner.basis {
         BasisKind::Bspline => (
-            PlanBasis::Bspline(BSplineBasis::clamped_uniform(cfg.planner.state_coeffs, 3, 0.0, t_end)?),
-            PlanBasis::Bspline(BSplineBasis::clamped_uniform(
-                cfg.planner.control_coeffs,
-                3,
-                0.0,
-                t_end,
-            )?),
+            PlanBasis::Bspline(BSplineBasis::clamped_uniform(planner.state_coeffs, 3, 0.0, t_end)?),
+            PlanBasis::Bspline(BSplineBasis::clamped_uniform(planner.control_coeffs, 3, 0.0, t_end)?),
         ),
         BasisKind::Wavelet => {
             let w = |samples| WaveletBasis::new(Wavelet::Db4, Boundary::Periodization, samples, None, 0.0, demo.dt);
@@ -146,8 +147,8 @@ pub fn build_problem<M: trajopt::Model>(
     support: Option<Arc<DataSupport>>,
 ) -> crate::Result<(Eq3Problem<M, SwingupCost>, Vec<f64>)> {
     let p = &cfg.planner;
-    let cost = swingup_cost(cfg, demo)?.with_support(support);
-    let (state_basis, control_basis) = bases(cfg, demo)?;
+    let cost = swingup_cost(&cfg.planner, cfg.start, demo)?.with_support(support);
+    let (state_basis, control_basis) = bases(&cfg.planner, demo)?;
     let problem = Eq3Problem::new(
         model,
         cost,
@@ -180,7 +181,7 @@ pub fn fit_coefficients<M: trajopt::Model>(
         controls.len()
     );
     let times = demo.times();
-    let (state_basis, control_basis) = bases(cfg, demo)?;
+    let (state_basis, control_basis) = bases(&cfg.planner, demo)?;
     let xs = Mat::from_fn(n + 1, 4, |k, i| states[k][i]);
     let us = Mat::from_fn(n, 1, |k, _| controls[k]);
     // periodised wavelets on an odd number of samples have more coefficients
@@ -236,7 +237,7 @@ pub fn plan_from<M: trajopt::Model>(
         (Solver::DerivativeFree, Differences::Elements) => {
             // Gauss-Newton on the model's values alone: its Jacobians by
             // forward differences of each step's inputs, in one batch
-            let model = Differenced::new(model, difference_of(cfg), None)?;
+            let model = Differenced::new(model, difference_of(&cfg.planner), None)?;
             let mut plan = solve(cfg, demo, &model, support, start, Method::GaussNewton)?;
             // in criterion evaluations: one model evaluation at every step is one
             plan.evaluations += model.difference_evals().div_ceil(demo.horizon().max(1));
@@ -269,8 +270,8 @@ pub fn confidence_lambda<M: trajopt::Model>(
 }
 
 /// The derivative-free planner's kind of differences.
-fn difference_of(cfg: &Config) -> Difference {
-    match cfg.planner.difference_kind {
+fn difference_of(planner: &PlannerConfig) -> Difference {
+    match planner.difference_kind {
         DifferenceKind::Forward => Difference::Forward,
         DifferenceKind::Central => Difference::Central,
     }
@@ -309,7 +310,7 @@ fn solve<M: trajopt::Model>(
     let solver = GaussNewton::new(gauss_newton.clone())?;
     let derivative_free = DerivativeFree::new(DerivativeFreeSettings {
         gauss_newton,
-        difference: difference_of(cfg),
+        difference: difference_of(&cfg.planner),
         ..DerivativeFreeSettings::default()
     })?;
     let powell = Powell::new(PowellSettings {
@@ -429,12 +430,12 @@ mod tests {
         let d = demo(&cfg);
         let up = [std::f64::consts::PI, 0.0, 0.0, 0.0];
         let mut r = vec![0.0; 7];
-        let scratch = swingup_cost(&cfg, &d).expect("cost");
+        let scratch = swingup_cost(&cfg.planner, cfg.start, &d).expect("cost");
         for k in [0, 40, d.horizon() - 1] {
             scratch.residuals(k, &up, Some(&[0.0]), &mut r).expect("residuals");
             assert!(r.iter().all(|v| v.abs() < 1e-12), "step {k}: {r:?}");
         }
-        let with_demo = swingup_cost(&Config::default(), &d).expect("cost");
+        let with_demo = swingup_cost(&Config::default().planner, Config::default().start, &d).expect("cost");
         let k = 40;
         with_demo
             .residuals(k, &d.states[k], Some(&[d.controls[k]]), &mut r)

@@ -24,7 +24,7 @@ use std::sync::Arc;
 
 use lwr::Database;
 
-use crate::config::Config;
+use crate::config::PlannerConfig;
 use crate::record::TrialRecord;
 use crate::record::training_data;
 
@@ -138,8 +138,7 @@ impl DataSupport {
 
 /// The support of the data of `trials` for the planner's penalty on
 /// leaving them ([`PlannerConfig::support_weight`](crate::config::PlannerConfig::support_weight)); `None` when it is off.
-pub fn data_support(cfg: &Config, trials: &[TrialRecord]) -> crate::Result<Option<Arc<DataSupport>>> {
-    let p = &cfg.planner;
+pub fn data_support(p: &PlannerConfig, trials: &[TrialRecord]) -> crate::Result<Option<Arc<DataSupport>>> {
     if p.support_weight == 0.0 {
         return Ok(None);
     }
