@@ -259,11 +259,11 @@ pub fn execute(
         Ok(match (commands.get(k), reference.get(k)) {
             (Some(&u), Some(r)) => match gains.and_then(|g| g.get(k)) {
                 Some(g) => u - (0..4).map(|i| g[i] * (obs[i] - r[i])).sum::<f64>(),
-                None => u + servo(cfg, r, &obs),
+                None => u + servo(cfg.hand_servo, r, &obs),
             },
             (Some(&u), None) => u,
             // after the window, never caught: the hand brakes back home
-            _ => servo(cfg, &[0.0; 4], &obs),
+            _ => servo(cfg.hand_servo, &[0.0; 4], &obs),
         })
     };
     let Ok(trial) = rollout(cfg, robot, lqr, index, kind, open_loop);
@@ -271,8 +271,8 @@ pub fn execute(
 }
 
 /// The hand servo's correction towards the hand position and velocity of `r`.
-fn servo(cfg: &Config, r: &[f64; 4], obs: &[f64; 4]) -> f64 {
-    cfg.hand_servo[0] * (r[2] - obs[2]) + cfg.hand_servo[1] * (r[3] - obs[3])
+fn servo(gains: [f64; 2], r: &[f64; 4], obs: &[f64; 4]) -> f64 {
+    gains[0] * (r[2] - obs[2]) + gains[1] * (r[3] - obs[3])
 }
 
 /// Runs one trial on the robot with `policy(k, observed[..=k],
@@ -432,7 +432,7 @@ fn execute_mpc<G: PendulumRegression>(
         }
         let j = k - planned_at;
         let r: [f64; 4] = std::array::from_fn(|i| plan.states[(j, i)]);
-        Ok(plan.controls[(j, 0)] + servo(cfg, &r, &obs))
+        Ok(plan.controls[(j, 0)] + servo(cfg.hand_servo, &r, &obs))
     };
     let mut t = rollout(cfg, robot, lqr, index, TrialKind::Planned, policy)?;
     t.mpc = Some(trace);
