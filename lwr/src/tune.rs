@@ -147,8 +147,6 @@ impl solve::Status for TuneStatus {
     }
 }
 
-/// Why the search must stop before its next evaluation, if it must: the
-/// evaluation budget, then the watch's time limit.
 /// The coordinate search's state, as [`solve::drive`] runs it: one
 /// iteration is one sweep over the coordinates.
 struct Search<'t, E> {
@@ -263,6 +261,8 @@ impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> solve::Iterate for Search
     }
 }
 
+/// Why the search must stop before its next evaluation, if it must: the
+/// evaluation budget, then the watch's time limit.
 fn halted(evals: usize, tune: &TuneSettings, watch: &Watch<'_>) -> Option<TuneStatus> {
     if evals >= tune.max_evals {
         return Some(TuneStatus::MaxEvals);

@@ -692,9 +692,6 @@ impl<F: FnMut(&Vec<f64>) -> Result<f64>> solve::Iterate for Run<'_, F> {
     }
 }
 
-// ---------------------------------------------------------------------------
-// The engine shared by `Powell::solve` and the argmin solver.
-
 #[cfg(test)]
 mod tests {
     use super::*;
