@@ -27,7 +27,7 @@ use crate::record::PlanSummary;
 /// [`Start::Scratch`]: of upright at rest over the whole window, $u^d = 0$),
 /// a terminal target upright at rest with the hand home, and the soft bounds
 /// (shared by every planner, so that their costs compare), with the
-/// planner's weights and bounds and the reference `start` says.
+/// planner's weights and bounds.
 pub fn swingup_cost(planner: &PlannerConfig, start: Start, demo: &Demonstration) -> crate::Result<SwingupCost> {
     let n = demo.horizon();
     crate::error::ensure_data!(n >= 1, "the demonstration has no controls");
@@ -40,11 +40,11 @@ pub fn swingup_cost(planner: &PlannerConfig, start: Start, demo: &Demonstration)
     window_cost(planner, start, demo, 0, n)
 }
 
-/// The stage cost of a window of `samples` steps from step `start` of the
+/// The stage cost of a window of `samples` steps from step `from` of the
 /// swing-up (receding-horizon planning): the references of
-/// [`swingup_cost`] over those steps, upright at rest with $u^d = 0$ from
-/// the end of the demonstration on; the terminal target is the reference
-/// at the window's end.
+/// [`swingup_cost`] (as `start` chooses them) over those steps, upright
+/// at rest with $u^d = 0$ from the end of the demonstration on; the
+/// terminal target is the reference at the window's end.
 pub fn window_cost(
     p: &PlannerConfig,
     start: Start,
