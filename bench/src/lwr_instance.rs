@@ -101,26 +101,13 @@ impl LearnedPendulum {
     /// $g(z)$ and, when asked, $\partial g / \partial z$.
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
         let prior = self.prior[0] + (0..5).map(|j| self.prior[j + 1] * z[j]).sum::<f64>();
-        // z on the LWR's inputs, on the stack (this runs at every knot of
-        // every evaluation)
-        let mut q = [0.0; 5];
-        for (q, &j) in q.iter_mut().zip(&self.inputs) {
-            *q = z[j];
-        }
-        let q = &q[..self.inputs.len()];
-        let (resid, j_resid) = match jacobian.is_some() {
-            true => match self.lwr.predict_mean_with_jacobian(q) {
-                Ok((mean, j)) => {
-                    let mut full = [0.0; 5];
-                    for (c, &jj) in self.inputs.iter().enumerate() {
-                        full[jj] = j[(0, c)];
-                    }
-                    (mean[0], full)
-                }
-                Err(_) => (f64::NAN, [0.0; 5]),
-            },
-            false => (self.lwr.predict_mean(q).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
-        };
+        // z on the LWR's inputs (selected on the stack: this runs at every
+        // knot of every evaluation)
+        let mut j_resid = [0.0; 5];
+        let resid = self
+            .lwr
+            .predict_selected(z, &self.inputs, jacobian.is_some().then_some(&mut j_resid))
+            .unwrap_or(f64::NAN);
         // no weighted data (or a failed fit): the prior alone
         let (resid, j_resid) = if resid.is_finite() && j_resid.iter().all(|v| v.is_finite()) {
             (resid, j_resid)

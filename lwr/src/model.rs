@@ -381,6 +381,83 @@ impl LwrModel {
         Ok((fit.beta[..o].to_vec(), jac))
     }
 
+    /// The first output's mean at a query `z` of a wider space, of which
+    /// the model sees the entries `inputs` (its inputs are `z[inputs[0]]`,
+    /// `z[inputs[1]]`, ...: a model fitted on a selection of `N` candidate
+    /// inputs), with the selection made on the stack; and, when
+    /// `jacobian` is given, the derivative with respect to every entry of
+    /// `z` written there (zero for the entries not selected). The values
+    /// are those of [`predict_mean`](Self::predict_mean) and
+    /// [`predict_mean_with_jacobian`](Self::predict_mean_with_jacobian) at
+    /// the selected query, bit for bit; `jacobian` is written only on
+    /// success.
+    ///
+    /// ```
+    /// # use lwr::{LwrModel, LwrSettings};
+    /// // y = 2 z2 - z0, learned from (z0, z2) of a 3-entry z
+    /// let mut m = LwrModel::new(2, 1, LwrSettings { bandwidth: 0.3, ..Default::default() })?;
+    /// for i in 0..15 {
+    ///     for j in 0..15 {
+    ///         let (z0, z2) = (i as f64 / 14.0, j as f64 / 14.0);
+    ///         m.insert(&[z0, z2], &[2.0 * z2 - z0])?;
+    ///     }
+    /// }
+    /// let mut jac = [f64::NAN; 3];
+    /// let y = m.predict_selected(&[0.4, 7.0, 0.6], &[0, 2], Some(&mut jac))?;
+    /// assert!((y - 0.8).abs() < 1e-10);
+    /// assert!((jac[0] + 1.0).abs() < 1e-8 && jac[1] == 0.0 && (jac[2] - 2.0).abs() < 1e-8);
+    /// # Ok::<(), lwr::LwrError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// [`LwrError::DimensionMismatch`] when `inputs` does not have the
+    /// model's input count, [`LwrError::InvalidParameter`] when it names an
+    /// entry beyond `z`; and the errors of the two predictions.
+    pub fn predict_selected<const N: usize>(
+        &self,
+        z: &[f64; N],
+        inputs: &[usize],
+        jacobian: Option<&mut [f64; N]>,
+    ) -> Result<f64> {
+        let d = self.db.n_inputs();
+        if inputs.len() != d {
+            return Err(LwrError::DimensionMismatch {
+                what: "selected inputs",
+                expected: d,
+                actual: inputs.len(),
+            });
+        }
+        if let Some(&j) = inputs.iter().find(|&&j| j >= N) {
+            return Err(LwrError::InvalidParameter {
+                name: "inputs",
+                reason: format!("entry {j} of a query of {N}"),
+            });
+        }
+        // more entries than z has (repeated ones) cannot be selected
+        let mut q = [0.0; N];
+        for (q, &j) in q.iter_mut().zip(inputs) {
+            *q = z[j];
+        }
+        let Some(q) = q.get(..d) else {
+            return Err(LwrError::DimensionMismatch {
+                what: "selected inputs",
+                expected: N,
+                actual: d,
+            });
+        };
+        match jacobian {
+            Some(full) => {
+                let (mean, jac) = self.predict_mean_with_jacobian(q)?;
+                full.fill(0.0);
+                for (c, &j) in inputs.iter().enumerate() {
+                    full[j] += jac[(0, c)];
+                }
+                Ok(mean[0])
+            }
+            None => Ok(self.predict_mean(q)?[0]),
+        }
+    }
+
     /// Predictions at many queries in parallel (rayon), in order; each one
     /// is a `Result` of its own.
     ///
@@ -482,6 +559,56 @@ impl LwrModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The selected query gives the plain predictions' bits, the
+    /// Jacobian lands on the selected entries (zero elsewhere), and bad
+    /// selections are errors that leave the Jacobian untouched.
+    #[test]
+    fn a_selected_query_is_the_plain_prediction_on_its_entries() {
+        let mut m = LwrModel::new(
+            2,
+            1,
+            LwrSettings {
+                bandwidth: 0.4,
+                ..Default::default()
+            },
+        )
+        .expect("model");
+        for i in 0..12 {
+            for j in 0..12 {
+                let (a, b) = (i as f64 / 11.0, j as f64 / 11.0);
+                m.insert(&[a, b], &[(3.0 * a).sin() + a * b * b]).expect("insert");
+            }
+        }
+        let z = [0.9, 0.3, -5.0, 0.55];
+        let mut jac = [f64::NAN; 4];
+        let y = m.predict_selected(&z, &[3, 1], Some(&mut jac)).expect("selected");
+        let (mean, j) = m.predict_mean_with_jacobian(&[0.55, 0.3]).expect("plain");
+        assert_eq!(y.to_bits(), mean[0].to_bits());
+        assert_eq!(jac, [0.0, j[(0, 1)], 0.0, j[(0, 0)]]);
+        assert!(j[(0, 0)] != 0.0 && j[(0, 1)] != 0.0);
+        let y = m.predict_selected(&z, &[3, 1], None).expect("selected");
+        assert_eq!(y.to_bits(), m.predict_mean(&[0.55, 0.3]).expect("plain")[0].to_bits());
+
+        let mut untouched = [7.0; 4];
+        assert!(matches!(
+            m.predict_selected(&z, &[3], Some(&mut untouched)),
+            Err(LwrError::DimensionMismatch { .. })
+        ));
+        assert!(matches!(
+            m.predict_selected(&z, &[3, 4], Some(&mut untouched)),
+            Err(LwrError::InvalidParameter { name: "inputs", .. })
+        ));
+        assert!(matches!(
+            m.predict_selected(&[0.5], &[0, 0], Some(&mut [7.0])),
+            Err(LwrError::DimensionMismatch { .. })
+        ));
+        assert!(
+            m.predict_selected(&[0.5, 9.0, 9.0, 9.0], &[1, 2], Some(&mut untouched))
+                .is_err()
+        );
+        assert_eq!(untouched, [7.0; 4]);
+    }
 
     #[test]
     fn t_quantiles_match_tables() {

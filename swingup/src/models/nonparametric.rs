@@ -197,22 +197,12 @@ impl PendulumRegression for LwrRegression {
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
         let mut j_prior = [0.0; 5];
         let prior = self.prior.delta_omega(z, jacobian.is_some().then_some(&mut j_prior));
-        let (q, d) = self.project(z);
-        let q = &q[..d];
-        let (resid, j_resid) = match jacobian.is_some() {
-            // the Jacobian costs a second pass over the neighbours: only when asked
-            true => match self.lwr.predict_mean_with_jacobian(q) {
-                Ok((mean, j)) => {
-                    let mut full = [0.0; 5];
-                    for (c, &jj) in self.inputs.iter().enumerate() {
-                        full[jj] = j[(0, c)];
-                    }
-                    (mean[0], full)
-                }
-                Err(_) => (f64::NAN, [0.0; 5]),
-            },
-            false => (self.lwr.predict_mean(q).map_or(f64::NAN, |m| m[0]), [0.0; 5]),
-        };
+        // the Jacobian costs a second pass over the neighbours: only when asked
+        let mut j_resid = [0.0; 5];
+        let resid = self
+            .lwr
+            .predict_selected(z, &self.inputs, jacobian.is_some().then_some(&mut j_resid))
+            .unwrap_or(f64::NAN);
         let usable = resid.is_finite() && j_resid.iter().all(|v: &f64| v.is_finite());
         let (resid, j_resid) = if usable {
             (resid, j_resid)
