@@ -1,19 +1,30 @@
-//! One cart-pole run through the library: PILCO's cart-pole learned from
-//! scratch with the LWR and model-predictive control
-//! ([`swingup::cartpole::run`]), every trial printed.
+//! PILCO's cart-pole learned from scratch with the LWR and
+//! model-predictive control ([`swingup::cartpole::run`]): one seed with
+//! every trial printed, or a range of seeds, one line each, and their
+//! median seconds of system data.
 //!
 //! ```text
 //! cargo run --release -p swingup --example cartpole -- [seed]
+//! cargo run --release -p swingup --example cartpole -- FROM TO
 //! ```
-//! (seed 1 by default). The 20-seed table against PILCO and GP-MPC is the
-//! `mpc` experiment's: `swingup experiments mpc --variant cartpole`.
+//! (seed 1 by default; `21 40` runs the seeds beside the grid's 1-20). The
+//! recorded 20-seed table against PILCO and GP-MPC is the `mpc`
+//! experiment's: `swingup experiments mpc --variant cartpole`.
 
 use swingup::cartpole::{CartPoleSettings, run};
 
 fn main() -> anyhow::Result<()> {
-    let seed: u64 = std::env::args().nth(1).map_or(Ok(1), |a| a.parse())?;
+    let args: Vec<u64> = std::env::args().skip(1).map(|a| a.parse()).collect::<Result<_, _>>()?;
     let settings = CartPoleSettings::default();
-    let r = run(&settings, seed)?;
+    match args[..] {
+        [] | [_] => one(&settings, args.first().copied().unwrap_or(1)),
+        [from, to] if from <= to => range(&settings, from, to),
+        _ => anyhow::bail!("usage: cartpole [seed] | cartpole FROM TO (FROM <= TO)"),
+    }
+}
+
+fn one(settings: &CartPoleSettings, seed: u64) -> anyhow::Result<()> {
+    let r = run(settings, seed)?;
     for t in &r.trials {
         println!(
             "trial {:>2} {:<6}: {}, tip {:.2} m from the target at the end, {:.0} s of data; replans {:.1} ms median, {:.1} ms p99",
@@ -30,5 +41,27 @@ fn main() -> anyhow::Result<()> {
         (Some(t), Some(s)) => println!("success at trial {t} after {s:.1} s of system data (PILCO 17.5 s, GP-MPC 9 s)"),
         _ => println!("no success within {} trials", r.trials.len()),
     }
+    Ok(())
+}
+
+fn range(settings: &CartPoleSettings, from: u64, to: u64) -> anyhow::Result<()> {
+    let mut seconds = Vec::new();
+    for seed in from..=to {
+        let r = run(settings, seed)?;
+        match (r.success_trial, r.seconds_to_success) {
+            (Some(t), Some(s)) => {
+                println!("seed {seed:>3}: success at trial {t:>2}, {s:>4.1} s of system data");
+                seconds.push(s);
+            }
+            _ => println!("seed {seed:>3}: no success within {} trials", r.trials.len()),
+        }
+    }
+    let n = to - from + 1;
+    seconds.sort_by(f64::total_cmp);
+    let median = swingup::record::quantile(&seconds, 0.5);
+    println!(
+        "{} of {n} seeds succeeded; median {median:.1} s of system data over those (PILCO 17.5 s, GP-MPC 9 s)",
+        seconds.len()
+    );
     Ok(())
 }

@@ -209,6 +209,10 @@ struct ExperimentsArgs {
     /// state and 8 control coefficients; issue 33), 0 by default.
     #[arg(long)]
     paper_basis_seeds: Option<u64>,
+    /// Seeds of the derivative-free least-squares variant (overrides the
+    /// grid's; 0 matches a grid saved before the variant existed).
+    #[arg(long)]
+    derivative_free_seeds: Option<u64>,
     /// Trial cap per pendulum run (overrides the grid's; the cart-pole
     /// keeps PILCO's 15 trials after the random one).
     #[arg(long)]
@@ -620,6 +624,9 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     }
     if let Some(n) = args.paper_basis_seeds {
         settings.paper_basis_seeds = n;
+    }
+    if let Some(n) = args.derivative_free_seeds {
+        settings.derivative_free_seeds = n;
     }
     if let Some(n) = args.max_trials {
         anyhow::ensure!(n >= 1, "--max-trials must be at least 1");
