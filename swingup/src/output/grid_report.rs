@@ -309,12 +309,22 @@ pub fn cartpole_table(report: &ExperimentsReport) -> String {
     let n = runs.len();
     let mut md = format!("{}\n\n", task_provenance(report, "cartpole"));
     md.push_str(&format!(
-        "PILCO's cart-pole swing-up (the masses, pole length, friction, {} N force limit, {} s control period and {} s episodes of its MATLAB code; `swingup::cartpole`), learned from scratch with the pure LWR:\none random trial, then up to {} trials of model-predictive control (Eq. 3 replanned from the measured state at every control period over a {}-step window, each observed transition added to the LWR at once, each replan warm-started from the previous plan;\nthe trial's first plan starts cold, from three initial guesses, and is timed apart).\n**Success** is our criterion (neither published figure below comes with a numerical one): the pole's tip within {} m of the target, upright over the origin, over the episode's last {} s.\nSeconds of system data count every trial up to success, the random one included; runs that never succeed are not in the median.\nReplan times are wall times during the grid's runs, not a benchmark.\n\n",
+        "PILCO's cart-pole swing-up (the masses, pole length, friction, {} N force limit, {} s control period and {} s episodes of its MATLAB code; `swingup::cartpole`), learned from scratch with the pure LWR:\none random trial, then up to {} trials of model-predictive control (Eq. 3 replanned from the measured state at every control period over a {}-step window, each observed transition added to the LWR at once, each replan warm-started from the previous plan;\nthe trial's first plan starts cold, from three initial guesses, and is timed apart).\nThe model: the LWR of the change of state over a {} prior, refitted and its metric retuned {}.\n**Success** is our criterion (neither published figure below comes with a numerical one): the pole's tip within {} m of the target, upright over the origin, over the episode's last {} s.\nSeconds of system data count every trial up to success, the random one included; runs that never succeed are not in the median.\nReplan times are wall times during the grid's runs, not a benchmark.\n\n",
         s.plant.max_force,
         s.plant.dt,
         s.episode,
         s.max_trials,
         s.window,
+        if s.model.control_affine {
+            "control-affine (the force's gain linear in the state's features)"
+        } else {
+            "linear"
+        },
+        if s.refit_every > 0 {
+            format!("between trials and every {} s within one", s.refit_every as f64 * s.plant.dt)
+        } else {
+            "between trials".to_string()
+        },
         s.success_distance,
         s.success_hold,
     ));
