@@ -336,40 +336,29 @@ fn solve<M: trajopt::Model>(
         };
         problem.set_lambda(weights)?;
         // (status, cost, x, iterations, evaluations, time) in the solvers' shared vocabulary
+        macro_rules! parts {
+            ($result:expr) => {{
+                let r = $result;
+                (
+                    format!("{:?}", r.status),
+                    r.cost,
+                    r.x,
+                    r.iterations,
+                    r.evals,
+                    r.solve_time,
+                )
+            }};
+        }
         let (status, cost, x, iters, evals, time) = if method == Method::Powell {
             // Eq. 3 as a sum of one term per time step: a trial point
             // re-evaluates only the steps its changed coefficients touch
             // (the budget still counts every evaluation, partial or not)
             let terms = BandTerms::new(&problem, problem.horizon() + 1, &theta)?;
-            let r = powell.solve_separable(&terms, &theta)?;
-            (
-                format!("{:?}", r.status),
-                r.cost,
-                r.x,
-                r.iterations,
-                r.evals,
-                r.solve_time,
-            )
+            parts!(powell.solve_separable(&terms, &theta)?)
         } else if method == Method::Groups {
-            let r = derivative_free.solve(&problem, &theta)?;
-            (
-                format!("{:?}", r.status),
-                r.cost,
-                r.x,
-                r.iterations,
-                r.evals,
-                r.solve_time,
-            )
+            parts!(derivative_free.solve(&problem, &theta)?)
         } else {
-            let r = solver.solve(&problem, &theta)?;
-            (
-                format!("{:?}", r.status),
-                r.cost,
-                r.x,
-                r.iterations,
-                r.evals,
-                r.solve_time,
-            )
+            parts!(solver.solve(&problem, &theta)?)
         };
         iterations += iters;
         evaluations += evals;
