@@ -40,11 +40,11 @@ mod jobs;
 use jobs::jobs;
 
 mod summary;
+pub(crate) use summary::summarise;
 pub use summary::{
     BLOW_UP_NORM, CARTPOLE_VARIANT, Claim, ExperimentsReport, LEFT_DATA_SUPPORT, Rollout, RunSummary, TaskTime,
-    VariantSummary, is_cartpole, task_of,
+    VariantSummary, is_cartpole, median, task_of,
 };
-pub(crate) use summary::{median, summarise};
 
 /// Which experiments to run.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]

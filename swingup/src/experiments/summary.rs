@@ -279,8 +279,10 @@ impl ExperimentsReport {
     }
 }
 
-/// The median of `v` (sorted in place); `None` when it is empty.
-pub(crate) fn median(v: &mut [f64]) -> Option<f64> {
+/// The median of `v` (sorted in place; the mean of the middle two for an
+/// even count), the one the experiments' tables report; `None` when it is
+/// empty.
+pub fn median(v: &mut [f64]) -> Option<f64> {
     if v.is_empty() {
         return None;
     }
