@@ -111,7 +111,8 @@ pub struct CartPoleSettings {
     pub true_model: bool,
     /// Control periods between refits of the model within an MPC trial
     /// ([`CartPoleModel::refit`] with tuning, on all data so far); 0 refits
-    /// between trials only.
+    /// between trials only (and settings saved before this field existed
+    /// read back with 0, as they ran).
     #[serde(default)]
     pub refit_every: usize,
 }

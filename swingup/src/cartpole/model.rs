@@ -87,7 +87,8 @@ pub struct CartPoleModelSettings {
     pub tune_evals: usize,
     /// The prior is affine in the force with a gain linear in the state's
     /// features ($[1, z]$ and $f\,[x, \dot x, \dot\theta, \sin\theta,
-    /// \cos\theta]$); without it, linear in $[1, z]$.
+    /// \cos\theta]$); without it, linear in $[1, z]$ (as settings saved
+    /// before this field existed read back, as they ran).
     #[serde(default)]
     pub control_affine: bool,
 }
