@@ -15,7 +15,7 @@
 //!    applies the plan's first force; the observed transition is inserted
 //!    into the model before the next replan, and every `refit_every`
 //!    control periods the model is refitted and retuned on all data so far
-//!    (the linear prior learns from the new region at once, not only the
+//!    (the prior learns from the new region at once, not only the
 //!    LWR's residuals).
 //! 3. The run stops at the first successful trial
 //!    ([`succeeded`]) or after `max_trials` MPC trials

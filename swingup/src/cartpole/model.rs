@@ -1,6 +1,6 @@
 //! The cart-pole's learned model: locally weighted regression of the
 //! per-step change of the state on (state, force), on top of a global
-//! linear fit, learned from the trials alone (no physics inside).
+//! least-squares prior, learned from the trials alone (no physics inside).
 //!
 //! Inputs, as PILCO feeds its GP (`settings_cp.m`: `dyni = [1 2 3 5 6]`,
 //! the angle as its sine and cosine, plus the action):
@@ -14,7 +14,7 @@
 //! $D$ the output spreads. As for the pendulum's
 //! [`LwrRegression`](crate::models::nonparametric::LwrRegression), a ridge on
 //! the local intercept makes $\hat r \to 0$ smoothly where the data thin
-//! out, so the model falls back on the linear fit away from the data; where
+//! out, so the model falls back on the prior away from the data; where
 //! no stored point carries weight the residual is exactly 0
 //! ([`CartPoleModel::fallbacks`]).
 //!
@@ -33,8 +33,9 @@
 //! on issue 35).
 //!
 //! Online, [`insert`](CartPoleModel::insert) adds a transition to the LWR
-//! at once (its residual from the current linear fit); between trials
-//! [`refit`](CartPoleModel::refit) refits the linear prior and the output
+//! at once (its residual from the current prior); between trials, and
+//! within one every `refit_every` control periods of the learning loop,
+//! [`refit`](CartPoleModel::refit) refits the prior and the output
 //! spreads to all data, rebuilds the LWR and tunes its metric by
 //! leave-one-out ([`lwr::LwrModel::tune`]).
 
@@ -112,7 +113,8 @@ impl Default for CartPoleModelSettings {
 pub struct CartPoleModel {
     settings: CartPoleModelSettings,
     data: Vec<Transition>,
-    /// $\ell$: row $i$ holds $[c_0, c_1, \dots, c_6]$ of output $i$.
+    /// $\ell$: row $i$ holds the coefficients of output $i$, one per
+    /// regressor of [`prior_row`].
     prior: [[f64; P]; 4],
     /// $D$: the output spreads.
     out_scale: [f64; 4],
@@ -162,12 +164,12 @@ impl CartPoleModel {
         &self.lwr
     }
 
-    /// How many predictions had no weighted data (the linear fit alone).
+    /// How many predictions had no weighted data (the prior alone).
     pub fn fallbacks(&self) -> usize {
         self.fallbacks.load(Ordering::Relaxed)
     }
 
-    /// Refits the linear prior and the output spreads to all data, rebuilds
+    /// Refits the prior and the output spreads to all data, rebuilds
     /// the LWR on the residuals with the metric's scales reset to one over
     /// each input's spread (times the tuned shape of the last tuning, if
     /// any), and with `tune` tunes the metric by leave-one-out.
@@ -210,7 +212,7 @@ impl CartPoleModel {
     }
 
     /// Adds one observed transition: stored, and inserted into the LWR at
-    /// once as its residual from the current linear fit.
+    /// once as its residual from the current prior.
     pub fn insert(&mut self, t: Transition) -> crate::Result<()> {
         crate::error::ensure_data!(
             t.state.iter().chain(&t.next).all(|v| v.is_finite()) && t.force.is_finite(),
@@ -306,7 +308,8 @@ fn linear_derivative(c: &[f64; P], z: &[f64; N_INPUTS], j: usize, control_affine
     d
 }
 
-/// Least squares of each output on $[1, z]$, with a tiny relative ridge
+/// Least squares of each output on the regressors of [`prior_row`]
+/// ($[1, z]$, and the force products when `control_affine`), with a tiny relative ridge
 /// that keeps it defined for degenerate data (one trial rarely excites
 /// every input).
 fn linear_fit(zs: &[[f64; N_INPUTS]], ds: &[[f64; 4]], control_affine: bool) -> crate::Result<[[f64; P]; 4]> {
@@ -403,7 +406,7 @@ mod tests {
     }
 
     /// The model's Jacobians equal central differences, inside the data
-    /// and away from them (the linear fit alone).
+    /// and away from them (the prior alone).
     #[test]
     fn jacobians_match_central_differences() {
         let model = CartPoleModel::fit(&transitions(150, 1), CartPoleModelSettings::default(), false).expect("fit");
