@@ -7,7 +7,7 @@ use std::path::{Path, PathBuf};
 
 use anyhow::Context;
 use clap::{Parser, Subcommand};
-use swingup::config::{BasisKind, Config, Controller, ModelKind, Solver};
+use swingup::config::{BasisKind, Config, Controller, LwrPrior, ModelKind, Solver};
 use swingup::experiments::{Experiment, ExperimentSettings};
 use swingup::learn::run;
 use swingup::output::grid::{GridEvent, GridMode, GridOptions};
@@ -160,6 +160,11 @@ struct LearnArgs {
     /// least-squares fit (the default), or the true dynamics.
     #[arg(long, value_enum)]
     model: Option<ModelKind>,
+    /// The prior the pure LWR (`--model lwr`) corrects: a global linear
+    /// fit (the default), the data's mean, or a control-affine fit on the
+    /// angle's sine and cosine (`swingup::models::ControlAffineRegression`).
+    #[arg(long, value_enum)]
+    prior: Option<LwrPrior>,
     /// The trajectory basis of the Eq. 3 planners: cubic B-splines or
     /// Daubechies-4 wavelets.
     #[arg(long, value_enum)]
@@ -421,6 +426,9 @@ fn apply_options(args: &LearnArgs, file: Option<&Config>, cfg: &mut Config) {
     if let Some(kind) = args.model {
         cfg.model.kind = kind;
     }
+    if let Some(prior) = args.prior {
+        cfg.model.prior = prior;
+    }
     if let Some(basis) = args.basis {
         cfg.planner.basis = basis;
     }
@@ -452,6 +460,7 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
         !args.resume
             && args.config.is_none()
             && args.model.is_none()
+            && args.prior.is_none()
             && args.planner.is_none()
             && args.basis.is_none()
             && args.lambda.is_none(),

@@ -317,6 +317,10 @@ pub enum LwrPrior {
     /// The data's mean: far from the data the model predicts the average
     /// change, i.e. no force it has not seen.
     Constant,
+    /// A global control-affine fit on the angle's sine and cosine and the
+    /// other inputs ([`ControlAffineRegression`](crate::models::ControlAffineRegression)):
+    /// extrapolates how the command's effect depends on the state.
+    ControlAffine,
 }
 
 /// The planner's settings.

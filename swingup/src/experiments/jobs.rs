@@ -168,6 +168,11 @@ pub(super) fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
                                 c.model.kind = kind;
                             }));
                         }
+                        out.push(job("mpc", format!("{cname}/{CONTROL_AFFINE}"), seed, false, &|c| {
+                            c.controller = controller;
+                            c.model.kind = ModelKind::Lwr;
+                            c.model.prior = LwrPrior::ControlAffine;
+                        }));
                     }
                     out.push(Job {
                         experiment: "mpc",

@@ -27,7 +27,7 @@ use rayon::prelude::*;
 use serde::{Deserialize, Serialize};
 
 use crate::cartpole::CartPoleSettings;
-use crate::config::{BasisKind, Config, Controller, ModelKind, Solver, Start};
+use crate::config::{BasisKind, Config, Controller, LwrPrior, ModelKind, Solver, Start};
 use crate::learn::run;
 use crate::models::PendulumRegression;
 use crate::models::learned::learn_model;
@@ -222,6 +222,10 @@ const SCRATCH: [(ModelKind, &str); 3] = [
     (ModelKind::LwrParametric, "lwr-parametric"),
     (ModelKind::True, "true"),
 ];
+
+/// The model name of the `mpc` experiment's variants with the pure LWR over
+/// the control-affine prior ([`LwrPrior::ControlAffine`]).
+const CONTROL_AFFINE: &str = "lwr-control-affine";
 
 /// Variant names of runs without a demonstration start with this.
 const SCRATCH_PREFIX: &str = "scratch, ";
@@ -631,7 +635,7 @@ pub(crate) mod tests {
     }
 
     /// The mpc grid holds one cart-pole job per seed, with the grid's
-    /// cart-pole settings, beside the six pendulum variants.
+    /// cart-pole settings, beside the eight pendulum variants.
     #[test]
     fn mpc_has_one_cartpole_run_per_seed() {
         let settings = ExperimentSettings::quick();
@@ -642,13 +646,18 @@ pub(crate) mod tests {
             cart.iter()
                 .all(|j| matches!(&j.task, JobTask::Cartpole(c) if **c == settings.cartpole))
         );
-        assert_eq!(all.len(), 7 * settings.mpc_seeds as usize);
+        assert_eq!(all.len(), 9 * settings.mpc_seeds as usize);
+        // the control-affine prior's runs are the pure LWR over it, open loop and MPC
+        let affine: Vec<&Job> = all.iter().filter(|j| j.variant.ends_with(CONTROL_AFFINE)).collect();
+        assert_eq!(affine.len(), 2 * settings.mpc_seeds as usize);
+        assert!(affine.iter().all(|j| matches!(&j.task, JobTask::Pendulum { cfg, .. }
+            if cfg.model.kind == ModelKind::Lwr && cfg.model.prior == LwrPrior::ControlAffine)));
         assert_eq!(
             cart.iter().map(|j| j.seed).collect::<Vec<_>>(),
             (1..=settings.mpc_seeds).collect::<Vec<_>>()
         );
         let names = variant_names(&[Experiment::Mpc], &settings);
-        assert_eq!(names.len(), 7);
+        assert_eq!(names.len(), 9);
         assert!(names.iter().any(|n| n == CARTPOLE_VARIANT));
     }
 

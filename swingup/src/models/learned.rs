@@ -6,7 +6,9 @@ use lwr::{LwrSettings, TuneSettings};
 use crate::config::{LwrPrior, ModelConfig, ModelKind};
 use crate::models::nonparametric::ALL_INPUTS;
 use crate::models::selection;
-use crate::models::{INPUTS, KnownHand, LearnedModel, LinearRegression, LwrRegression, PendulumRegression};
+use crate::models::{
+    ControlAffineRegression, INPUTS, KnownHand, LearnedModel, LinearRegression, LwrRegression, PendulumRegression,
+};
 use crate::record::{ModelSummary, TrialRecord, training_data};
 
 /// Fits the LWR model of `settings` to all trials so far (sampled every
@@ -50,11 +52,11 @@ pub fn learn_model(
                 xs, ys, dt,
             )?)
         } else {
-            let linear = match prior_kind {
-                LwrPrior::Linear => inputs,
-                LwrPrior::Constant => &[][..],
-            };
-            Box::new(LinearRegression::fit_inputs(xs, ys, linear)?)
+            match prior_kind {
+                LwrPrior::Linear => Box::new(LinearRegression::fit_inputs(xs, ys, inputs)?),
+                LwrPrior::Constant => Box::new(LinearRegression::fit_inputs(xs, ys, &[])?),
+                LwrPrior::ControlAffine => Box::new(ControlAffineRegression::fit_inputs(xs, ys, inputs)?),
+            }
         })
     };
     // validate() holds cv_blocks >= 2 when the selection is on
@@ -68,7 +70,12 @@ pub fn learn_model(
     let inputs = selection.last().map_or(ALL_INPUTS.to_vec(), |s| s.inputs.clone());
     let settings = selection::restrict(&settings, &inputs);
     let prior = fit_prior(&xs, &ys, &inputs)?;
-    let name = if parametric { "parametric" } else { "linear" };
+    let name = match (parametric, prior_kind) {
+        (true, _) => "parametric",
+        (false, LwrPrior::Linear) => "linear",
+        (false, LwrPrior::Constant) => "constant",
+        (false, LwrPrior::ControlAffine) => "control-affine",
+    };
     let mut model = LwrRegression::fit_on(&xs, &ys, &inputs, settings, prior, name)?;
     let lwr = model.lwr_mut();
     let (settings, loo_nmse) = if m.tune_evals > 0 {

@@ -26,7 +26,7 @@ pub mod selection;
 pub mod truth;
 use trajopt::ModelResult;
 
-pub use nonparametric::{LearnedModel, LinearRegression, LwrRegression};
+pub use nonparametric::{ControlAffineRegression, LearnedModel, LinearRegression, LwrRegression};
 
 /// Names of the model inputs, in order.
 pub const INPUTS: [&str; 5] = ["theta", "theta_dot", "x", "x_dot", "u"];

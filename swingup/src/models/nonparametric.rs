@@ -75,6 +75,91 @@ impl LinearRegression {
 /// The indices of all five inputs.
 pub const ALL_INPUTS: [usize; 5] = [0, 1, 2, 3, 4];
 
+/// The number of regressors of [`ControlAffineRegression`].
+const AFFINE_P: usize = 12;
+
+/// A global control-affine fit, $a(s) + b(s)\,u$ with $a$ and $b$ linear
+/// in the state's features $\phi(s) = (\sin\theta, \cos\theta, \dot\theta,
+/// x, \dot x)$:
+/// $$\ell(z) = c_0 + \sum_j c_j \phi_j + u \Bigl(c_6 + \sum_j c_{6+j} \phi_j\Bigr).$$
+///
+/// It assumes two things of the system, neither its physics: the angle is
+/// an angle (the fit sees it through its sine and cosine, so it repeats
+/// every turn), and the command enters affinely, with a gain that depends
+/// on the state. Least squares decides which of the twelve regressors
+/// matter. Why: the demonstration never brings the pendulum near upright,
+/// where the hand's effect on the angular acceleration changes sign; a
+/// linear prior carries the hanging pendulum's gain up there, this one
+/// carries its dependence on the angle, which the swinging data show. It
+/// is the pendulum's version of the cart-pole's control-affine prior
+/// (`crate::cartpole::model`).
+#[derive(Debug, Clone, Copy, PartialEq)]
+pub struct ControlAffineRegression {
+    /// $[c_0, \dots, c_{11}]$: the intercept, the five features, the
+    /// command, the command times each feature.
+    pub coefficients: [f64; AFFINE_P],
+}
+
+impl ControlAffineRegression {
+    /// Least squares of the output on the twelve regressors, restricted to
+    /// `inputs` (indices into the five): an input left out takes its
+    /// features with it (the angle both its sine and cosine, the command
+    /// all six products); a tiny ridge keeps it defined for degenerate data.
+    ///
+    /// # Errors
+    /// A training point that is not finite, or a fit that fails.
+    pub fn fit_inputs(xs: &[[f64; 5]], ys: &[[f64; 1]], inputs: &[usize]) -> crate::Result<Self> {
+        Ok(Self {
+            coefficients: least_squares(xs, ys, |z| affine_row(z, inputs))?,
+        })
+    }
+}
+
+/// The state's features $\phi(s)$ of [`ControlAffineRegression`], each 0
+/// when its input is not in `inputs`.
+fn affine_features(z: &[f64; 5], inputs: &[usize]) -> [f64; 5] {
+    let on = |j: usize, v: f64| if inputs.contains(&j) { v } else { 0.0 };
+    [
+        on(0, z[0].sin()),
+        on(0, z[0].cos()),
+        on(1, z[1]),
+        on(2, z[2]),
+        on(3, z[3]),
+    ]
+}
+
+/// The regressors of [`ControlAffineRegression`] at `z`.
+fn affine_row(z: &[f64; 5], inputs: &[usize]) -> [f64; AFFINE_P] {
+    let phi = affine_features(z, inputs);
+    let u = if inputs.contains(&4) { z[4] } else { 0.0 };
+    std::array::from_fn(|c| match c {
+        0 => 1.0,
+        1..=5 => phi[c - 1],
+        6 => u,
+        _ => u * phi[c - 7],
+    })
+}
+
+impl PendulumRegression for ControlAffineRegression {
+    fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
+        let c = &self.coefficients;
+        // features of every input: a left-out one has coefficient 0
+        let phi = affine_features(z, &ALL_INPUTS);
+        let u = z[4];
+        if let Some(j) = jacobian {
+            // d phi / d theta = (cos, -sin, 0, 0, 0); the other features are inputs
+            let gain = |k: usize| c[1 + k] + u * c[7 + k];
+            j[0] = gain(0) * phi[1] - gain(1) * phi[0];
+            j[1] = gain(2);
+            j[2] = gain(3);
+            j[3] = gain(4);
+            j[4] = c[6] + (0..5).map(|k| c[7 + k] * phi[k]).sum::<f64>();
+        }
+        let row = affine_row(z, &ALL_INPUTS);
+        (0..AFFINE_P).map(|k| c[k] * row[k]).sum()
+    }
+}
+
 impl PendulumRegression for LinearRegression {
     fn delta_omega(&self, z: &[f64; 5], jacobian: Option<&mut [f64; 5]>) -> f64 {
         if let Some(j) = jacobian {
@@ -250,31 +335,171 @@ impl PendulumRegression for LwrRegression {
 /// Least squares of the output on $[1, z_{inputs}]$, the other inputs with
 /// coefficient 0 (a tiny ridge keeps it defined for degenerate data).
 fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]], inputs: &[usize]) -> crate::Result<[f64; 6]> {
-    let mut ata = Mat::<f64>::zeros(6, 6);
-    let mut aty = Mat::<f64>::zeros(6, 1);
+    least_squares(xs, ys, |x| {
+        std::array::from_fn(|c| match c {
+            0 => 1.0,
+            _ if inputs.contains(&(c - 1)) => x[c - 1],
+            _ => 0.0,
+        })
+    })
+}
+
+/// Least squares of the output on the regressors `row(z)` by the normal
+/// equations, with a tiny relative ridge that keeps it defined for
+/// degenerate data (a regressor that is 0 throughout gets coefficient 0).
+fn least_squares<const P: usize>(
+    xs: &[[f64; 5]],
+    ys: &[[f64; 1]],
+    row: impl Fn(&[f64; 5]) -> [f64; P],
+) -> crate::Result<[f64; P]> {
+    let mut ata = Mat::<f64>::zeros(P, P);
+    let mut aty = Mat::<f64>::zeros(P, 1);
     for (x, y) in xs.iter().zip(ys) {
         crate::error::ensure_data!(
             x.iter().chain(y).all(|v| v.is_finite()),
             "a training point is not finite: {x:?} -> {y:?}"
         );
-        let row: [f64; 6] = std::array::from_fn(|c| match c {
-            0 => 1.0,
-            _ if inputs.contains(&(c - 1)) => x[c - 1],
-            _ => 0.0,
-        });
-        for a in 0..6 {
-            for b in 0..6 {
+        let row = row(x);
+        for a in 0..P {
+            for b in 0..P {
                 ata[(a, b)] += row[a] * row[b];
             }
             aty[(a, 0)] += row[a] * y[0];
         }
     }
-    for a in 0..6 {
+    for a in 0..P {
         ata[(a, a)] += 1e-9 * (1.0 + ata[(a, a)]);
     }
     let sol = ata
         .llt(faer::Side::Lower)
-        .map_err(|e| crate::Error::data(format!("global linear fit failed: {e:?}")))?
+        .map_err(|e| crate::Error::data(format!("global least-squares fit failed: {e:?}")))?
         .solve(&aty);
     Ok(std::array::from_fn(|c| sol[(c, 0)]))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::config::Config;
+    use crate::plant::{Plant, PlantState};
+    use proptest::prelude::*;
+    use rand::{Rng, SeedableRng};
+    use rand_chacha::ChaCha8Rng;
+
+    /// Data exactly in the control-affine prior's span are fitted exactly;
+    /// an input left out gets coefficient 0 on all of its regressors.
+    #[test]
+    fn the_control_affine_prior_reproduces_a_function_in_its_span() {
+        let mut rng = ChaCha8Rng::seed_from_u64(5);
+        let truth: [f64; AFFINE_P] = std::array::from_fn(|_| rng.random_range(-1.0..1.0));
+        let xs: Vec<[f64; 5]> = (0..300)
+            .map(|_| std::array::from_fn(|j| rng.random_range(-4.0..4.0) * if j == 4 { 3.0 } else { 1.0 }))
+            .collect();
+        let value = |c: &[f64; AFFINE_P], z: &[f64; 5]| -> f64 {
+            let row = affine_row(z, &ALL_INPUTS);
+            (0..AFFINE_P).map(|k| c[k] * row[k]).sum()
+        };
+        let ys: Vec<[f64; 1]> = xs.iter().map(|z| [value(&truth, z)]).collect();
+        let m = ControlAffineRegression::fit_inputs(&xs, &ys, &ALL_INPUTS).expect("fit");
+        for (c, t) in m.coefficients.iter().zip(&truth) {
+            assert!((c - t).abs() < 1e-7, "{:?} against {truth:?}", m.coefficients);
+        }
+        for z in &xs[..20] {
+            assert!((m.delta_omega(z, None) - value(&truth, z)).abs() < 1e-7);
+        }
+        // without the hand's position (input 2): its regressor and its product are 0
+        let no_x = ControlAffineRegression::fit_inputs(&xs, &ys, &[0, 1, 3, 4]).expect("fit");
+        assert_eq!((no_x.coefficients[4], no_x.coefficients[10]), (0.0, 0.0));
+        // without the command (input 4): no command terms at all
+        let no_u = ControlAffineRegression::fit_inputs(&xs, &ys, &[0, 1, 2, 3]).expect("fit");
+        assert!(
+            no_u.coefficients[6..].iter().all(|&c| c == 0.0),
+            "{:?}",
+            no_u.coefficients
+        );
+    }
+
+    /// Trained on the imitation trial alone (the robot replaying the
+    /// demonstration, noiseless: the pendulum swings to 87 degrees and no
+    /// further), the control-affine prior's derivatives at upright, in the
+    /// command and in the angle, have the plant's signs and are within 30 %
+    /// of the plant's; the linear prior carries the hanging pendulum's up
+    /// there, with the wrong signs.
+    #[test]
+    fn the_control_affine_prior_extrapolates_the_hand_gain_to_upright() {
+        let cfg = Config::default();
+        let (demo, _) = crate::plant::demo::demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
+        let robot = Plant::new(cfg.robot);
+        let mut st = PlantState::hanging();
+        let (mut xs, mut ys) = (Vec::new(), Vec::new());
+        for &u in &demo.controls {
+            let next = robot.step(&st, u);
+            xs.push([st.s[0], st.s[1], st.s[2], st.s[3], u]);
+            ys.push([next.s[1] - st.s[1]]);
+            st = next;
+        }
+        assert!(
+            xs.iter().all(|z| z[0].abs() < 1.6),
+            "the demonstration stays below horizontal"
+        );
+        // the plant's derivatives at upright at rest, by central differences
+        let upright = [std::f64::consts::PI, 0.0, 0.0, 0.0, 0.0];
+        let plant_g = |z: &[f64; 5]| {
+            let s = PlantState {
+                s: [z[0], z[1], z[2], z[3]],
+                a: z[4],
+            };
+            robot.step(&s, z[4]).s[1] - z[1]
+        };
+        let diff = |f: &dyn Fn(&[f64; 5]) -> f64, j: usize| {
+            let h = 1e-5;
+            let (mut p, mut m) = (upright, upright);
+            p[j] += h;
+            m[j] -= h;
+            (f(&p) - f(&m)) / (2.0 * h)
+        };
+        let affine = ControlAffineRegression::fit_inputs(&xs, &ys, &ALL_INPUTS).expect("fit");
+        let linear = LinearRegression::fit(&xs, &ys).expect("fit");
+        let mut j_affine = [0.0; 5];
+        let mut j_linear = [0.0; 5];
+        affine.delta_omega(&upright, Some(&mut j_affine));
+        linear.delta_omega(&upright, Some(&mut j_linear));
+        for j in [0, 4] {
+            let truth = diff(&plant_g, j);
+            eprintln!(
+                "d/d{}: plant {truth:.3e}, control-affine {:.3e}, linear {:.3e}",
+                crate::models::INPUTS[j],
+                j_affine[j],
+                j_linear[j]
+            );
+            assert!(
+                (j_affine[j] - truth).abs() < 0.1 * truth.abs(),
+                "{j}: {j_affine:?} against {truth}"
+            );
+            assert!(j_linear[j] * truth < 0.0, "{j}: {j_linear:?} against {truth}");
+        }
+    }
+
+    proptest! {
+        #![proptest_config(ProptestConfig::with_cases(200))]
+
+        /// The control-affine prior's exact Jacobian equals central differences.
+        #[test]
+        fn the_control_affine_jacobian_matches_central_differences(
+            c in prop::array::uniform12(-1.0f64..1.0),
+            z in prop::array::uniform5(-10.0f64..10.0),
+        ) {
+            let m = ControlAffineRegression { coefficients: c };
+            let mut j = [0.0; 5];
+            let g = m.delta_omega(&z, Some(&mut j));
+            prop_assert_eq!(g, m.delta_omega(&z, None));
+            let worst = ddp::strategies::check_jacobian(
+                |z| vec![m.delta_omega(&z.try_into().expect("5 inputs"), None)],
+                &z,
+                &j,
+            )
+            .expect("check");
+            prop_assert!(worst.max_rel_error < 1e-7, "at {:?}: {:?}", z, worst);
+        }
+    }
 }
