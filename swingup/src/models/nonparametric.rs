@@ -422,22 +422,13 @@ mod tests {
     /// Trained on the imitation trial alone (the robot replaying the
     /// demonstration, noiseless: the pendulum swings to 87 degrees and no
     /// further), the control-affine prior's derivatives at upright, in the
-    /// command and in the angle, have the plant's signs and are within 30 %
+    /// command and in the angle, have the plant's signs and are within 10 %
     /// of the plant's; the linear prior carries the hanging pendulum's up
     /// there, with the wrong signs.
     #[test]
     fn the_control_affine_prior_extrapolates_the_hand_gain_to_upright() {
-        let cfg = Config::default();
-        let (demo, _) = crate::plant::demo::demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
-        let robot = Plant::new(cfg.robot);
-        let mut st = PlantState::hanging();
-        let (mut xs, mut ys) = (Vec::new(), Vec::new());
-        for &u in &demo.controls {
-            let next = robot.step(&st, u);
-            xs.push([st.s[0], st.s[1], st.s[2], st.s[3], u]);
-            ys.push([next.s[1] - st.s[1]]);
-            st = next;
-        }
+        let (xs, ys) = crate::plant::demo::imitation_data();
+        let robot = Plant::new(Config::default().robot);
         assert!(
             xs.iter().all(|z| z[0].abs() < 1.6),
             "the demonstration stays below horizontal"

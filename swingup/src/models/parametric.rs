@@ -448,16 +448,7 @@ mod tests {
     #[test]
     fn euler_damping_is_biased_on_swing_up_data() {
         let cfg = Config::default();
-        let (demo, _) = crate::plant::demo::demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
-        let robot = Plant::new(cfg.robot);
-        let mut st = PlantState::hanging();
-        let (mut xs, mut ys) = (Vec::new(), Vec::new());
-        for &u in &demo.controls {
-            let next = robot.step(&st, u);
-            xs.push([st.s[0], st.s[1], st.s[2], st.s[3], u]);
-            ys.push([next.s[1] - st.s[1]]);
-            st = next;
-        }
+        let (xs, ys) = crate::plant::demo::imitation_data();
         let dt = cfg.robot.dt;
         let b = cfg.robot.damping;
         let gl = cfg.robot.gravity / cfg.robot.length;

@@ -138,6 +138,25 @@ pub fn demonstrate(
     Some((demo, states))
 }
 
+/// The imitation trial's regression data, noiseless: the default robot
+/// replaying the default demonstration's commands from rest, each sample's
+/// $(\theta, \dot\theta, x, \dot x, u)$ and its change of angular velocity.
+#[cfg(test)]
+pub(crate) fn imitation_data() -> (Vec<[f64; 5]>, Vec<[f64; 1]>) {
+    let cfg = crate::config::Config::default();
+    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
+    let robot = Plant::new(cfg.robot);
+    let mut st = PlantState::hanging();
+    let (mut xs, mut ys) = (Vec::new(), Vec::new());
+    for &u in &demo.controls {
+        let next = robot.step(&st, u);
+        xs.push([st.s[0], st.s[1], st.s[2], st.s[3], u]);
+        ys.push([next.s[1] - st.s[1]]);
+        st = next;
+    }
+    (xs, ys)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
