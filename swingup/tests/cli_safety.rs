@@ -231,3 +231,32 @@ fn a_learning_run_shows_its_phases() {
     assert!(learning.is_some() && planning.is_some() && done.is_some(), "{out}");
     assert!(learning < planning && planning < done, "{out}");
 }
+
+/// `--prior` reaches the pure LWR: the run's saved settings name it, and
+/// over the control-affine prior the model of the imitation trial learns
+/// the swing-up under MPC at the first planned trial (seed 1).
+#[test]
+fn the_prior_option_reaches_the_model() {
+    let dir = scratch("cli-prior");
+    let o = swingup(
+        &[
+            "learn",
+            "--model",
+            "lwr",
+            "--prior",
+            "control-affine",
+            "--controller",
+            "mpc",
+            "--max-trials",
+            "2",
+        ],
+        dir.path(),
+    );
+    assert!(o.status.success(), "{}", stderr(&o));
+    let saved: Config =
+        toml::from_str(&std::fs::read_to_string(dir.path().join("config.toml")).expect("config.toml")).expect("toml");
+    assert_eq!(saved.model.prior, swingup::config::LwrPrior::ControlAffine);
+    assert_eq!(saved.model.kind, swingup::config::ModelKind::Lwr);
+    let out = String::from_utf8_lossy(&o.stdout);
+    assert!(out.contains("success at trial 2"), "{out}");
+}
