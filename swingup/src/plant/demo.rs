@@ -139,13 +139,13 @@ pub fn demonstrate(
 }
 
 /// The imitation trial's regression data, noiseless: the default robot
-/// replaying the default demonstration's commands from rest, each sample's
-/// $(\theta, \dot\theta, x, \dot x, u)$ and its change of angular velocity.
+/// replaying the default demonstration's commands (150 samples) from rest,
+/// each sample's $(\theta, \dot\theta, x, \dot x, u)$ and its change of
+/// angular velocity.
 #[cfg(test)]
 pub(crate) fn imitation_data() -> (Vec<[f64; 5]>, Vec<[f64; 1]>) {
-    let cfg = crate::config::Config::default();
-    let (demo, _) = demonstrate(&cfg.human, &cfg.human_swingup, cfg.horizon, 0).expect("demo");
-    let robot = Plant::new(cfg.robot);
+    let (demo, _) = demonstrate(&PlantParams::human(), &HumanSwingup::default(), 150, 0).expect("demo");
+    let robot = Plant::new(PlantParams::robot());
     let mut st = PlantState::hanging();
     let (mut xs, mut ys) = (Vec::new(), Vec::new());
     for &u in &demo.controls {
