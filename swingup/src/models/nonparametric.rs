@@ -130,8 +130,12 @@ fn affine_features(z: &[f64; 5], inputs: &[usize]) -> [f64; 5] {
 
 /// The regressors of [`ControlAffineRegression`] at `z`.
 fn affine_row(z: &[f64; 5], inputs: &[usize]) -> [f64; AFFINE_P] {
-    let phi = affine_features(z, inputs);
     let u = if inputs.contains(&4) { z[4] } else { 0.0 };
+    row_of(&affine_features(z, inputs), u)
+}
+
+/// The regressors from the state's features `phi` and the command `u`.
+fn row_of(phi: &[f64; 5], u: f64) -> [f64; AFFINE_P] {
     std::array::from_fn(|c| match c {
         0 => 1.0,
         1..=5 => phi[c - 1],
@@ -155,7 +159,8 @@ impl PendulumRegression for ControlAffineRegression {
             j[3] = gain(4);
             j[4] = c[6] + (0..5).map(|k| c[7 + k] * phi[k]).sum::<f64>();
         }
-        let row = affine_row(z, &ALL_INPUTS);
+        // the features computed once (the prior is on the planner's hot path)
+        let row = row_of(&phi, u);
         (0..AFFINE_P).map(|k| c[k] * row[k]).sum()
     }
 }
