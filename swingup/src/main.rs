@@ -687,7 +687,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         } else {
             format!(" (variants {})", args.variants.join(", "))
         },
-        grid_size(&which, &settings),
+        settings.size_line(&which),
         rayon::current_num_threads(),
         out.display()
     );
@@ -762,36 +762,6 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         report.seconds
     );
     Ok(())
-}
-
-/// The seeds and trial caps of the experiments `which` on the grid `s`,
-/// for the header line.
-fn grid_size(which: &[Experiment], s: &ExperimentSettings) -> String {
-    which
-        .iter()
-        .map(|e| match e {
-            Experiment::Learning => format!(
-                "learning: {} seeds ({} with wavelets, {} with Powell, {} derivative-free, {} on the paper's basis), up to {} trials per run",
-                s.learning_seeds,
-                s.wavelet_seeds,
-                s.powell_seeds,
-                s.derivative_free_seeds,
-                s.paper_basis_seeds,
-                s.max_trials
-            ),
-            Experiment::Lambda | Experiment::Planners | Experiment::Beyond => format!(
-                "{}: {} seeds per variant, up to {} trials per run",
-                value_name(*e),
-                s.seeds,
-                s.max_trials
-            ),
-            Experiment::Mpc => format!(
-                "mpc: {} seeds per variant, up to {} trials per pendulum run, a random trial and up to {} MPC trials per cart-pole run",
-                s.mpc_seeds, s.max_trials, s.cartpole.max_trials
-            ),
-        })
-        .collect::<Vec<_>>()
-        .join("; ")
 }
 
 fn write_atomic(path: &Path, text: &str) -> anyhow::Result<()> {

@@ -6,6 +6,39 @@ use super::*;
 /// A change to a run's configuration that makes a variant.
 type Tweak = Box<dyn Fn(&mut Config)>;
 
+impl ExperimentSettings {
+    /// The seeds and trial caps of the experiments `which` on this grid,
+    /// for the header line of a grid's run.
+    pub fn size_line(&self, which: &[Experiment]) -> String {
+        let s = self;
+        which
+            .iter()
+            .map(|e| match e {
+                Experiment::Learning => format!(
+                    "learning: {} seeds ({} with wavelets, {} with Powell, {} derivative-free, {} on the paper's basis), up to {} trials per run",
+                    s.learning_seeds,
+                    s.wavelet_seeds,
+                    s.powell_seeds,
+                    s.derivative_free_seeds,
+                    s.paper_basis_seeds,
+                    s.max_trials
+                ),
+                Experiment::Lambda | Experiment::Planners | Experiment::Beyond => format!(
+                    "{}: {} seeds per variant, up to {} trials per run",
+                    clap::ValueEnum::to_possible_value(e).map_or_else(String::new, |p| p.get_name().to_string()),
+                    s.seeds,
+                    s.max_trials
+                ),
+                Experiment::Mpc => format!(
+                    "mpc: {} seeds per variant, up to {} trials per pendulum run, a random trial and up to {} MPC trials per cart-pole run",
+                    s.mpc_seeds, s.max_trials, s.cartpole.max_trials
+                ),
+            })
+            .collect::<Vec<_>>()
+            .join("; ")
+    }
+}
+
 pub(super) fn jobs(which: &[Experiment], s: &ExperimentSettings) -> Vec<Job> {
     let base = |seed: u64| {
         let mut c = Config {
