@@ -162,7 +162,8 @@ struct LearnArgs {
     model: Option<ModelKind>,
     /// The prior the pure LWR (`--model lwr`) corrects: a global linear
     /// fit (the default), the data's mean, or a control-affine fit on the
-    /// angle's sine and cosine (`swingup::models::ControlAffineRegression`).
+    /// angle's sine and cosine (`swingup::models::ControlAffineRegression`);
+    /// refused with another model, whose prior is fixed.
     #[arg(long, value_enum)]
     prior: Option<LwrPrior>,
     /// The trajectory basis of the Eq. 3 planners: cubic B-splines or

@@ -260,3 +260,17 @@ fn the_prior_option_reaches_the_model() {
     let out = String::from_utf8_lossy(&o.stdout);
     assert!(out.contains("success at trial 2"), "{out}");
 }
+
+#[test]
+fn a_prior_for_a_model_without_one_is_refused_before_any_work() {
+    let dir = scratch("cli-prior-refused");
+    let o = swingup(&["learn", "--model", "true", "--prior", "control-affine"], dir.path());
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains("model.prior") && e.contains("pure LWR"), "{e}");
+    assert!(
+        rundir::run_files(dir.path()).is_empty(),
+        "a refused run wrote {:?}",
+        rundir::run_files(dir.path())
+    );
+}

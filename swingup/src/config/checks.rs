@@ -3,7 +3,7 @@
 
 use crate::error::ensure_config;
 
-use super::{Config, Controller};
+use super::{Config, Controller, LwrPrior, ModelKind};
 
 /// Bytes in a GiB.
 const GIB: f64 = (1u64 << 30) as f64;
@@ -177,6 +177,14 @@ impl Config {
             "model.cv_blocks",
             !self.model.select_inputs || self.model.cv_blocks >= 2,
             "model.cv_blocks must be at least 2 when model.select_inputs is on"
+        );
+        ensure_config!(
+            "model.prior",
+            self.model.prior == LwrPrior::Linear || self.model.kind == ModelKind::Lwr,
+            "model.prior = {:?} applies to the pure LWR (model.kind = lwr) only; model.kind is {:?}, \
+             whose prior is fixed",
+            self.model.prior,
+            self.model.kind
         );
         ensure_config!("horizon", self.horizon >= 10, "horizon must be at least 10 samples");
         let p = &self.planner;

@@ -507,7 +507,8 @@ pub struct ModelConfig {
     /// few parts in a million when a point crosses it, enough to stall
     /// Gauss-Newton at the jump.
     pub kernel: Kernel,
-    /// The pure LWR's prior (see [`LwrPrior`]).
+    /// The pure LWR's prior (see [`LwrPrior`]); [`validate`](Config::validate) refuses any
+    /// but `linear` with another model kind.
     pub prior: LwrPrior,
     /// Choose the LWR's inputs by cross-validation over whole trials
     /// (backward elimination; see [`crate::models::selection`]) before
@@ -614,6 +615,13 @@ mod tests {
             (Box::new(|c: &mut Config| c.mpc.window = 10), "mpc.window"),
             (Box::new(|c: &mut Config| c.mpc.every = 0), "mpc.every"),
             (Box::new(|c: &mut Config| c.mpc.budget_ms = -1.0), "mpc.budget_ms"),
+            (
+                Box::new(|c: &mut Config| {
+                    c.model.kind = ModelKind::LwrParametric;
+                    c.model.prior = LwrPrior::ControlAffine;
+                }),
+                "model.prior",
+            ),
         ] {
             let mut cfg = Config::default();
             set(&mut cfg);
