@@ -12,12 +12,16 @@
 //! derivative-free mode by element and by group differences, Powell at the
 //! claims grid's budget of 10,000 evaluations), each one's status, evaluations and criterion printed first.
 //!
+//! And the same replan with the model of a late trial (`replan_lwr_late`:
+//! 8 trials of the pure LWR under MPC), each trial's replan times during
+//! that run printed first.
+//!
 //! `cargo bench -p swingup --bench plan_lwr`
 
 use std::hint::black_box;
 
 use criterion::{BenchmarkId, Criterion, criterion_group, criterion_main};
-use swingup::config::{Config, Differences, ModelKind, Solver};
+use swingup::config::{Config, Controller, Differences, ModelKind, Solver};
 use swingup::learn::run;
 use swingup::models::learned::learn_model;
 use swingup::models::{LearnedModel, PendulumRegression};
@@ -150,5 +154,104 @@ fn plan_with_lwr(c: &mut Criterion) {
     group.finish();
 }
 
-criterion_group!(benches, plan_with_lwr);
+/// Trials of the late model's run: the claims grid's cap.
+const LATE_TRIALS: usize = 8;
+
+/// The replan of [`plan_with_lwr`]'s `replan_lwr` group with the model of a
+/// late trial: seed 1 learned with the pure LWR (the paper's linear prior)
+/// under `--controller mpc` for [`LATE_TRIALS`] trials on one thread (it does
+/// not succeed, so every trial runs; each trial's replan times during the
+/// run are printed: median, 99th percentile, worst), then the model of all
+/// its trials, replanned over the default 150-step window from the last
+/// trial's measured states (every fifth sample in turn, one per criterion
+/// iteration), warm-started from that trial's plan shifted to the state,
+/// as the controller replans; the same pass timed once is printed as its
+/// 99th percentile.
+fn replan_with_late_model(c: &mut Criterion) {
+    let mut cfg = Config {
+        seed: 1,
+        max_trials: LATE_TRIALS,
+        controller: Controller::Mpc,
+        ..Config::default()
+    };
+    cfg.model.kind = ModelKind::Lwr;
+    let one = rayon::ThreadPoolBuilder::new()
+        .num_threads(1)
+        .build()
+        .expect("thread pool");
+    let record = one
+        .install(|| run(&cfg, vec![], &mut |_: &swingup::record::TrialRecord| {}))
+        .expect("learning run");
+    for t in &record.trials {
+        if let Some(trace) = &t.mpc {
+            eprintln!(
+                "replan_lwr_late: trial {} (success {}): {} replans during the run, median {:.2} ms, \
+                 99th percentile {:.2} ms, worst {:.2} ms",
+                t.index,
+                t.success,
+                trace.replans,
+                trace.replan_quantile(0.5),
+                trace.replan_quantile(0.99),
+                trace.replan_quantile(1.0)
+            );
+        }
+    }
+    let last = record.trials.last().expect("a trial");
+    let (model, summary) = learn_model(&cfg.model, cfg.robot.dt, &record.trials).expect("model");
+    let demo =
+        swingup::plant::demo::demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demo");
+    let initial = last.plan.clone().expect("the last trial is planned");
+    let m = &cfg.mpc;
+    let window = Window::new(m.window, cfg.robot.dt, m.state_coeffs, m.control_coeffs).expect("window");
+    let (ns, nc) = (initial.states.len(), initial.controls.len());
+    let first = WindowPlan {
+        states: faer::Mat::from_fn(m.window + 1, 4, |k, i| initial.states[k.min(ns - 1)][i]),
+        controls: faer::Mat::from_fn(m.window, 1, |k, _| initial.controls[k.min(nc - 1)]),
+    };
+    let settings = ReplanSettings {
+        max_iterations: m.iterations,
+        tol_cost: cfg.planner.tol_cost,
+        ..ReplanSettings::default()
+    };
+    // the replans of the last trial's swing-up, where the controller replans
+    let steps: Vec<usize> = (1..cfg.horizon.min(last.observed.len())).step_by(5).collect();
+    let replan_at = |k: usize| {
+        let cost = window_cost(&cfg.planner, cfg.start, &demo, k, m.window).expect("cost");
+        let x0 = last.observed[k];
+        let problem = window
+            .problem(&model, cost, cfg.planner.lambda, &x0, cfg.planner.initial_state_weight)
+            .expect("problem");
+        replan(&window, &problem, &shifted(&first, k.min(m.window)), &x0, &settings).expect("replan")
+    };
+    let ms: Vec<f64> = steps
+        .iter()
+        .map(|&k| {
+            let started = std::time::Instant::now();
+            one.install(|| black_box(replan_at(k)));
+            started.elapsed().as_secs_f64() * 1e3
+        })
+        .collect();
+    eprintln!(
+        "replan_lwr_late: model of {} points after {} trials; {} replans along trial {}: median {:.2} ms, \
+         99th percentile {:.2} ms (a 60 Hz frame is 16.7 ms)",
+        summary.n_points,
+        record.trials.len(),
+        ms.len(),
+        last.index,
+        swingup::record::quantile(&ms, 0.5),
+        swingup::record::quantile(&ms, 0.99)
+    );
+    let mut group = c.benchmark_group("replan_lwr_late");
+    group.sample_size(20);
+    let mut next = steps.iter().cycle();
+    group.bench_function(BenchmarkId::new("window", m.window), |b| {
+        b.iter(|| {
+            let k = *next.next().expect("steps");
+            one.install(|| replan_at(k))
+        });
+    });
+    group.finish();
+}
+
+criterion_group!(benches, plan_with_lwr, replan_with_late_model);
 criterion_main!(benches);

@@ -42,8 +42,6 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 use trajopt::ModelResult;
 
-use faer::Mat;
-use faer::prelude::*;
 use lwr::{LwrModel, LwrSettings, TuneSettings};
 
 /// Number of model inputs $z = [x, \dot x, \dot\theta, \sin\theta, \cos\theta, f]$.
@@ -313,27 +311,9 @@ fn linear_derivative(c: &[f64; P], z: &[f64; N_INPUTS], j: usize, control_affine
 /// that keeps it defined for degenerate data (one trial rarely excites
 /// every input).
 fn linear_fit(zs: &[[f64; N_INPUTS]], ds: &[[f64; 4]], control_affine: bool) -> crate::Result<[[f64; P]; 4]> {
-    let mut ata = Mat::<f64>::zeros(P, P);
-    let mut aty = Mat::<f64>::zeros(P, 4);
-    for (z, d) in zs.iter().zip(ds) {
-        let row = prior_row(z, control_affine);
-        for a in 0..P {
-            for b in 0..P {
-                ata[(a, b)] += row[a] * row[b];
-            }
-            for (i, di) in d.iter().enumerate() {
-                aty[(a, i)] += row[a] * di;
-            }
-        }
-    }
-    for a in 0..P {
-        ata[(a, a)] += 1e-6 * (1.0 + ata[(a, a)]);
-    }
-    let sol = ata
-        .llt(faer::Side::Lower)
-        .map_err(|e| crate::Error::data(format!("the cart-pole's linear fit failed: {e:?}")))?
-        .solve(&aty);
-    Ok(std::array::from_fn(|i| std::array::from_fn(|c| sol[(c, i)])))
+    crate::models::ridge_least_squares(zs, ds, 1e-6, "the cart-pole's linear fit", |z| {
+        prior_row(z, control_affine)
+    })
 }
 
 impl trajopt::Model for CartPoleModel {

@@ -28,6 +28,52 @@ use trajopt::ModelResult;
 
 pub use nonparametric::{ControlAffineRegression, LearnedModel, LinearRegression, LwrRegression};
 
+/// Least squares of each of `O` outputs on the `P` regressors `row(x)` by
+/// the normal equations, with the relative ridge `ridge`
+/// ($A^\top A + \mathrm{ridge}\,(I + \mathrm{diag}\,A^\top A)$) that keeps it
+/// defined for degenerate data (a regressor that is 0 throughout gets
+/// coefficient 0); the coefficients of output $o$ are row $o$ of the result.
+/// The pendulum's global priors and the cart-pole's share it; `what` names
+/// the fit in its errors.
+///
+/// # Errors
+/// A training point that is not finite, or a normal matrix that is not
+/// positive definite even with the ridge.
+pub(crate) fn ridge_least_squares<const I: usize, const O: usize, const P: usize>(
+    xs: &[[f64; I]],
+    ys: &[[f64; O]],
+    ridge: f64,
+    what: &str,
+    row: impl Fn(&[f64; I]) -> [f64; P],
+) -> crate::Result<[[f64; P]; O]> {
+    use faer::prelude::Solve;
+    let mut ata = faer::Mat::<f64>::zeros(P, P);
+    let mut aty = faer::Mat::<f64>::zeros(P, O);
+    for (x, y) in xs.iter().zip(ys) {
+        crate::error::ensure_data!(
+            x.iter().chain(y).all(|v| v.is_finite()),
+            "{what}: a training point is not finite: {x:?} -> {y:?}"
+        );
+        let row = row(x);
+        for a in 0..P {
+            for b in 0..P {
+                ata[(a, b)] += row[a] * row[b];
+            }
+            for (o, yo) in y.iter().enumerate() {
+                aty[(a, o)] += row[a] * yo;
+            }
+        }
+    }
+    for a in 0..P {
+        ata[(a, a)] += ridge * (1.0 + ata[(a, a)]);
+    }
+    let sol = ata
+        .llt(faer::Side::Lower)
+        .map_err(|e| crate::Error::data(format!("{what} failed: {e:?}")))?
+        .solve(&aty);
+    Ok(std::array::from_fn(|o| std::array::from_fn(|c| sol[(c, o)])))
+}
+
 /// Names of the model inputs, in order.
 pub const INPUTS: [&str; 5] = ["theta", "theta_dot", "x", "x_dot", "u"];
 

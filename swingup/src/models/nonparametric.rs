@@ -4,8 +4,6 @@
 
 use std::sync::atomic::{AtomicUsize, Ordering};
 
-use faer::Mat;
-use faer::prelude::*;
 use lwr::LwrModel;
 
 use crate::models::{KnownHand, PendulumRegression};
@@ -349,37 +347,16 @@ fn global_linear_fit(xs: &[[f64; 5]], ys: &[[f64; 1]], inputs: &[usize]) -> crat
     })
 }
 
-/// Least squares of the output on the regressors `row(z)` by the normal
-/// equations, with a tiny relative ridge that keeps it defined for
-/// degenerate data (a regressor that is 0 throughout gets coefficient 0).
+/// Least squares of the one output on the regressors `row(x)`
+/// ([`ridge_least_squares`](super::ridge_least_squares) with the pendulum's
+/// ridge, $10^{-9}$).
 fn least_squares<const P: usize>(
     xs: &[[f64; 5]],
     ys: &[[f64; 1]],
     row: impl Fn(&[f64; 5]) -> [f64; P],
 ) -> crate::Result<[f64; P]> {
-    let mut ata = Mat::<f64>::zeros(P, P);
-    let mut aty = Mat::<f64>::zeros(P, 1);
-    for (x, y) in xs.iter().zip(ys) {
-        crate::error::ensure_data!(
-            x.iter().chain(y).all(|v| v.is_finite()),
-            "a training point is not finite: {x:?} -> {y:?}"
-        );
-        let row = row(x);
-        for a in 0..P {
-            for b in 0..P {
-                ata[(a, b)] += row[a] * row[b];
-            }
-            aty[(a, 0)] += row[a] * y[0];
-        }
-    }
-    for a in 0..P {
-        ata[(a, a)] += 1e-9 * (1.0 + ata[(a, a)]);
-    }
-    let sol = ata
-        .llt(faer::Side::Lower)
-        .map_err(|e| crate::Error::data(format!("global least-squares fit failed: {e:?}")))?
-        .solve(&aty);
-    Ok(std::array::from_fn(|c| sol[(c, 0)]))
+    let [coefficients] = super::ridge_least_squares(xs, ys, 1e-9, "global least-squares fit", row)?;
+    Ok(coefficients)
 }
 
 #[cfg(test)]
