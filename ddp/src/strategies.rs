@@ -166,25 +166,9 @@ pub fn lq_problem(max_n: usize, max_m: usize, max_horizon: usize) -> impl Strate
         })
 }
 
-/// The worst disagreement between an analytic Jacobian and central
-/// differences, found by [`check_jacobian`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JacobianCheck {
-    /// The largest relative error
-    /// $\lvert a_{ij} - d_{ij} \rvert / \max(1, \lvert d_{ij} \rvert)$ over
-    /// all entries ($a$ analytic, $d$ central difference): relative for
-    /// large entries, absolute for small ones; infinite where either is NaN.
-    /// 0 for an empty Jacobian.
-    pub max_rel_error: f64,
-    /// Row (output) of the worst entry.
-    pub row: usize,
-    /// Column (input) of the worst entry.
-    pub col: usize,
-    /// The analytic value there.
-    pub analytic: f64,
-    /// The central difference there.
-    pub numeric: f64,
-}
+/// The worst disagreement found by [`check_jacobian`]: the workspace's one
+/// record of a derivative check, with its error measure.
+pub use solve::JacobianCheck;
 
 /// Compares the analytic Jacobian `analytic` ($q \times p$, row-major) of
 /// $f: \mathbb{R}^p \to \mathbb{R}^q$ at `z` with central differences
@@ -228,26 +212,9 @@ pub fn check_jacobian(mut f: impl FnMut(&[f64]) -> Vec<f64>, z: &[f64], analytic
         &mut numeric,
         &mut scratch,
     )?;
-    let mut worst = JacobianCheck {
-        max_rel_error: 0.0,
-        row: 0,
-        col: 0,
-        analytic: analytic.first().copied().unwrap_or(0.0),
-        numeric: numeric.first().copied().unwrap_or(0.0),
-    };
+    let mut worst = JacobianCheck::new();
     for (k, (&a, &d)) in analytic.iter().zip(&numeric).enumerate() {
-        // a NaN on either side counts as an infinite error
-        let err = (a - d).abs() / d.abs().max(1.0);
-        let err = if err.is_nan() { f64::INFINITY } else { err };
-        if err > worst.max_rel_error {
-            worst = JacobianCheck {
-                max_rel_error: err,
-                row: k / p,
-                col: k % p,
-                analytic: a,
-                numeric: d,
-            };
-        }
+        worst.record(k / p, k % p, a, d);
     }
     Ok(worst)
 }

@@ -3,6 +3,9 @@
 use std::fmt;
 use std::time::{Duration, Instant};
 
+mod check;
+pub use check::JacobianCheck;
+
 /// One iteration as a solver reports it to its observers.
 #[derive(Debug, Clone, Copy)]
 pub struct Progress<'a> {

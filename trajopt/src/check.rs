@@ -32,22 +32,11 @@ use crate::error::{Result, check_point};
 use crate::least_squares::{LeastSquaresProblem, check_jacobian_pattern};
 
 /// The worst disagreement found by [`check_jacobian`],
-/// [`check_model_jacobians`] or [`check_stage_cost_jacobians`].
-#[derive(Debug, Clone, Copy, PartialEq)]
-pub struct JacobianCheck {
-    /// The largest relative error
-    /// $|J_{ij} - D_{ij}| / \max(1, |J_{ij}|, |D_{ij}|)$ (NaN if an entry
-    /// was NaN).
-    pub max_rel_error: f64,
-    /// The output (residual, or next-state component) where it occurred.
-    pub row: usize,
-    /// The input (parameter, or entry of $z = (x, u)$) where it occurred.
-    pub col: usize,
-    /// The analytic entry $J_{ij}$ there (0 outside the pattern).
-    pub analytic: f64,
-    /// The central difference $D_{ij}$ there.
-    pub numeric: f64,
-}
+/// [`check_model_jacobians`] or [`check_stage_cost_jacobians`]: the
+/// workspace's one record of a derivative check, with its error measure
+/// (entries outside a Jacobian's pattern or structure count as analytic
+/// zeros).
+pub use solve::JacobianCheck;
 
 /// Compares the problem's analytic Jacobian at `theta` with central
 /// differences of its residuals; see the [module docs](self).
@@ -159,13 +148,7 @@ fn worst_difference(
     mut f: impl FnMut(&[f64], &mut [f64]) -> Result<()>,
 ) -> Result<JacobianCheck> {
     let p = z.len();
-    let mut worst = JacobianCheck {
-        max_rel_error: 0.0,
-        row: 0,
-        col: 0,
-        analytic: 0.0,
-        numeric: 0.0,
-    };
+    let mut worst = JacobianCheck::new();
     let (mut plus, mut minus) = (vec![0.0; q], vec![0.0; q]);
     let mut probe = z.to_vec();
     for j in 0..p {
@@ -177,18 +160,7 @@ fn worst_difference(
         probe[j] = z[j];
         for i in 0..q {
             let numeric = (plus[i] - minus[i]) / (2.0 * h);
-            let a = analytic[i * p + j];
-            let error = (a - numeric).abs() / 1f64.max(a.abs()).max(numeric.abs());
-            // a NaN counts as the worst error
-            if error > worst.max_rel_error || (error.is_nan() && !worst.max_rel_error.is_nan()) {
-                worst = JacobianCheck {
-                    max_rel_error: error,
-                    row: i,
-                    col: j,
-                    analytic: a,
-                    numeric,
-                };
-            }
+            worst.record(i, j, analytic[i * p + j], numeric);
         }
     }
     Ok(worst)
