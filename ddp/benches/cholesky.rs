@@ -75,7 +75,7 @@ impl Hand {
     fn solve(&mut self, a: &[f64], rhs: &[f64], m: usize, out: &mut [f64]) -> bool {
         let c = rhs.len() / m;
         self.l.copy_from_slice(a);
-        if !linalg::cholesky(&mut self.l, m) {
+        if linalg::cholesky(&mut self.l, m).is_none() {
             return false;
         }
         for j in 0..c {

@@ -51,48 +51,8 @@ pub(crate) fn add_at_x(a: &[f64], x: &[f64], r: usize, p: usize, y: &mut [f64]) 
     }
 }
 
-/// In-place Cholesky factorisation $A = L L^\top$ of the symmetric $n \times n$
-/// matrix in `a` (lower triangle read, $L$ written there). Returns `false`
-/// if $A$ is not (numerically) positive definite.
-pub(crate) fn cholesky(a: &mut [f64], n: usize) -> bool {
-    for j in 0..n {
-        let mut d = a[j * n + j];
-        for k in 0..j {
-            d -= a[j * n + k] * a[j * n + k];
-        }
-        if d <= 0.0 || !d.is_finite() {
-            return false;
-        }
-        let d = d.sqrt();
-        a[j * n + j] = d;
-        for i in j + 1..n {
-            let mut s = a[i * n + j];
-            for k in 0..j {
-                s -= a[i * n + k] * a[j * n + k];
-            }
-            a[i * n + j] = s / d;
-        }
-    }
-    true
-}
-
-/// Solves $L L^\top x = b$ in place, $L$ from [`cholesky`].
-pub(crate) fn cholesky_solve(l: &[f64], n: usize, b: &mut [f64]) {
-    for i in 0..n {
-        let mut s = b[i];
-        for k in 0..i {
-            s -= l[i * n + k] * b[k];
-        }
-        b[i] = s / l[i * n + i];
-    }
-    for i in (0..n).rev() {
-        let mut s = b[i];
-        for k in i + 1..n {
-            s -= l[k * n + i] * b[k];
-        }
-        b[i] = s / l[i * n + i];
-    }
-}
+/// The dense Cholesky kernels, shared with `lwr` ([`solve::dense`]).
+pub(crate) use solve::dense::{cholesky, cholesky_solve};
 
 /// Workspace of [`box_qp`].
 #[derive(Debug, Clone)]
@@ -157,7 +117,7 @@ impl BoxQp {
                 self.factor[a * mf + b] = h[i * self.m + j];
             }
         }
-        cholesky(&mut self.factor[..mf * mf], mf)
+        cholesky(&mut self.factor[..mf * mf], mf).is_some()
     }
 
     /// Projected-Newton solution of $\min_x \tfrac12 x^\top H x + g^\top x$
@@ -255,12 +215,12 @@ mod tests {
     #[test]
     fn cholesky_solves_and_detects_indefinite() {
         let mut a = vec![4.0, 2.0, 2.0, 3.0];
-        assert!(cholesky(&mut a, 2));
+        assert!(cholesky(&mut a, 2).is_some());
         let mut b = vec![6.0, 5.0];
         cholesky_solve(&a, 2, &mut b);
         assert!((b[0] - 1.0).abs() < 1e-14 && (b[1] - 1.0).abs() < 1e-14);
         let mut bad = vec![1.0, 2.0, 2.0, 1.0];
-        assert!(!cholesky(&mut bad, 2));
+        assert!(cholesky(&mut bad, 2).is_none());
     }
 
     /// The hand-written factorisation and solve agree with faer's `llt` to
@@ -286,7 +246,7 @@ mod tests {
                 let rhs = Mat::from_fn(m, 3, |_, _| next());
                 let reference = a.llt(faer::Side::Lower).expect("positive definite").solve(&rhs);
                 let mut l: Vec<f64> = (0..m * m).map(|k| a[(k / m, k % m)]).collect();
-                assert!(cholesky(&mut l, m));
+                assert!(cholesky(&mut l, m).is_some());
                 for c in 0..3 {
                     let mut b: Vec<f64> = (0..m).map(|i| rhs[(i, c)]).collect();
                     cholesky_solve(&l, m, &mut b);

@@ -4,60 +4,13 @@
 use crate::error::{LwrError, Result};
 use crate::settings::LwrSettings;
 
-/// In-place Cholesky $A = L L^\top$ of a row-major $p \times p$ matrix (lower
-/// triangle used and overwritten). Returns the smallest and largest pivots
-/// $L_{aa}$, or `None` if a pivot is not positive.
-///
-/// Hand-written on purpose: at a local fit's sizes ($p$ = 3 to 10) it beats
-/// nalgebra's `Cholesky` and faer's `llt` with preallocated buffers
-/// (`benches/cholesky.rs`: factor and two solves, 159 ns against 338 and
-/// 267 ns at $p = 3$, 1.08 us against 1.54 and 1.62 us at $p = 10$; faer
-/// ties at $p = 4$), and the test `cholesky_agrees_with_nalgebra` checks it
-/// against nalgebra to $10^{-12}$. Public (hidden, through `lwr::bench`) only
-/// so that the bench times this code rather than a copy of it.
-pub fn cholesky(a: &mut [f64], p: usize) -> Option<(f64, f64)> {
-    let (mut lo, mut hi) = (f64::INFINITY, 0.0f64);
-    for j in 0..p {
-        let mut djj = a[j * p + j];
-        for k in 0..j {
-            djj -= a[j * p + k] * a[j * p + k];
-        }
-        if !(djj > 0.0 && djj.is_finite()) {
-            return None;
-        }
-        let ljj = djj.sqrt();
-        lo = lo.min(ljj);
-        hi = hi.max(ljj);
-        a[j * p + j] = ljj;
-        for i in j + 1..p {
-            let mut v = a[i * p + j];
-            for k in 0..j {
-                v -= a[i * p + k] * a[j * p + k];
-            }
-            a[i * p + j] = v / ljj;
-        }
-    }
-    Some((lo, hi))
-}
-
-/// Solves $L L^\top x = b$ in place, $L$ from [`cholesky`]. Public (hidden,
-/// through `lwr::bench`) for the Cholesky bench, as [`cholesky`].
-pub fn chol_solve(l: &[f64], p: usize, b: &mut [f64]) {
-    for i in 0..p {
-        let mut v = b[i];
-        for k in 0..i {
-            v -= l[i * p + k] * b[k];
-        }
-        b[i] = v / l[i * p + i];
-    }
-    for i in (0..p).rev() {
-        let mut v = b[i];
-        for k in i + 1..p {
-            v -= l[k * p + i] * b[k];
-        }
-        b[i] = v / l[i * p + i];
-    }
-}
+/// The dense Cholesky kernels, shared with `ddp` ([`solve::dense`]: at a
+/// local fit's sizes, $p$ = 3 to 10, they beat nalgebra's `Cholesky` and
+/// faer's `llt` with preallocated buffers, `benches/cholesky.rs`; the test
+/// `cholesky_agrees_with_nalgebra` checks them against nalgebra to
+/// $10^{-12}$). Public (hidden, through `lwr::bench`) only so that the bench
+/// times this code.
+pub use solve::dense::{cholesky, cholesky_solve as chol_solve};
 
 /// A factorised $P = (Z^\top K Z + \Lambda)^{-1}$: $P = D^{-1} (L L^\top)^{-1} D^{-1}$
 /// with the diagonal scaling $D$.

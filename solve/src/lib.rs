@@ -4,6 +4,7 @@ use std::fmt;
 use std::time::{Duration, Instant};
 
 mod check;
+pub mod dense;
 pub use check::JacobianCheck;
 
 /// One iteration as a solver reports it to its observers.

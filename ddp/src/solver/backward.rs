@@ -123,9 +123,7 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             let kk = &mut self.kff[k * m..(k + 1) * m];
             let gk = &mut self.gain[k * m * n..(k + 1) * m * n];
             if !self.limited {
-                if !cholesky(&mut self.quu_reg, m) {
-                    return None;
-                }
+                cholesky(&mut self.quu_reg, m)?;
                 for (k, q) in kk.iter_mut().zip(&self.qu) {
                     *k = -q;
                 }
