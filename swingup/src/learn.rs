@@ -507,6 +507,11 @@ mod tests {
         demonstration(&cfg.human, &cfg.human_swingup, cfg.horizon, cfg.balance).expect("demonstration")
     }
 
+    /// The demonstration's commands run open loop on `robot` as trial 1.
+    fn imitation(cfg: &Config, robot: &Plant, lqr: &Catch, d: &Demonstration) -> TrialRecord {
+        execute(cfg, robot, lqr, &d.controls, &d.states, None, 1, TrialKind::Imitation)
+    }
+
     /// Exploration commands stay within the amplitude (a B-spline lies in
     /// the hull of its coefficients), move, and depend on the seed alone.
     #[test]
@@ -578,16 +583,7 @@ mod tests {
         let robot = Plant::new(cfg.robot);
         let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test()).expect("lqr");
         let d = demo(&cfg);
-        let imitation = execute(
-            &cfg,
-            &robot,
-            &lqr,
-            &d.controls,
-            &d.states,
-            None,
-            1,
-            TrialKind::Imitation,
-        );
+        let imitation = imitation(&cfg, &robot, &lqr, &d);
         let mut model = KnownHand::new(TrueRegression::new(cfg.robot).expect("model"), cfg.robot.dt);
         let (plan, _) = plan_and_gains(&cfg, &d, &model, None, None).expect("plan");
         let open = execute(
@@ -615,16 +611,7 @@ mod tests {
         let robot = Plant::new(cfg.robot);
         let lqr = Catch::design(&cfg.robot, cfg.catch_spec(), &cfg.balance_test()).expect("lqr");
         let d = demo(&cfg);
-        let t = execute(
-            &cfg,
-            &robot,
-            &lqr,
-            &d.controls,
-            &d.states,
-            None,
-            1,
-            TrialKind::Imitation,
-        );
+        let t = imitation(&cfg, &robot, &lqr, &d);
         let w = observed_window(&t, d.horizon()).expect("window");
         assert_eq!((w.states.len(), w.controls.len()), (d.horizon() + 1, d.horizon()));
         assert_eq!(w.states[..], t.observed[..=d.horizon()]);
