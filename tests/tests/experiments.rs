@@ -200,18 +200,11 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         trials: 2,
         robot_seconds: 11.0,
         max_angles: vec![1.5, 3.2],
-        plan_statuses: vec![],
-        plan_costs: vec![],
-        plan_gauss_newton_costs: vec![],
         failures: vec![String::new(); 2],
-        scales: vec![],
-        rollouts: vec![],
         seconds: 1.0,
-        replan_ms: vec![],
-        first_plan_ms: vec![],
         trial_success: vec![false, true],
         code_version: "commit earlier".into(),
-        settings_digest: String::new(),
+        ..Default::default()
     };
     let report = run_experiments(
         &[Experiment::Mpc],

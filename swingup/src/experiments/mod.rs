@@ -605,18 +605,8 @@ pub(crate) mod tests {
             trials: success.unwrap_or(8),
             robot_seconds: 5.5 * success.unwrap_or(8) as f64,
             max_angles: vec![first_angle],
-            plan_statuses: vec![],
-            plan_costs: vec![],
-            plan_gauss_newton_costs: vec![],
-            failures: vec![],
-            scales: vec![],
-            rollouts: vec![],
-            seconds: 0.0,
-            replan_ms: vec![],
-            first_plan_ms: vec![],
-            trial_success: vec![],
             code_version: "commit test".into(),
-            settings_digest: String::new(),
+            ..Default::default()
         }
     }
 

@@ -29,8 +29,9 @@ pub const LEFT_DATA_SUPPORT: f64 = 1e-3;
 /// A state component beyond this has blown up.
 pub const BLOW_UP_NORM: f64 = 100.0;
 
-/// One learning run's outcome.
-#[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
+/// One learning run's outcome. `Default` is an empty run (for fixtures;
+/// the grid fills every field).
+#[derive(Debug, Clone, Default, PartialEq, Serialize, Deserialize)]
 pub struct RunSummary {
     /// Experiment name.
     pub experiment: String,

@@ -356,20 +356,9 @@ mod tests {
             seed: 1,
             success_trial: None,
             trials: scales.len() + 1,
-            robot_seconds: 0.0,
-            max_angles: vec![],
-            plan_statuses: vec![],
-            plan_costs: vec![],
-            plan_gauss_newton_costs: vec![],
-            failures: vec![],
             scales,
-            rollouts: vec![],
-            seconds: 0.0,
-            replan_ms: vec![],
-            first_plan_ms: vec![],
-            trial_success: vec![],
             code_version: "commit test".into(),
-            settings_digest: String::new(),
+            ..Default::default()
         }
     }
 
