@@ -365,7 +365,14 @@ pub(crate) struct Scratch {
     /// The factorisation, and its work buffer.
     factor: Factor,
     scaled: Vec<f64>,
+    /// Neighbours found by this scratch's last search ([`local_fit`]'s
+    /// choice between the tree and one pass over the data).
+    last_found: usize,
 }
+
+/// [`local_fit`] scans the whole data set instead of searching the tree
+/// when the last query's support held more than `1 / WIDE_SUPPORT` of it.
+const WIDE_SUPPORT: usize = 4;
 
 /// Puts `found` (`(index, d^2)` pairs with distinct indices below `n`)
 /// in increasing index order: by a sort when they are few, by scattering
@@ -400,6 +407,23 @@ thread_local! {
     static SCRATCH: std::cell::RefCell<Scratch> = std::cell::RefCell::new(Scratch::default());
 }
 
+/// Puts every point with $d^2 <$ `radius`$^2$ into `scratch.found`, as
+/// `(index, d^2)` in increasing index order. The same neighbours in the same
+/// order either way: by one pass over the data when the scratch's last
+/// search found more than `1 / WIDE_SUPPORT` of it (a planner's queries
+/// along a trajectory have alike supports), by the tree's search and a
+/// sort otherwise.
+fn find_neighbours(db: &Database, index: &ScaledIndex, metric: &Metric, q: &[f64], radius: f64, scratch: &mut Scratch) {
+    scratch.found.clear();
+    if scratch.last_found * WIDE_SUPPORT > db.len() {
+        ScaledIndex::scan(db, metric, q, radius, &mut scratch.found);
+    } else {
+        index.within(db, metric, q, radius, &mut scratch.found);
+        in_index_order(&mut scratch.found, db.len(), &mut scratch.dense);
+    }
+    scratch.last_found = scratch.found.len();
+}
+
 /// Fits at `q` with this thread's scratch buffers: finds the neighbours
 /// with `index` (the tree in the metric's scaled coordinates, which gives
 /// the same neighbours and distances as `db`'s own tree), sorts them by
@@ -417,10 +441,7 @@ pub(crate) fn local_fit(
         return Err(LwrError::EmptyDatabase);
     }
     let fit_in = |scratch: &mut Scratch| {
-        let radius = settings.support_radius();
-        scratch.found.clear();
-        index.within(db, metric, q, radius, &mut scratch.found);
-        in_index_order(&mut scratch.found, db.len(), &mut scratch.dense);
+        find_neighbours(db, index, metric, q, settings.support_radius(), scratch);
         fit_found(db, settings, metric, q, want, scratch)
     };
     SCRATCH.with(|s| match s.try_borrow_mut() {
@@ -471,6 +492,7 @@ pub(crate) fn fit_found(
         factor,
         scaled,
         dense: _,
+        last_found: _,
     } = scratch;
     nb.clear();
     zs.clear();
@@ -804,6 +826,47 @@ mod tests {
             }
         }
         assert!(compared > 200, "only {compared} queries had a fit");
+    }
+
+    /// The one pass over the data and the tree's search find the same
+    /// neighbours, bitwise, in the same order, for narrow and wide supports;
+    /// a wide support makes the next search a pass and a narrow one the tree.
+    #[test]
+    fn the_pass_over_the_data_finds_what_the_tree_finds() {
+        let d = 3;
+        let mut seed = 11u64;
+        let mut next = || {
+            seed = seed.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64 - 0.5
+        };
+        let n = 800;
+        let xs: Vec<Vec<f64>> = (0..n).map(|_| (0..d).map(|_| next()).collect()).collect();
+        let mut db = Database::new(d, 1).expect("valid");
+        db.insert_many(&xs, &vec![vec![0.0]; n]).expect("finite");
+        for metric in [Metric::Diagonal(vec![1.0, 0.0, 3.0]), Metric::Diagonal(vec![1.0; 3])] {
+            let index = ScaledIndex::new(&db, &metric);
+            for t in 0..20 {
+                let q: Vec<f64> = if t % 2 == 0 {
+                    xs[t * 37].clone()
+                } else {
+                    (0..d).map(|_| next()).collect()
+                };
+                for radius in [0.0, 0.05, 0.3, 2.0] {
+                    let mut tree = Scratch::default();
+                    find_neighbours(&db, &index, &metric, &q, radius, &mut tree);
+                    let mut pass = Scratch {
+                        last_found: n,
+                        ..Scratch::default()
+                    };
+                    find_neighbours(&db, &index, &metric, &q, radius, &mut pass);
+                    let bits = |v: &[(usize, f64)]| v.iter().map(|&(i, d2)| (i, d2.to_bits())).collect::<Vec<_>>();
+                    assert_eq!(bits(&tree.found), bits(&pass.found), "{metric:?} r {radius}");
+                    assert!(tree.found.windows(2).all(|w| w[0].0 < w[1].0));
+                    // the next search's way follows this one's count
+                    assert_eq!(pass.last_found, tree.found.len());
+                }
+            }
+        }
     }
 
     #[test]

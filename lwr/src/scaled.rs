@@ -182,6 +182,22 @@ impl ScaledIndex {
     /// $d^2 <$ `radius`$^2$ under `metric` (the index's), with $d^2$ computed
     /// as [`Database`]'s tree search computes it: the same points and bitwise
     /// the same distances, in another order.
+    /// Every point with $d^2 <$ `radius`$^2$, as `(index, d^2)` appended in
+    /// increasing index order, by one pass over the database: the distances
+    /// are those [`within`](Self::within) computes, so the neighbours are
+    /// bitwise the same, without the tree's descent or a sort. Cheaper than
+    /// the search once the support holds a large part of the data.
+    pub(crate) fn scan(db: &Database, metric: &Metric, q: &[f64], radius: f64, out: &mut Vec<(usize, f64)>) {
+        let r2 = radius * radius;
+        let d = db.n_inputs();
+        let inputs = db.inputs();
+        out.extend(
+            (0..db.len())
+                .map(|i| (i, metric.dist2(&inputs[i * d..(i + 1) * d], q)))
+                .filter(|&(_, d2)| d2 < r2),
+        );
+    }
+
     pub(crate) fn within(&self, db: &Database, metric: &Metric, q: &[f64], radius: f64, out: &mut Vec<(usize, f64)>) {
         debug_assert_eq!(self.n, db.len());
         let r2 = radius * radius;
