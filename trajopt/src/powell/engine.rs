@@ -1,7 +1,7 @@
 //! Powell's iteration: a sweep of line searches over the direction set,
 //! the replacement test, the stopping tests and the restart on a bound.
 
-use super::line_search::{Line, feasible_interval, fill_trial};
+use super::line_search::{Line, Search, feasible_interval, fill_trial};
 use super::{PowellSettings, PowellStatus, invalid};
 use crate::error::{TrajoptError, check_finite};
 
@@ -153,7 +153,15 @@ impl Engine {
             stop_cost: self.stop_cost,
             hit: None,
         };
-        let (alpha, f, c) = line.minimise_or_hit(self.fx, lo, hi, step, known, curvature, self.tol_line)?;
+        let (alpha, f, c) = line.minimise_or_hit(Search {
+            f0: self.fx,
+            lo,
+            hi,
+            step,
+            known,
+            curvature,
+            tol: self.tol_line,
+        })?;
         self.reached |= line.hit.is_some();
         match which {
             Which::Row(i) => self.curvatures[i] = c,

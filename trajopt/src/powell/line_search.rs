@@ -107,6 +107,29 @@ pub(super) fn feasible_interval(x: &[f64], dir: &[f64], bounds: Option<&(Vec<f64
     (lo.min(0.0), hi.max(0.0))
 }
 
+/// One line search's question to [`Line::minimise`]: minimise
+/// $\phi(\alpha)$ over $[lo, hi] \ni 0$ given $\phi(0) = f_0$, the first
+/// trial at `step`, perhaps an evaluated `known` point and the `curvature`
+/// of the last search along the same direction, to the tolerance `tol` on
+/// $\alpha$.
+#[derive(Debug, Clone, Copy)]
+pub(super) struct Search {
+    /// $\phi(0)$.
+    pub(super) f0: f64,
+    /// The interval's lower end (at most 0).
+    pub(super) lo: f64,
+    /// The interval's upper end (at least 0).
+    pub(super) hi: f64,
+    /// The first trial's $\alpha$ (its sign may flip to stay inside).
+    pub(super) step: f64,
+    /// An already evaluated $(\alpha, \phi(\alpha))$ to reuse.
+    pub(super) known: Option<(f64, f64)>,
+    /// $\phi''$ from the last search along the same direction.
+    pub(super) curvature: Option<f64>,
+    /// Tolerance on $\alpha$.
+    pub(super) tol: f64,
+}
+
 impl<F, E> Line<'_, F>
 where
     F: FnMut(&Vec<f64>) -> std::result::Result<f64, E>,
@@ -145,17 +168,16 @@ where
     /// search brackets and runs Brent's method. The third value returned
     /// is the curvature of the parabola through the last three points
     /// (NaN when they do not give one).
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn minimise(
-        &mut self,
-        f0: f64,
-        lo: f64,
-        hi: f64,
-        step: f64,
-        known: Option<(f64, f64)>,
-        curvature: Option<f64>,
-        tol: f64,
-    ) -> std::result::Result<(f64, f64, f64), E> {
+    pub(super) fn minimise(&mut self, search: Search) -> std::result::Result<(f64, f64, f64), E> {
+        let Search {
+            f0,
+            lo,
+            hi,
+            step,
+            known,
+            curvature,
+            tol,
+        } = search;
         if hi <= 0.0 && lo >= 0.0 {
             return Ok((0.0, f0, f64::NAN));
         }
@@ -202,18 +224,8 @@ where
 
     /// [`minimise`](Self::minimise), but the point that reached the stop
     /// cost if one did.
-    #[allow(clippy::too_many_arguments)]
-    pub(super) fn minimise_or_hit(
-        &mut self,
-        f0: f64,
-        lo: f64,
-        hi: f64,
-        step: f64,
-        known: Option<(f64, f64)>,
-        curvature: Option<f64>,
-        tol: f64,
-    ) -> std::result::Result<(f64, f64, f64), E> {
-        let found = self.minimise(f0, lo, hi, step, known, curvature, tol)?;
+    pub(super) fn minimise_or_hit(&mut self, search: Search) -> std::result::Result<(f64, f64, f64), E> {
+        let found = self.minimise(search)?;
         Ok(match self.hit {
             Some((alpha, value)) if value < found.1 => (alpha, value, found.2),
             _ => found,
@@ -430,13 +442,11 @@ mod tests {
     use super::*;
     use crate::error::Result;
 
-    fn run(f: impl Fn(&[f64]) -> f64, lo: f64, hi: f64, first: Option<(f64, f64)>) -> (f64, f64, usize) {
-        let origin = [0.0];
-        let dir = [1.0];
-        let mut trial = vec![0.0];
-        let mut evals = 0;
+    /// One line search along $\phi(\alpha) = f(\alpha)$ from 0: the
+    /// minimiser, its value, the curvature returned, and the evaluations.
+    fn search(f: impl Fn(&[f64]) -> f64, question: Search) -> (f64, f64, f64, usize) {
+        let (origin, dir, mut trial, mut evals) = ([0.0], [1.0], vec![0.0], 0);
         let mut eval = |x: &Vec<f64>| -> Result<f64> { Ok(f(x)) };
-        let f0 = f(&[0.0]);
         let mut line = Line {
             origin: &origin,
             dir: &dir,
@@ -448,7 +458,22 @@ mod tests {
             stop_cost: f64::NEG_INFINITY,
             hit: None,
         };
-        let (alpha, value, _) = line.minimise(f0, lo, hi, 1.0, first, None, 1e-8).expect("line search");
+        let (alpha, value, curvature) = line.minimise(question).expect("line search");
+        (alpha, value, curvature, evals)
+    }
+
+    fn run(f: impl Fn(&[f64]) -> f64, lo: f64, hi: f64, first: Option<(f64, f64)>) -> (f64, f64, usize) {
+        let f0 = f(&[0.0]);
+        let question = Search {
+            f0,
+            lo,
+            hi,
+            step: 1.0,
+            known: first,
+            curvature: None,
+            tol: 1e-8,
+        };
+        let (alpha, value, _, evals) = search(f, question);
         (alpha, value, evals)
     }
 
@@ -490,33 +515,28 @@ mod tests {
     fn known_curvature_takes_two_evaluations_on_a_parabola() {
         // phi(a) = 3 (a - 0.4)^2 + 1: phi'' = 6
         let f = |x: &[f64]| 3.0 * (x[0] - 0.4).powi(2) + 1.0;
-        let (origin, dir, mut trial, mut evals) = ([0.0], [1.0], vec![0.0], 0);
-        let mut eval = |x: &Vec<f64>| -> Result<f64> { Ok(f(x)) };
-        let mut line = Line {
-            origin: &origin,
-            dir: &dir,
-            bounds: None,
-            trial: &mut trial,
-            eval: &mut eval,
-            evals: &mut evals,
-            max_evals: 100,
-            stop_cost: f64::NEG_INFINITY,
-            hit: None,
+        let known = Search {
+            f0: f(&[0.0]),
+            lo: f64::NEG_INFINITY,
+            hi: f64::INFINITY,
+            step: 1.0,
+            known: None,
+            curvature: Some(6.0),
+            tol: 1e-8,
         };
-        let f0 = f(&[0.0]);
-        let (alpha, value, curvature) = line
-            .minimise(f0, f64::NEG_INFINITY, f64::INFINITY, 1.0, None, Some(6.0), 1e-8)
-            .expect("line search");
+        let (alpha, value, curvature, evals) = search(f, known);
         assert!(
             (alpha - 0.4).abs() < 1e-12 && (value - 1.0).abs() < 1e-12,
             "{alpha} {value}"
         );
         assert!((curvature - 6.0).abs() < 1e-9, "{curvature}");
-        assert_eq!(*line.evals, 2);
+        assert_eq!(evals, 2);
         // a wrong curvature: the vertex misses, and the search still finds 0.4
-        let (alpha, _, _) = line
-            .minimise(f0, f64::NEG_INFINITY, f64::INFINITY, 1.0, None, Some(0.1), 1e-8)
-            .expect("line search");
+        let wrong = Search {
+            curvature: Some(0.1),
+            ..known
+        };
+        let (alpha, _, _, _) = search(f, wrong);
         assert!((alpha - 0.4).abs() < 1e-6, "{alpha}");
     }
 
