@@ -7,6 +7,9 @@
 //! $10^3$ to $10^5$ uniform points in 2 and 5 dimensions. The tricube
 //! bandwidth is chosen so that about 50 points carry weight at every size,
 //! so a query should grow like $\log n$ (tree descent) plus a constant fit.
+//! And `query_wide`: a path of 50 queries with their Jacobians under a
+//! bandwidth whose support holds a large part of the data (a near-global
+//! tuned fit), where a query costs its many neighbours.
 
 use std::hint::black_box;
 
@@ -97,6 +100,39 @@ fn queries(c: &mut Criterion) {
                 b.iter(|| full.predict(black_box(q)).expect("weighted"))
             });
         }
+    }
+    group.finish();
+
+    // a wide support, as a tuned metric can make it (the pendulum's late
+    // models: near-global fits): a tricube bandwidth whose support holds
+    // about three quarters of the data (printed), queried along a path as
+    // a planner queries (each query's support alike the last one's)
+    let mut group = new_group(c, "query_wide", 20, 300, 1);
+    for n in [1_000, 10_000] {
+        let d = 5;
+        let mut m = model(n, d);
+        let settings = LwrSettings {
+            bandwidth: 0.9,
+            ..m.settings().clone()
+        };
+        m.set_settings(settings).expect("valid");
+        let path: Vec<Vec<f64>> = (0..50)
+            .map(|k| {
+                (0..d)
+                    .map(|j| 0.3 + 0.4 * (k as f64 / 49.0) * (1.0 - 0.1 * j as f64))
+                    .collect()
+            })
+            .collect();
+        let found = m.predict(&path[0]).expect("weighted").n_neighbors;
+        eprintln!("query_wide: n = {n}, {found} neighbours at the path's start");
+        group.throughput(Throughput::Elements(path.len() as u64));
+        group.bench_with_input(BenchmarkId::new("jacobian_path_of_50_d5", n), &path, |b, path| {
+            b.iter(|| {
+                for q in path {
+                    black_box(m.predict_mean_with_jacobian(black_box(q)).expect("weighted"));
+                }
+            })
+        });
     }
     group.finish();
 
