@@ -8,7 +8,7 @@ mod pendulum;
 mod registry;
 
 pub use acrobot::Acrobot;
-pub use cart_pole::CartPole;
+pub use cart_pole::{CartPole, Pole};
 pub use model::{
     Dynamics, ModelError, ModelResult, StageCost, StepOnly, central_differences, jacobians_or_differences,
 };

@@ -18,7 +18,10 @@
 //!
 //! The model gives no Jacobians, so `trajopt` takes central differences of
 //! `step`; the cost gives its own (they are constant). Copy this file to
-//! start a problem of your own.
+//! start a problem of your own. (The workspace's cart-pole, with exact
+//! Jacobians, a point-mass or uniform-rod pole and friction, is
+//! `systems::CartPole`; this one is written here on purpose, as a user
+//! writes theirs.)
 //!
 //! `cargo run --release -p nprl-trajopt --example cart_pole`
 
@@ -32,14 +35,14 @@ use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, Model, Stage
 const DT: f64 = 0.05;
 
 /// The cart-pole; state (x, x', th, th'), control (F).
-struct CartPole {
+struct MyCartPole {
     cart_mass: f64,
     pole_mass: f64,
     half_length: f64,
     gravity: f64,
 }
 
-impl Model for CartPole {
+impl Model for MyCartPole {
     fn state_dim(&self) -> usize {
         4
     }
@@ -114,7 +117,7 @@ impl StageCost for ToUpright {
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let horizon = 60; // 3 s at 20 Hz
     let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * DT).collect();
-    let model = CartPole {
+    let model = MyCartPole {
         cart_mass: 1.0,
         pole_mass: 0.1,
         half_length: 0.5,

@@ -39,7 +39,7 @@ use rand_distr::{Distribution, Normal};
 use serde::{Deserialize, Serialize};
 
 use crate::cartpole::model::{CartPoleModel, CartPoleModelSettings, Transition};
-use crate::cartpole::plant::{CartPole, CartPoleParams};
+use crate::cartpole::plant::{CartPoleParams, CartPolePlant};
 use crate::cartpole::task::{SwingupTask, TaskWeights, pilco_cost, succeeded};
 use crate::planning::mpc::{ReplanSettings, ReplanStatus, Window, WindowPlan, replan, shifted};
 use crate::record::quantile;
@@ -426,7 +426,7 @@ impl Mpc<'_> {
 /// random draw from `seed`.
 pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun> {
     settings.validate()?;
-    let plant = CartPole::new(settings.plant.clone())?;
+    let plant = CartPolePlant::new(settings.plant.clone())?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
     let noise = if settings.plant.sensor_noise > 0.0 {
         Some(Normal::new(0.0, settings.plant.sensor_noise).map_err(|e| crate::Error::data(format!("noise: {e}")))?)

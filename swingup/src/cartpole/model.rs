@@ -358,14 +358,14 @@ impl trajopt::Model for CartPoleModel {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::cartpole::plant::{CartPole, CartPoleParams};
+    use crate::cartpole::plant::{CartPoleParams, CartPolePlant};
     use rand::{Rng, SeedableRng};
     use trajopt::Model;
 
     /// Transitions of the true plant (no sensor noise) from random states
     /// and forces.
     fn transitions(n: usize, seed: u64) -> Vec<Transition> {
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let mut rng = rand_chacha::ChaCha8Rng::seed_from_u64(seed);
         (0..n)
             .map(|_| {
@@ -458,7 +458,7 @@ mod tests {
             .filter(|t| t.state[3].abs() < 1.3)
             .collect();
         assert!(hanging.len() > 500);
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let up = [0.0, 0.0, 0.0, std::f64::consts::PI];
         let h = 1e-4;
         let truth = (plant.step(&up, h)[2] - plant.step(&up, -h)[2]) / (2.0 * h);

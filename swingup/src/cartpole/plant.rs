@@ -107,6 +107,20 @@ impl CartPoleParams {
         Ok(())
     }
 
+    /// The physics, [`systems::CartPole`] with a uniform rod and friction
+    /// (its state order is $(x, \theta, \dot x, \dot\theta)$).
+    pub fn physics(&self) -> systems::CartPole {
+        systems::CartPole {
+            cart_mass: self.cart_mass,
+            pole_mass: self.pole_mass,
+            length: self.pole_length,
+            gravity: self.gravity,
+            dt: self.dt,
+            friction: self.friction,
+            pole: systems::Pole::UniformRod,
+        }
+    }
+
     /// The angular frequency of small swings about hanging with the cart
     /// free and no friction, $\omega_0^2 = 6 g (M + m) / (l (4 M + m))$
     /// (from the linearised Lagrangian of a uniform rod on a free cart).
@@ -116,18 +130,22 @@ impl CartPoleParams {
     }
 }
 
-/// The cart-pole's dynamics and integrator; see the [module docs](self).
+/// PILCO's cart-pole as a plant: the physics of [`systems::CartPole`]
+/// (a uniform rod, friction) integrated by RK4 under zero-order hold in
+/// PILCO's state order, the force clipped; see the [module docs](self).
 #[derive(Debug, Clone, PartialEq)]
-pub struct CartPole {
+pub struct CartPolePlant {
     /// The physical constants.
     pub params: CartPoleParams,
+    physics: systems::CartPole,
 }
 
-impl CartPole {
+impl CartPolePlant {
     /// The plant with `params` (checked).
     pub fn new(params: CartPoleParams) -> crate::Result<Self> {
         params.validate()?;
-        Ok(Self { params })
+        let physics = params.physics();
+        Ok(Self { params, physics })
     }
 
     /// The force actually applied for command `u`: clipped to the limit
@@ -142,23 +160,15 @@ impl CartPole {
 
     /// $\dot s$ at state `s` under force `f` (not clipped).
     pub fn derivative(&self, s: &[f64; 4], f: f64) -> [f64; 4] {
-        let p = &self.params;
-        let (mc, mp, l, b, g) = (p.cart_mass, p.pole_mass, p.pole_length, p.friction, p.gravity);
         let [_, v, w, th] = *s;
-        let (sn, cs) = th.sin_cos();
-        let den = 4.0 * (mc + mp) - 3.0 * mp * cs * cs;
-        let acc = (2.0 * mp * l * w * w * sn + 3.0 * mp * g * sn * cs + 4.0 * f - 4.0 * b * v) / den;
-        let ang = (-3.0 * mp * l * w * w * sn * cs - 6.0 * (mc + mp) * g * sn - 6.0 * (f - b * v) * cs) / (l * den);
+        let [acc, ang] = self.physics.acceleration(th, v, w, f);
         [v, acc, ang, w]
     }
 
     /// The mechanical energy of state `s` (zero hanging at rest is
     /// $-m g l / 2$).
     pub fn energy(&self, s: &[f64; 4]) -> f64 {
-        let p = &self.params;
-        let (mc, mp, l, g) = (p.cart_mass, p.pole_mass, p.pole_length, p.gravity);
-        let [_, v, w, th] = *s;
-        0.5 * (mc + mp) * v * v + mp * l * l * w * w / 6.0 + 0.5 * mp * l * (v * w - g) * th.cos()
+        self.physics.energy(&[s[0], s[3], s[1], s[2]])
     }
 
     /// One control period from `s` with command `u` (clipped, held).
@@ -194,7 +204,7 @@ impl CartPole {
 /// The true plant as a planning model (the reference the learned model is
 /// measured against; Jacobians by central differences): one control
 /// period, the force clipped.
-impl trajopt::Model for CartPole {
+impl trajopt::Model for CartPolePlant {
     fn state_dim(&self) -> usize {
         4
     }
@@ -205,7 +215,7 @@ impl trajopt::Model for CartPole {
 
     fn step(&self, x: &[f64], u: &[f64], next: &mut [f64]) -> ModelResult<()> {
         let s = [x[0], x[1], x[2], x[3]];
-        next[..4].copy_from_slice(&CartPole::step(self, &s, u[0]));
+        next[..4].copy_from_slice(&CartPolePlant::step(self, &s, u[0]));
         Ok(())
     }
 }
@@ -214,8 +224,8 @@ impl trajopt::Model for CartPole {
 mod tests {
     use super::*;
 
-    fn frictionless() -> CartPole {
-        CartPole::new(CartPoleParams {
+    fn frictionless() -> CartPolePlant {
+        CartPolePlant::new(CartPoleParams {
             friction: 0.0,
             ..CartPoleParams::default()
         })
@@ -237,7 +247,7 @@ mod tests {
             "{} vs {e0}",
             plant.energy(&s)
         );
-        let damped = CartPole::new(CartPoleParams::default()).expect("valid");
+        let damped = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let mut s = [0.0, 0.3, 4.0, 2.5];
         for _ in 0..100 {
             s = damped.step(&s, 0.0);
@@ -249,7 +259,7 @@ mod tests {
     /// the power of the force minus friction's, $\dot E = (f - b\dot x)\dot x$.
     #[test]
     fn energy_rate_is_the_power_in() {
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let s = [0.2, -0.7, 1.3, 0.9];
         let f = 3.0;
         let d = plant.derivative(&s, f);
@@ -290,7 +300,7 @@ mod tests {
     /// Commands beyond the limit act as the limit.
     #[test]
     fn force_is_clipped() {
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let s = [0.0, 0.0, 0.0, 0.3];
         assert_eq!(plant.step(&s, 50.0), plant.step(&s, 10.0));
         assert_eq!(plant.step(&s, -1e9), plant.step(&s, -10.0));
@@ -301,7 +311,7 @@ mod tests {
     /// Upright at the origin the tip is on target; hanging it is $2l$ away.
     #[test]
     fn tip_distance_of_upright_and_hanging() {
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         assert!(plant.tip_distance(&[0.0, 0.0, 0.0, std::f64::consts::PI]) < 1e-12);
         assert!((plant.tip_distance(&[0.0; 4]) - 1.0).abs() < 1e-12);
     }
@@ -327,7 +337,7 @@ mod tests {
                 ..CartPoleParams::default()
             },
         ] {
-            assert!(CartPole::new(p).is_err());
+            assert!(CartPolePlant::new(p).is_err());
         }
     }
 }

@@ -28,14 +28,14 @@ use serde::{Deserialize, Serialize};
 use trajopt::ModelResult;
 use trajopt::StageCost;
 
-use crate::cartpole::plant::CartPole;
+use crate::cartpole::plant::CartPolePlant;
 
 /// PILCO's width of the saturating cost \[m\] (`settings_cp.m`: `cost.width = 0.25`).
 pub const PILCO_COST_WIDTH: f64 = 0.25;
 
 /// PILCO's saturating cost $1 - \exp(-d^2 / (2 w^2))$ of state `s`, with
 /// $d$ the tip's distance from the target and $w$ = [`PILCO_COST_WIDTH`].
-pub fn pilco_cost(plant: &CartPole, s: &[f64; 4]) -> f64 {
+pub fn pilco_cost(plant: &CartPolePlant, s: &[f64; 4]) -> f64 {
     let d = plant.tip_distance(s);
     1.0 - (-0.5 * d * d / (PILCO_COST_WIDTH * PILCO_COST_WIDTH)).exp()
 }
@@ -196,7 +196,7 @@ impl StageCost for SwingupTask {
 /// The success criterion of the [module docs](self): the tip within
 /// `distance` of the target at every one of the last `hold_steps + 1`
 /// states of `states`.
-pub fn succeeded(plant: &CartPole, states: &[[f64; 4]], distance: f64, hold_steps: usize) -> bool {
+pub fn succeeded(plant: &CartPolePlant, states: &[[f64; 4]], distance: f64, hold_steps: usize) -> bool {
     states.len() > hold_steps
         && states[states.len() - hold_steps - 1..]
             .iter()
@@ -256,7 +256,7 @@ mod tests {
     /// The success criterion looks at the last states only.
     #[test]
     fn success_needs_the_last_second_near_the_target() {
-        let plant = CartPole::new(CartPoleParams::default()).expect("valid");
+        let plant = CartPolePlant::new(CartPoleParams::default()).expect("valid");
         let up = [0.0, 0.0, 0.0, std::f64::consts::PI];
         let mut states = vec![[0.0; 4]; 20];
         states.extend(std::iter::repeat_n(up, 11));
