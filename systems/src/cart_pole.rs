@@ -123,40 +123,72 @@ impl CartPole {
     }
 
     /// The accelerations and their derivatives
-    /// ([`Mechanics::accelerations`](crate::Mechanics::accelerations)).
-    #[inline]
+    /// ([`Mechanics::accelerations`](crate::Mechanics::accelerations)) over
+    /// $z = (x, \theta, \dot x, \dot\theta, f)$.
+    #[inline(always)]
     pub(crate) fn accelerations(&self, x: &[f64], u: &[f64]) -> Accelerations {
+        if self.pole == Pole::PointMass && self.friction == 0.0 {
+            self.point_mass_accelerations(x, u)
+        } else {
+            self.general_accelerations(x, u)
+        }
+    }
+
+    /// The frictionless point mass's closed form and its derivatives (the
+    /// fast path: friction's terms measurably slow the benchmark's DDP on
+    /// the cart-pole, `cargo bench -p nprl-ddp --bench ddp -- cartpole`).
+    #[inline(always)]
+    fn point_mass_accelerations(&self, x: &[f64], u: &[f64]) -> Accelerations {
+        let (mc, mp, l, g) = (self.cart_mass, self.pole_mass, self.length, self.gravity);
+        let (w, f) = (x[3], u[0]);
+        let (s, c) = x[1].sin_cos();
+        let d = mc + mp * s * s;
+        let d_th = 2.0 * mp * s * c;
+        // numerators and their derivatives in (theta, omega, f)
+        let n1 = f + mp * s * (l * w * w + g * c);
+        let n1_d = [mp * (c * l * w * w + g * (c * c - s * s)), 2.0 * mp * s * l * w, 1.0];
+        let n2 = (-f * c - mp * l * w * w * c * s - (mc + mp) * g * s) / l;
+        let n2_d = [
+            (f * s - mp * l * w * w * (c * c - s * s) - (mc + mp) * g * c) / l,
+            -2.0 * mp * w * c * s,
+            -c / l,
+        ];
+        let row = |nv: f64, nd: [f64; 3]| [0.0, (nd[0] - nv / d * d_th) / d, 0.0, nd[1] / d, nd[2] / d];
+        ([n1 / d, n2 / d], [row(n1, n1_d), row(n2, n2_d)])
+    }
+
+    /// The derivatives from the general form, for any pole: with
+    /// $F = f - b\dot x$, $N = F + m_p l_c \sin\theta\,\dot\theta^2$,
+    /// $G = m_p g l_c \sin\theta$ and $D = (m_c + m_p) J - (m_p l_c \cos\theta)^2$,
+    /// $\ddot x = (J N + m_p l_c \cos\theta\, G) / D$ and
+    /// $\ddot\theta = (-m_p l_c \cos\theta\, N - (m_c + m_p) G) / D$; the
+    /// values are [`Self::acceleration`]'s.
+    fn general_accelerations(&self, x: &[f64], u: &[f64]) -> Accelerations {
         let (v, w, f) = (x[2], x[3], u[0]);
         let values = self.acceleration(x[1], v, w, f);
-        // derivatives from the general form: with F = f - b v,
-        // a = (J N1 + m lc c G) / D and alpha = (-m lc c N1 - (mc + mp) G) / D,
-        // N1 = F + m lc s w^2, G = m g lc s, D = (mc + mp) J - (m lc c)^2
-        let (mc, mp, g, b) = (self.cart_mass, self.pole_mass, self.gravity, self.friction);
+        let (mt, g, b) = (self.cart_mass + self.pole_mass, self.gravity, self.friction);
         let (lc, j) = self.pole_inertia();
+        let k = self.pole_mass * lc;
         let (s, c) = x[1].sin_cos();
-        let k = mp * lc;
-        let d = (mc + mp) * j - k * k * c * c;
+        let d = mt * j - k * k * c * c;
         let d_th = 2.0 * k * k * c * s;
-        let n1 = f - b * v + k * s * w * w;
+        let n = f - b * v + k * s * w * w;
         let gs = k * g * s;
-        // derivatives of N1 and G in (theta, v, w, f)
-        let n1_d = [k * c * w * w, -b, 2.0 * k * s * w, 1.0];
-        let gs_d = [k * g * c, 0.0, 0.0, 0.0];
-        let num_a = j * n1 + k * c * gs;
-        let num_b = -k * c * n1 - (mc + mp) * gs;
+        // N's derivatives in (theta, v, omega, f); G's in theta alone
+        let n_d = [k * c * w * w, -b, 2.0 * k * s * w, 1.0];
+        let gs_th = k * g * c;
+        let num = [j * n + k * c * gs, -k * c * n - mt * gs];
+        let num_th = [
+            j * n_d[0] - k * s * gs + k * c * gs_th,
+            k * s * n - k * c * n_d[0] - mt * gs_th,
+        ];
+        let num_rest = [j, -k * c];
         let mut rows = [[0.0; crate::MAX_INPUTS]; 2];
-        for (i, (num, row)) in [num_a, num_b].into_iter().zip(rows.iter_mut()).enumerate() {
-            let dn = |q: usize| match (i, q) {
-                (0, 0) => j * n1_d[0] - k * s * gs + k * c * gs_d[0],
-                (0, q) => j * n1_d[q] + k * c * gs_d[q],
-                (_, 0) => k * s * n1 - k * c * n1_d[0] - (mc + mp) * gs_d[0],
-                (_, q) => -k * c * n1_d[q] - (mc + mp) * gs_d[q],
-            };
-            // z = (x, theta, v, w, f)
-            row[1] = (dn(0) - num / d * d_th) / d;
-            row[2] = dn(1) / d;
-            row[3] = dn(2) / d;
-            row[4] = dn(3) / d;
+        for i in 0..2 {
+            rows[i][1] = (num_th[i] - num[i] / d * d_th) / d;
+            for q in 1..4 {
+                rows[i][q + 1] = num_rest[i] * n_d[q] / d;
+            }
         }
         (values, rows)
     }
@@ -206,31 +238,50 @@ mod tests {
         }
     }
 
-    /// The values of the derivative path are the value path's, and the
-    /// rod's Jacobians (friction included) match central differences.
+    /// For both poles with friction, the values of the derivative path are
+    /// the value path's and the Jacobians match central differences; the
+    /// frictionless point mass's closed form equals the general form's to
+    /// rounding.
     #[test]
-    fn rod_with_friction_accelerations_and_derivatives() {
-        let c = rod();
+    fn accelerations_and_derivatives_with_friction() {
+        let point = CartPole {
+            friction: 0.3,
+            ..CartPole::default()
+        };
         let (x, u) = ([0.3, 2.5, -0.8, 1.7], [2.0]);
-        let (values, rows) = c.accelerations(&x, &u);
-        assert_eq!(values, c.acceleration(x[1], x[2], x[3], u[0]));
-        let h = 1e-6;
-        for j in 0..5 {
-            let at = |d: f64| {
-                let mut z = [x[0], x[1], x[2], x[3], u[0]];
-                z[j] += d;
-                c.acceleration(z[1], z[2], z[3], z[4])
-            };
-            let (p, m) = (at(h), at(-h));
-            for i in 0..2 {
-                let numeric = (p[i] - m[i]) / (2.0 * h);
-                assert!(
-                    (rows[i][j] - numeric).abs() < 1e-6 * (1.0 + numeric.abs()),
-                    "d acc {i} / d z {j}: {} vs {numeric}",
-                    rows[i][j]
-                );
+        for c in [rod(), point] {
+            let (values, rows) = c.accelerations(&x, &u);
+            assert_eq!(values, c.acceleration(x[1], x[2], x[3], u[0]));
+            let h = 1e-6;
+            for j in 0..5 {
+                let at = |d: f64| {
+                    let mut z = [x[0], x[1], x[2], x[3], u[0]];
+                    z[j] += d;
+                    c.acceleration(z[1], z[2], z[3], z[4])
+                };
+                let (p, m) = (at(h), at(-h));
+                for i in 0..2 {
+                    let numeric = (p[i] - m[i]) / (2.0 * h);
+                    assert!(
+                        (rows[i][j] - numeric).abs() < 1e-6 * (1.0 + numeric.abs()),
+                        "{:?}: d acc {i} / d z {j}: {} vs {numeric}",
+                        c.pole,
+                        rows[i][j]
+                    );
+                }
             }
         }
-        assert_eq!(c.n_q(), 2);
+        let frictionless = CartPole::default();
+        let (fast, general) = (
+            frictionless.point_mass_accelerations(&x, &u),
+            frictionless.general_accelerations(&x, &u),
+        );
+        for i in 0..2 {
+            assert!((fast.0[i] - general.0[i]).abs() < 1e-12 * (1.0 + fast.0[i].abs()));
+            for j in 0..5 {
+                assert!((fast.1[i][j] - general.1[i][j]).abs() < 1e-12 * (1.0 + fast.1[i][j].abs()));
+            }
+        }
+        assert_eq!(frictionless.n_q(), 2);
     }
 }
