@@ -4,7 +4,7 @@
 //!
 //! | module | what |
 //! |---|---|
-//! | [`plant`] | PILCO's cart-pole (`dynamics_cp.m`), RK4 under zero-order hold, force clipped, sensor noise |
+//! | [`plant`] | PILCO's cart-pole (`dynamics_cp.m`, as [`systems::CartPole`] with a uniform rod and friction), RK4 under zero-order hold, force clipped, sensor noise |
 //! | [`model`] | the learned model: LWR of the state's change on $[x, \dot x, \dot\theta, \sin\theta, \cos\theta, f]$ over a global linear fit |
 //! | [`task`] | the target, the planner's stage cost, PILCO's saturating cost and the success criterion |
 //! | [`learn`] | the learning loop: one random trial, then MPC with Eq. 3 replanned at every control period |
