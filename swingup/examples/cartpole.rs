@@ -41,42 +41,11 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// The defaults with the fields of the JSON object in `path` replaced
-/// (nested objects merged field by field), checked.
+/// ([`CartPoleSettings::from_changes`]).
 fn settings_from(path: &str) -> anyhow::Result<CartPoleSettings> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {path}"))?;
     let changes: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{path}: not JSON"))?;
-    anyhow::ensure!(changes.is_object(), "{path}: expected a JSON object of settings");
-    let defaults = serde_json::to_value(CartPoleSettings::default())?;
-    let with = |changes: &serde_json::Value| -> serde_json::Result<CartPoleSettings> {
-        let mut merged = defaults.clone();
-        merge(&mut merged, changes);
-        serde_json::from_value(merged)
-    };
-    let settings = with(&changes).map_err(|e| {
-        // serde_json's value errors name no field: find the key that fails alone
-        let key = changes.as_object().into_iter().flatten().find_map(|(key, value)| {
-            let alone = serde_json::json!({ key.clone(): value.clone() });
-            with(&alone).is_err().then(|| key.clone())
-        });
-        match key {
-            Some(key) => anyhow::anyhow!("{path}: field {key:?}: {e}"),
-            None => anyhow::anyhow!("{path}: not cart-pole settings: {e}"),
-        }
-    })?;
-    settings.validate().with_context(|| path.to_string())?;
-    Ok(settings)
-}
-
-/// Replaces `base`'s fields by `changes`', recursing into objects.
-fn merge(base: &mut serde_json::Value, changes: &serde_json::Value) {
-    match (base, changes) {
-        (serde_json::Value::Object(b), serde_json::Value::Object(c)) => {
-            for (key, value) in c {
-                merge(b.entry(key.clone()).or_insert(serde_json::Value::Null), value);
-            }
-        }
-        (b, c) => *b = c.clone(),
-    }
+    CartPoleSettings::from_changes(&changes).with_context(|| path.to_string())
 }
 
 fn one(settings: &CartPoleSettings, seed: u64) -> anyhow::Result<()> {

@@ -230,6 +230,52 @@ impl CartPoleSettings {
         Ok(())
     }
 
+    /// The defaults with the fields of the JSON object `changes` replaced,
+    /// nested objects merged field by field (`{"refit_every": 0}`,
+    /// `{"model": {"control_affine": false}}`), then checked
+    /// ([`validate`](Self::validate)).
+    ///
+    /// # Errors
+    /// `changes` not an object, or a field unknown or of the wrong type (a
+    /// configuration error naming its top-level key, `cartpole.<key>`), or
+    /// settings that do not validate.
+    pub fn from_changes(changes: &serde_json::Value) -> crate::Result<Self> {
+        fn merge(base: &mut serde_json::Value, changes: &serde_json::Value) {
+            match (base, changes) {
+                (serde_json::Value::Object(b), serde_json::Value::Object(c)) => {
+                    for (key, value) in c {
+                        merge(b.entry(key.clone()).or_insert(serde_json::Value::Null), value);
+                    }
+                }
+                (b, c) => *b = c.clone(),
+            }
+        }
+        let Some(fields) = changes.as_object() else {
+            return Err(crate::Error::config(
+                "cartpole",
+                "the cartpole changes must be a JSON object of settings",
+            ));
+        };
+        let defaults = serde_json::to_value(Self::default())
+            .map_err(|e| crate::Error::data(format!("the default cart-pole settings: {e}")))?;
+        let with = |changes: &serde_json::Value| -> serde_json::Result<Self> {
+            let mut merged = defaults.clone();
+            merge(&mut merged, changes);
+            serde_json::from_value(merged)
+        };
+        let settings = with(changes).map_err(|e| {
+            // serde_json's value errors name no field: the key that fails alone
+            let key = fields.iter().find_map(|(key, value)| {
+                let alone = serde_json::Value::Object([(key.clone(), value.clone())].into_iter().collect());
+                with(&alone).is_err().then(|| key.clone())
+            });
+            let key = key.map_or_else(|| "cartpole".to_string(), |k| format!("cartpole.{k}"));
+            crate::Error::config(key.clone(), format!("{key}: {e}"))
+        })?;
+        settings.validate()?;
+        Ok(settings)
+    }
+
     /// Control periods per episode.
     pub fn steps(&self) -> usize {
         (self.episode / self.plant.dt).round() as usize
@@ -542,6 +588,37 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// Changes replace the named fields only, nested ones field by field;
+    /// unknown or ill-typed fields and non-objects are refused by key.
+    #[test]
+    fn settings_from_changes() {
+        let s = CartPoleSettings::from_changes(&serde_json::json!({
+            "refit_every": 0,
+            "model": {"control_affine": false}
+        }))
+        .expect("valid changes");
+        let d = CartPoleSettings::default();
+        assert_eq!((s.refit_every, s.model.control_affine), (0, false));
+        assert_eq!(
+            (s.model.tune_evals, s.window, &s.plant),
+            (d.model.tune_evals, d.window, &d.plant)
+        );
+        assert_eq!(CartPoleSettings::from_changes(&serde_json::json!({})).expect("none"), d);
+        for (changes, key) in [
+            (
+                serde_json::json!({"window": 12, "refit_evry": 0}),
+                "cartpole.refit_evry",
+            ),
+            (serde_json::json!({"model": {"tune_evals": "x"}}), "cartpole.model"),
+            (serde_json::json!([1, 2]), "cartpole"),
+        ] {
+            let e = CartPoleSettings::from_changes(&changes).expect_err("refused");
+            assert!(e.to_string().contains(key), "{e} should name {key}");
+        }
+        let e = CartPoleSettings::from_changes(&serde_json::json!({"episode": -1.0})).expect_err("invalid");
+        assert!(e.to_string().contains("cartpole.episode"), "{e}");
+    }
 
     /// The cold starts turn towards upright either way, or hold.
     #[test]
