@@ -26,5 +26,5 @@ pub use error::{DdpError, Result};
 pub use models::{Acrobot, CartPole, LinearDynamics, Pendulum, QuadraticCost};
 pub use problem::{Cost, CostDerivatives, DdpProblem, Dynamics};
 pub use residual::ResidualCost;
-pub use solver::{Ddp, DdpMethod, DdpResult, DdpSettings, DdpStatus, Regularization};
+pub use solver::{Ddp, DdpMethod, DdpResult, DdpRun, DdpSettings, DdpStatus, Regularization};
 pub use systems::{ModelError, ModelResult, StageCost};

@@ -38,4 +38,4 @@ pub use error::{LwrError, Result};
 pub use loo::LooResult;
 pub use model::{FitStatus, LwrModel, Prediction, t_quantile};
 pub use settings::{Degree, Kernel, LwrSettings};
-pub use tune::{TuneResult, TuneSettings, TuneStatus, TuneStep};
+pub use tune::{TuneResult, TuneRun, TuneSettings, TuneStatus, TuneStep};

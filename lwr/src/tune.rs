@@ -7,7 +7,7 @@ use crate::error::{LwrError, Result};
 use crate::loo::{BOUND_MARGIN, Objective};
 use crate::model::LwrModel;
 use crate::settings::LwrSettings;
-use solve::{Interrupt, Termination, Watch};
+use solve::{Finish as _, Interrupt, Termination, Watch};
 
 /// Smallest relative decrease of the objective that counts as a move.
 const MIN_IMPROVEMENT: f64 = 1e-9;
@@ -147,13 +147,84 @@ impl solve::Status for TuneStatus {
     }
 }
 
-/// The coordinate search's state, as [`solve::drive`] runs it: one
-/// iteration is one sweep over the coordinates.
-struct Search<'t, E> {
-    tune: &'t TuneSettings,
-    /// Evaluates at a point, given the largest objective the search would
-    /// accept there, and records it in the history.
-    eval: E,
+/// The evaluations of one search: the leave-one-out objective at a point,
+/// stopped early above the largest value the search would accept, with the
+/// outcomes kept by the exact bits of the point.
+///
+/// The search revisits some settings (a dropped input tried back on, a
+/// coordinate retried after the others moved back): the outcomes are
+/// reused when they still answer the question (an exact value, or a lower
+/// bound above the new bound); a revisit still counts as an evaluation, so
+/// the path is the same with or without the cache.
+struct Evaluator<'m> {
+    model: &'m LwrModel,
+    base: LwrSettings,
+    stop_early: bool,
+    /// Cross-validate every `stride`-th point during the search.
+    stride: usize,
+    cache: HashMap<Vec<u64>, Objective>,
+}
+
+impl Evaluator<'_> {
+    /// The settings at a point $(h, m_1, \dots, m_d)$ of the search.
+    fn settings_at(&self, x: &[f64]) -> LwrSettings {
+        LwrSettings {
+            bandwidth: x[0],
+            scales: x[1..].to_vec(),
+            ..self.base.clone()
+        }
+    }
+
+    /// The objective at `x` (with `stop_early`, a lower bound once it is
+    /// certainly above `bound`), recorded in `history`.
+    fn eval(&mut self, x: &[f64], bound: f64, history: &mut Vec<TuneStep>) -> f64 {
+        let bound = if self.stop_early { bound } else { f64::INFINITY };
+        let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
+        let known = match self.cache.get(&key) {
+            Some(&Objective::Exact(f)) => Some(Objective::Exact(f)),
+            Some(&Objective::Above(f)) if f > bound * (1.0 + BOUND_MARGIN) => Some(Objective::Above(f)),
+            _ => None,
+        };
+        let outcome = known.unwrap_or_else(|| {
+            let outcome = match self.model.loo_objective(&self.settings_at(x), bound, self.stride) {
+                Ok(Objective::Exact(f)) if !f.is_nan() => Objective::Exact(f),
+                Ok(Objective::Above(f)) => Objective::Above(f),
+                Ok(Objective::Exact(_)) | Err(_) => Objective::Exact(f64::INFINITY),
+            };
+            self.cache.insert(key, outcome);
+            outcome
+        });
+        let (f, complete) = match outcome {
+            Objective::Exact(f) => (f, true),
+            Objective::Above(f) => (f, false),
+        };
+        history.push(TuneStep {
+            bandwidth: x[0],
+            scales: x[1..].to_vec(),
+            objective: f,
+            accepted: false,
+            complete,
+        });
+        f
+    }
+
+    /// The objective at `x` over every point (the end checks with
+    /// [`TuneSettings::search_points`]).
+    fn exact(&self, x: &[f64]) -> f64 {
+        match self.model.loo_objective(&self.settings_at(x), f64::INFINITY, 1) {
+            Ok(Objective::Exact(f)) if !f.is_nan() => f,
+            _ => f64::INFINITY,
+        }
+    }
+}
+
+/// A metric search between sweeps ([`LwrModel::tune_start`]): a
+/// [`solve::Iterate`] state (one iteration is one sweep over the
+/// coordinates), and a [`solve::Finish`] one whose result is the
+/// [`TuneResult`].
+pub struct TuneRun<'m> {
+    tune: TuneSettings,
+    eval: Evaluator<'m>,
     coords: Vec<usize>,
     x: Vec<f64>,
     f: f64,
@@ -161,12 +232,26 @@ struct Search<'t, E> {
     history: Vec<TuneStep>,
     factor: f64,
     sweeps: usize,
+    /// The start and its objective.
+    x_initial: Vec<f64>,
+    initial: f64,
 }
 
-impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> Search<'_, E> {
+impl std::fmt::Debug for TuneRun<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("TuneRun")
+            .field("sweeps", &self.sweeps)
+            .field("evals", &self.history.len())
+            .field("x", &self.x)
+            .field("objective", &self.f)
+            .finish_non_exhaustive()
+    }
+}
+
+impl TuneRun<'_> {
     /// Evaluates at `y` and moves there if it is below `accept`.
     fn try_point(&mut self, y: Vec<f64>, bound: f64, accept: impl Fn(f64) -> bool) -> Option<f64> {
-        let fy = (self.eval)(&y, bound, &mut self.history);
+        let fy = self.eval.eval(&y, bound, &mut self.history);
         if !accept(fy) {
             return None;
         }
@@ -178,13 +263,15 @@ impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> Search<'_, E> {
     }
 }
 
-impl<E: FnMut(&[f64], f64, &mut Vec<TuneStep>) -> f64> solve::Iterate for Search<'_, E> {
+impl solve::Iterate for TuneRun<'_> {
     type Status = TuneStatus;
     type Error = std::convert::Infallible;
     const NAME: &'static str = "lwr-tune";
 
     fn next_iter(&mut self, watch: &Watch<'_>) -> std::result::Result<Option<TuneStatus>, Self::Error> {
-        let tune = self.tune;
+        // the settings are plain values: a copy keeps `self` free to move
+        let tune = self.tune.clone();
+        let tune = &tune;
         if self.factor < tune.min_factor {
             return Ok(Some(TuneStatus::Converged));
         }
@@ -386,68 +473,62 @@ impl LwrModel {
     /// # Errors
     /// As [`tune`](Self::tune).
     pub fn tune_watched(&self, tune: &TuneSettings, watch: &mut Watch<'_>) -> Result<TuneResult> {
+        let mut run = self.tune_start(tune)?;
+        let Ok(status) = solve::drive(&mut run, watch);
+        Ok(run.finish(status))
+    }
+
+    /// The search's state before its first sweep (the start evaluated), for
+    /// a loop other than [`tune_watched`](Self::tune_watched)'s: argmin's
+    /// `Executor` through `solve::argmin::Stepper` (`nprl-solve`'s feature
+    /// `argmin`), or the caller's own, calling [`solve::Iterate::next_iter`]
+    /// until it returns a status and then [`solve::Finish::finish`] (which
+    /// does the end checks of [`TuneSettings::search_points`]).
+    ///
+    /// ```
+    /// # use lwr::{LwrModel, LwrSettings, TuneSettings};
+    /// use solve::{Finish, Iterate, Watch};
+    /// let mut m = LwrModel::new(1, 1, LwrSettings { bandwidth: 0.3, ..Default::default() })?;
+    /// for i in 0..100 {
+    ///     let x = (i as f64 * 0.618).fract() * 2.0 - 1.0;
+    ///     m.insert(&[x], &[(3.0 * x).sin()])?;
+    /// }
+    /// let mut run = m.tune_start(&TuneSettings::default())?;
+    /// let status = loop {
+    ///     if let Ok(Some(status)) = run.next_iter(&Watch::new()) {
+    ///         break status;
+    ///     }
+    /// };
+    /// assert_eq!(run.finish(status), m.tune(&TuneSettings::default())?);
+    /// # Ok::<(), lwr::LwrError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`tune`](Self::tune).
+    pub fn tune_start(&self, tune: &TuneSettings) -> Result<TuneRun<'_>> {
         tune.validate()?;
         let d = self.database().n_inputs();
         let base = self.settings().clone();
         let x: Vec<f64> = std::iter::once(base.bandwidth).chain(base.scales_for(d)).collect();
         let last_nonzero: Vec<f64> = x.iter().map(|&v| if v > 0.0 { v } else { 1.0 }).collect();
-        let mut history = Vec::new();
-        // evaluates at x; with `stop_early`, stops once the objective is
-        // certainly above `bound`, the largest value the caller would accept.
-        // The search revisits some settings (a dropped input tried back on,
-        // a coordinate retried after the others moved back): the outcomes
-        // are kept, keyed by the exact bits of x, and reused when they still
-        // answer the question (an exact value, or a lower bound above the
-        // new bound); a revisit still counts as an evaluation, so the path
-        // is the same with or without the cache.
-        let mut cache: HashMap<Vec<u64>, Objective> = HashMap::new();
         let n = self.database().len();
         let stride = if tune.search_points == 0 || tune.search_points >= n {
             1
         } else {
             n.div_ceil(tune.search_points)
         };
-        let x_initial = x.clone();
-        let mut eval = |x: &[f64], bound: f64, history: &mut Vec<TuneStep>| -> f64 {
-            let bound = if tune.stop_early { bound } else { f64::INFINITY };
-            let key: Vec<u64> = x.iter().map(|v| v.to_bits()).collect();
-            let known = match cache.get(&key) {
-                Some(&Objective::Exact(f)) => Some(Objective::Exact(f)),
-                Some(&Objective::Above(f)) if f > bound * (1.0 + BOUND_MARGIN) => Some(Objective::Above(f)),
-                _ => None,
-            };
-            let outcome = known.unwrap_or_else(|| {
-                let s = LwrSettings {
-                    bandwidth: x[0],
-                    scales: x[1..].to_vec(),
-                    ..base.clone()
-                };
-                let outcome = match self.loo_objective(&s, bound, stride) {
-                    Ok(Objective::Exact(f)) if !f.is_nan() => Objective::Exact(f),
-                    Ok(Objective::Above(f)) => Objective::Above(f),
-                    Ok(Objective::Exact(_)) | Err(_) => Objective::Exact(f64::INFINITY),
-                };
-                cache.insert(key, outcome);
-                outcome
-            });
-            let (f, complete) = match outcome {
-                Objective::Exact(f) => (f, true),
-                Objective::Above(f) => (f, false),
-            };
-            history.push(TuneStep {
-                bandwidth: x[0],
-                scales: x[1..].to_vec(),
-                objective: f,
-                accepted: false,
-                complete,
-            });
-            f
+        let mut eval = Evaluator {
+            model: self,
+            base,
+            stop_early: tune.stop_early,
+            stride,
+            cache: HashMap::new(),
         };
-        let f = eval(&x, f64::INFINITY, &mut history);
+        let mut history = Vec::new();
+        let f = eval.eval(&x, f64::INFINITY, &mut history);
         if let Some(h) = history.last_mut() {
             h.accepted = true;
         }
-        let initial = f;
         let mut coords = Vec::new();
         if tune.tune_bandwidth {
             coords.push(0);
@@ -455,53 +536,54 @@ impl LwrModel {
         if tune.tune_scales {
             coords.extend(1..=d);
         }
-        let mut search = Search {
-            tune,
+        Ok(TuneRun {
+            tune: tune.clone(),
             eval,
             coords,
+            x_initial: x.clone(),
             x,
             f,
+            initial: f,
             last_nonzero,
             history,
             factor: tune.initial_factor,
             sweeps: 0,
-        };
-        let Ok(status) = solve::drive(&mut search, watch);
-        let Search { mut x, f, history, .. } = search;
+        })
+    }
+}
+
+impl solve::Finish for TuneRun<'_> {
+    type Output = TuneResult;
+
+    fn finish(self, status: TuneStatus) -> TuneResult {
+        let TuneRun {
+            eval,
+            mut x,
+            f,
+            history,
+            x_initial,
+            initial,
+            ..
+        } = self;
         let evals = history.len();
         let (mut f, mut initial) = (f, initial);
-        if stride > 1 {
+        if eval.stride > 1 {
             // the search's objectives are over a subset: evaluate the ends
             // over every point, and never return worse than the start
-            let exact = |x: &[f64]| {
-                let s = LwrSettings {
-                    bandwidth: x[0],
-                    scales: x[1..].to_vec(),
-                    ..base.clone()
-                };
-                match self.loo_objective(&s, f64::INFINITY, 1) {
-                    Ok(Objective::Exact(f)) if !f.is_nan() => f,
-                    _ => f64::INFINITY,
-                }
-            };
-            initial = exact(&x_initial);
-            f = if x == x_initial { initial } else { exact(&x) };
+            initial = eval.exact(&x_initial);
+            f = if x == x_initial { initial } else { eval.exact(&x) };
             if f > initial {
                 x = x_initial;
                 f = initial;
             }
         }
-        Ok(TuneResult {
-            settings: LwrSettings {
-                bandwidth: x[0],
-                scales: x[1..].to_vec(),
-                ..base
-            },
+        TuneResult {
+            settings: eval.settings_at(&x),
             objective: f,
             initial_objective: initial,
             history,
             evals,
             status,
-        })
+        }
     }
 }

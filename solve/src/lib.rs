@@ -1,8 +1,12 @@
 #![doc = include_str!("../README.md")]
+//! # Feature flags
+#![doc = document_features::document_features!()]
 
 use std::fmt;
 use std::time::{Duration, Instant};
 
+#[cfg(feature = "argmin")]
+pub mod argmin;
 mod check;
 pub mod dense;
 pub use check::JacobianCheck;
@@ -280,6 +284,25 @@ pub fn drive<I: Iterate>(solver: &mut I, watch: &mut Watch<'_>) -> Result<I::Sta
             return Ok(why.into());
         }
     }
+}
+
+/// An iteration state that becomes the solver's result once the solve has
+/// ended: what each solver's entry point does after [`drive`], as a method,
+/// so that a solve can also be run by another loop (argmin's `Executor`
+/// through `argmin::Stepper` with the feature `argmin`, or the caller's own).
+///
+/// Each solver makes its state with a `start` method (Gauss-Newton's
+/// `GaussNewton::start`, DDP's `Ddp::start`, the LWR's
+/// `LwrModel::tune_start`), and `start`, [`drive`], [`finish`](Self::finish)
+/// is the solver's watched entry point.
+pub trait Finish: Iterate {
+    /// The solver's result.
+    type Output;
+
+    /// The result at the state reached, ended with `status` (the status
+    /// [`drive`] returned, or one made from an [`Interrupt`] by the loop
+    /// that stopped the solve).
+    fn finish(self, status: Self::Status) -> Self::Output;
 }
 
 /// One recorded iteration of a [`Trace`].

@@ -214,3 +214,108 @@ fn one_user_model_is_planned_by_every_solver() {
     assert!(eq3_starts.iter().all(|&c| c == eq3_starts[0]), "{eq3_starts:?}");
     assert_eq!(summaries[2].1.evals, powell.evals);
 }
+
+/// Every solver is an argmin `Solver` too: under argmin's `Executor`
+/// (`solve::argmin::Stepper` running the solvers' `start` states, and
+/// `PowellArgmin` for Powell) each reaches its own loop's point with its
+/// own status, argmin's state holds its best cost, argmin's `max_iters` is
+/// a stop from outside, and the stepper's time limit holds inside DDP.
+#[test]
+fn every_solver_runs_under_argmins_executor() {
+    use argmin::core::{Executor, State, TerminationReason};
+    use ddp::DdpStatus;
+    use lwr::{LwrModel, LwrSettings, TuneSettings};
+    use solve::argmin::{Stepper, finish};
+    use trajopt::GaussNewtonStatus;
+    use trajopt::powell::PowellArgmin;
+
+    let model = UserPendulum { a: 9.81 / 0.5, b: 0.1 };
+    let converged = Some(&TerminationReason::SolverConverged);
+
+    // Gauss-Newton on Eq. 3
+    let (problem, theta0) = eq3(&model, 1e3);
+    let gn = GaussNewton::new(GaussNewtonSettings::default()).expect("settings");
+    let own = gn.solve(&problem, &theta0).expect("gauss-newton");
+    let start = gn.start(&problem, &theta0).expect("start");
+    let run = Executor::new(start, Stepper::new()).run().expect("argmin");
+    assert_eq!(run.state.get_termination_reason(), converged);
+    assert_eq!(run.state.get_best_cost(), own.cost);
+    let r = finish(run).expect("finish");
+    assert_eq!((&r.x, r.status, r.iterations), (&own.x, own.status, own.iterations));
+    let start = gn.start(&problem, &theta0).expect("start");
+    let run = Executor::new(start, Stepper::new())
+        .configure(|s| s.max_iters(2))
+        .run()
+        .expect("argmin");
+    let r = finish(run).expect("finish");
+    assert_eq!((r.status, r.iterations), (GaussNewtonStatus::Stopped, 2));
+    assert!(r.cost < r.initial_cost && r.cost > own.cost);
+
+    // Powell on the same problem, through its cost
+    let settings = PowellSettings {
+        max_evals: Some(400_000),
+        max_iterations: Some(100_000),
+        ..PowellSettings::default()
+    };
+    let own = Powell::new(settings.clone())
+        .expect("settings")
+        .solve(&problem, &theta0)
+        .expect("powell");
+    let run = Executor::new(problem, PowellArgmin::new(settings).expect("settings"))
+        .configure(|s| s.param(theta0.clone()).max_iters(100_000))
+        .run()
+        .expect("argmin");
+    assert_eq!(run.state.get_termination_reason(), converged);
+    assert_eq!(run.state.get_best_cost(), own.cost);
+
+    // DDP on the same model and stage cost
+    let ddp_problem =
+        DdpProblem::new(&model, ResidualCost::new(Reach, 2, 1, HORIZON), &[0.0, 0.0], HORIZON).expect("ddp problem");
+    let ddp = Ddp::new(DdpSettings::default()).expect("settings");
+    let own = ddp.solve(&ddp_problem).expect("ddp");
+    let run = Executor::new(ddp.start(&ddp_problem).expect("start"), Stepper::new())
+        .run()
+        .expect("argmin");
+    assert_eq!(run.state.get_termination_reason(), converged);
+    let r = finish(run).expect("finish");
+    assert_eq!((&r.controls, r.status, r.cost), (&own.controls, own.status, own.cost));
+    assert_eq!(r.gains.len(), HORIZON);
+    // a limit already passed: one iteration, then the policy at its trajectory
+    let stepper = Stepper::new().with_time_limit(Duration::ZERO);
+    let run = Executor::new(ddp.start(&ddp_problem).expect("start"), stepper)
+        .run()
+        .expect("argmin");
+    assert_eq!(run.state.get_termination_reason(), Some(&TerminationReason::Timeout));
+    let r = finish(run).expect("finish");
+    assert_eq!((r.status, r.gains.len()), (DdpStatus::TimeLimit, HORIZON));
+
+    // the LWR's metric search, on the model's own transitions
+    let mut learned = LwrModel::new(
+        3,
+        1,
+        LwrSettings {
+            bandwidth: 0.5,
+            ..LwrSettings::default()
+        },
+    )
+    .expect("model");
+    let mut next = [0.0; 2];
+    for i in 0..150 {
+        let x = [
+            (i as f64 * 0.618).fract() * 4.0 - 2.0,
+            (i as f64 * 0.377).fract() * 6.0 - 3.0,
+        ];
+        let u = [(i as f64 * 0.271).fract() * 4.0 - 2.0];
+        model.step(&x, &u, &mut next).expect("step");
+        learned.insert(&[x[0], x[1], u[0]], &[next[1]]).expect("insert");
+    }
+    let tune = TuneSettings::default();
+    let own = learned.tune(&tune).expect("tune");
+    let run = Executor::new(learned.tune_start(&tune).expect("start"), Stepper::new())
+        .run()
+        .expect("argmin");
+    assert_eq!(run.state.get_best_cost(), own.objective);
+    let r = finish(run).expect("finish");
+    assert_eq!(r, own);
+    assert!(r.objective < r.initial_objective);
+}

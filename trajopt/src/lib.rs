@@ -51,7 +51,7 @@ pub use derivative_free::{DerivativeFree, DerivativeFreeResult, DerivativeFreeSe
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{
-    DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
+    DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonRun, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
     MIN_PARALLEL_PARAMS, StepModel,
 };
 pub use least_squares::{

@@ -25,7 +25,7 @@ use crate::error::Result;
 use crate::problem::{Cost, DdpProblem, Dynamics};
 use forward::Rollout;
 use regularization::Schedule;
-use solve::Watch;
+use solve::{Finish as _, Watch};
 use work::{History, Work};
 
 /// Differential dynamic programming (Jacobson and Mayne 1970) / iLQR.
@@ -132,31 +132,55 @@ impl Ddp {
         problem: &DdpProblem<D, C>,
         watch: &mut Watch<'_>,
     ) -> Result<DdpResult> {
-        let start = Instant::now();
-        let mut w = Work::new(problem, &self.settings);
-        let mut result = w.run(watch)?;
-        result.solve_time = start.elapsed();
-        Ok(result)
+        let mut run = self.start(problem)?;
+        let Ok(status) = solve::drive(&mut run, watch);
+        Ok(run.finish(status))
     }
-}
 
-/// The solver's name in [`solve::Progress`].
-const NAME: &str = "ddp";
-
-impl<D: Dynamics, C: Cost> Work<'_, D, C> {
-    /// The solve: the warm start's rollout, the iterations (run by
-    /// [`solve::drive`]), and a policy at the returned trajectory.
+    /// The solve's state before its first iteration (the warm start's
+    /// rollout done), for a loop other than
+    /// [`solve_watched`](Self::solve_watched)'s: argmin's `Executor`
+    /// through `solve::argmin::Stepper` (feature `argmin`), or the
+    /// caller's own, calling [`solve::Iterate::next_iter`] until it
+    /// returns a status and then [`solve::Finish::finish`] (which computes
+    /// the policy at the returned trajectory, as the solve does). When the
+    /// warm start's rollout diverged, the first iteration ends the run with
+    /// [`DdpStatus::InitialRolloutDiverged`].
+    ///
+    /// ```
+    /// use solve::{Finish, Iterate, Watch};
+    /// use ddp::{Ddp, DdpSettings};
+    /// use ddp::problems::pendulum_swingup;
+    ///
+    /// let problem = pendulum_swingup(100)?;
+    /// let ddp = Ddp::new(DdpSettings::default())?;
+    /// let mut run = ddp.start(&problem)?;
+    /// let watch = Watch::new();
+    /// let status = loop {
+    ///     if let Ok(Some(status)) = run.next_iter(&watch) {
+    ///         break status;
+    ///     }
+    /// };
+    /// let r = run.finish(status);
+    /// assert!(r.status.is_converged());
+    /// assert_eq!(r.controls, ddp.solve(&problem)?.controls);
+    /// # Ok::<(), ddp::DdpError>(())
+    /// ```
     ///
     /// # Errors
-    /// A failed step of the dynamics in the warm start's rollout.
-    fn run(&mut self, watch: &mut Watch<'_>) -> Result<DdpResult> {
-        let s = self.s;
-        let cost = match self.initial_rollout()? {
-            Rollout::Ok(c) => c,
-            Rollout::Diverged(step) => return Ok(self.result_diverged(step)),
+    /// As [`solve`](Self::solve).
+    pub fn start<'a, D: Dynamics, C: Cost>(&'a self, problem: &'a DdpProblem<D, C>) -> Result<DdpRun<'a, D, C>> {
+        let started = Instant::now();
+        let s = &self.settings;
+        let mut work = Work::new(problem, s);
+        let (cost, diverged) = match work.initial_rollout()? {
+            Rollout::Ok(c) => (c, None),
+            Rollout::Diverged(step) => (f64::INFINITY, Some(step)),
         };
-        let mut it = Iteration {
-            work: self,
+        Ok(DdpRun {
+            work,
+            started,
+            diverged,
             cost,
             costs: vec![cost],
             regs: Vec::new(),
@@ -167,9 +191,24 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             iterations: 0,
             // the initial rollout, then every trial one
             rollouts: 1,
-        };
-        let Ok(mut status) = solve::drive(&mut it, watch);
-        let Iteration {
+        })
+    }
+}
+
+/// The solver's name in [`solve::Progress`].
+const NAME: &str = "ddp";
+
+impl<D: Dynamics, C: Cost> solve::Finish for DdpRun<'_, D, C> {
+    type Output = DdpResult;
+
+    /// The result: a policy at the returned trajectory (one more backward
+    /// pass when the last iteration did not leave one), the history, and
+    /// the time since [`Ddp::start`].
+    fn finish(self, mut status: DdpStatus) -> DdpResult {
+        let DdpRun {
+            mut work,
+            started,
+            diverged,
             cost,
             costs,
             regs,
@@ -179,45 +218,57 @@ impl<D: Dynamics, C: Cost> Work<'_, D, C> {
             mut policy_current,
             iterations,
             ..
-        } = it;
-        // a policy at the returned trajectory, if one was not just computed
-        if !policy_current
-            && matches!(
-                status,
-                DdpStatus::MaxIterations | DdpStatus::TimeLimit | DdpStatus::Stopped
-            )
-        {
-            if need_derivatives && !self.linearise() {
-                status = DdpStatus::NonFiniteDerivatives;
-            } else {
-                loop {
-                    if self.backward(reg.mu).is_some() {
-                        policy_current = true;
-                        break;
-                    }
-                    reg.increase();
-                    if reg.mu > s.reg_max {
-                        break;
+        } = self;
+        let mut result = if let Some(step) = diverged {
+            work.result_diverged(step)
+        } else {
+            let s = work.s;
+            // a policy at the returned trajectory, if one was not just computed
+            if !policy_current
+                && matches!(
+                    status,
+                    DdpStatus::MaxIterations | DdpStatus::TimeLimit | DdpStatus::Stopped
+                )
+            {
+                if need_derivatives && !work.linearise() {
+                    status = DdpStatus::NonFiniteDerivatives;
+                } else {
+                    loop {
+                        if work.backward(reg.mu).is_some() {
+                            policy_current = true;
+                            break;
+                        }
+                        reg.increase();
+                        if reg.mu > s.reg_max {
+                            break;
+                        }
                     }
                 }
             }
-        }
-        let history = History {
-            cost,
-            initial_cost: costs[0],
-            cost_history: costs,
-            regularizations: regs,
-            step_sizes: steps,
-            mu: reg.mu,
-            iterations,
+            let history = History {
+                cost,
+                initial_cost: costs[0],
+                cost_history: costs,
+                regularizations: regs,
+                step_sizes: steps,
+                mu: reg.mu,
+                iterations,
+            };
+            work.result(status, history, policy_current)
         };
-        Ok(self.result(status, history, policy_current))
+        result.solve_time = started.elapsed();
+        result
     }
 }
 
-/// The iteration state of one DDP solve, as [`solve::drive`] runs it.
-struct Iteration<'w, 'a, D, C> {
-    work: &'w mut Work<'a, D, C>,
+/// A DDP solve between iterations ([`Ddp::start`]): a [`solve::Iterate`]
+/// state, and a [`solve::Finish`] one whose result is the [`DdpResult`].
+pub struct DdpRun<'a, D, C> {
+    work: Work<'a, D, C>,
+    started: Instant,
+    /// The step at which the warm start's rollout diverged: the run ends
+    /// at its first iteration.
+    diverged: Option<usize>,
     cost: f64,
     costs: Vec<f64>,
     regs: Vec<f64>,
@@ -229,7 +280,17 @@ struct Iteration<'w, 'a, D, C> {
     rollouts: usize,
 }
 
-impl<D: Dynamics, C: Cost> solve::Iterate for Iteration<'_, '_, D, C> {
+impl<D, C> std::fmt::Debug for DdpRun<'_, D, C> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DdpRun")
+            .field("iterations", &self.iterations)
+            .field("cost", &self.cost)
+            .field("diverged", &self.diverged)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<D: Dynamics, C: Cost> solve::Iterate for DdpRun<'_, D, C> {
     type Status = DdpStatus;
     type Error = std::convert::Infallible;
     const NAME: &'static str = NAME;
@@ -237,7 +298,10 @@ impl<D: Dynamics, C: Cost> solve::Iterate for Iteration<'_, '_, D, C> {
     /// One iteration: linearise, backward pass (raising $\mu$ until it
     /// succeeds), convergence test, line search, update of $\mu$.
     fn next_iter(&mut self, watch: &Watch<'_>) -> std::result::Result<Option<DdpStatus>, Self::Error> {
-        let w = &mut *self.work;
+        if let Some(step) = self.diverged {
+            return Ok(Some(DdpStatus::InitialRolloutDiverged { step }));
+        }
+        let w = &mut self.work;
         let s = w.s;
         if let Some(why) = watch.out_of_time() {
             return Ok(Some(why.into()));

@@ -114,7 +114,7 @@ use iteration::{Iteration, Start};
 use normal_equations::{BandSystem, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
 pub use result::{GaussNewtonResult, GaussNewtonStatus};
-use solve::Watch;
+use solve::{Finish as _, Watch};
 
 /// The solver's name in [`solve::Progress`].
 const NAME: &str = "gauss-newton";
@@ -296,7 +296,62 @@ impl GaussNewton {
         watch: &mut Watch<'_>,
         evaluations: Option<&dyn Fn() -> usize>,
     ) -> Result<GaussNewtonResult> {
-        let start = Instant::now();
+        let mut run = self.start_with(problem, theta0, helpers, evaluations)?;
+        let status = solve::drive(&mut run, watch)?;
+        Ok(run.finish(status))
+    }
+
+    /// The solve's state before its first iteration, for a loop other
+    /// than [`solve_watched`](Self::solve_watched)'s: argmin's `Executor`
+    /// through `solve::argmin::Stepper` (feature `argmin`), or the
+    /// caller's own, calling [`solve::Iterate::next_iter`] until it
+    /// returns a status and then [`solve::Finish::finish`]. Evaluates the
+    /// residuals at `theta0` (after moving it into the bounds, if any) and
+    /// chooses the back end, as [`solve`](Self::solve) does; runs on one
+    /// thread.
+    ///
+    /// ```
+    /// use solve::{Finish, Iterate, Watch};
+    /// use trajopt::{GaussNewton, GaussNewtonSettings};
+    /// use trajopt::problems::pendulum_swingup;
+    ///
+    /// let (problem, theta0) = pendulum_swingup(100, 10.0)?;
+    /// let gn = GaussNewton::new(GaussNewtonSettings::default())?;
+    /// // a loop of one's own, printing the cost of each iteration
+    /// let mut run = gn.start(&problem, &theta0)?;
+    /// let watch = Watch::new();
+    /// let status = loop {
+    ///     if let Some(status) = run.next_iter(&watch)? {
+    ///         break status;
+    ///     }
+    ///     let at = run.snapshot();
+    ///     println!("{}: {:.3e}", at.iteration, at.cost);
+    /// };
+    /// let r = run.finish(status);
+    /// assert!(r.status.is_converged());
+    /// // the same iterates as the solver's own loop
+    /// assert_eq!(r.x, gn.solve(&problem, &theta0)?.x);
+    /// # Ok::<(), trajopt::TrajoptError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve), for the start.
+    pub fn start<'a, P: LeastSquaresProblem + ?Sized>(
+        &'a self,
+        problem: &'a P,
+        theta0: &[f64],
+    ) -> Result<GaussNewtonRun<'a, P>> {
+        self.start_with(problem, theta0, None, None)
+    }
+
+    fn start_with<'a, P: LeastSquaresProblem + ?Sized>(
+        &'a self,
+        problem: &'a P,
+        theta0: &[f64],
+        helpers: Option<Helpers>,
+        evaluations: Option<&'a dyn Fn() -> usize>,
+    ) -> Result<GaussNewtonRun<'a, P>> {
+        let started = Instant::now();
         let (n_p, n_r) = (problem.n_params(), problem.n_residuals());
         check_point("initial parameters", n_p, theta0)?;
         let s = &self.settings;
@@ -372,7 +427,7 @@ impl GaussNewton {
             )?),
         };
 
-        let mut it = Iteration::new(Start {
+        let iteration = Iteration::new(Start {
             problem,
             settings: s,
             band_layout,
@@ -383,20 +438,68 @@ impl GaussNewton {
             cost,
             residual_evals,
         });
-        let status = solve::drive(&mut it, watch)?;
-        Ok(GaussNewtonResult {
+        Ok(GaussNewtonRun {
+            iteration,
+            initial_cost,
+            started,
+        })
+    }
+}
+
+/// A Gauss-Newton solve between iterations ([`GaussNewton::start`]): a
+/// [`solve::Iterate`] state, and a [`solve::Finish`] one whose result is
+/// the [`GaussNewtonResult`] (its `solve_time` counted from the start).
+pub struct GaussNewtonRun<'a, P: LeastSquaresProblem + ?Sized> {
+    iteration: Iteration<'a, P>,
+    initial_cost: f64,
+    started: Instant,
+}
+
+impl<P: LeastSquaresProblem + ?Sized> std::fmt::Debug for GaussNewtonRun<'_, P> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        let it = &self.iteration;
+        f.debug_struct("GaussNewtonRun")
+            .field("iterations", &it.iterations)
+            .field("cost", &it.cost)
+            .field("initial_cost", &self.initial_cost)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for GaussNewtonRun<'_, P> {
+    type Status = GaussNewtonStatus;
+    type Error = TrajoptError;
+    const NAME: &'static str = NAME;
+
+    #[inline]
+    fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<GaussNewtonStatus>> {
+        self.iteration.next_iter(watch)
+    }
+
+    #[inline]
+    fn snapshot(&self) -> solve::Snapshot<'_> {
+        self.iteration.snapshot()
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> solve::Finish for GaussNewtonRun<'_, P> {
+    type Output = GaussNewtonResult;
+
+    fn finish(self, status: GaussNewtonStatus) -> GaussNewtonResult {
+        let it = self.iteration;
+        GaussNewtonResult {
             x: it.theta,
             cost: it.cost,
-            initial_cost,
+            initial_cost: self.initial_cost,
             status,
             iterations: it.iterations,
             evals: it.residual_evals,
             jacobian_evals: it.jacobian_evals,
             factorizations: it.factorizations,
             cost_history: it.cost_history,
-            solve_time: start.elapsed(),
+            solve_time: self.started.elapsed(),
             one_thread_from: it.one_thread_from,
-        })
+        }
     }
 }
 
