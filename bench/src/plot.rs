@@ -152,7 +152,8 @@ mod tests {
 
     #[test]
     fn a_profile_figure_is_written_as_svg_and_png() {
-        let dir = std::env::temp_dir().join(format!("nprl-bench-plot-{}", std::process::id()));
+        let scratch = store::ScratchDir::new("bench-plot").expect("scratch dir");
+        let dir = scratch.path();
         let profiles = [
             Profile {
                 solver: "a".into(),
@@ -171,12 +172,11 @@ mod tests {
             x_min: 1.0,
             profiles: &profiles,
         }
-        .write(&dir, "t")
+        .write(dir, "t")
         .expect("written");
         let svg = std::fs::read_to_string(dir.join("t.svg")).expect("svg");
         assert!(svg.contains("a (75%)") && svg.contains("b (0%)"));
         let png = std::fs::read(dir.join("t.png")).expect("png");
         assert_eq!(&png[..8], b"\x89PNG\r\n\x1a\n");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -722,9 +722,8 @@ mod tests {
     #[test]
     fn write_replaces_a_symlinks_target_whole_and_keeps_its_mode_and_neighbours() {
         use std::os::unix::fs::PermissionsExt;
-        let dir = std::env::temp_dir().join(format!("nprl-bench-write-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
+        let scratch = store::ScratchDir::new("bench-write").expect("scratch dir");
+        let dir = scratch.path();
         let target = dir.join("real.md");
         std::fs::write(&target, "old").expect("write");
         std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o600)).expect("mode");
@@ -743,8 +742,7 @@ mod tests {
             0o600
         );
         assert_eq!(std::fs::read_to_string(dir.join("README.tmp")).expect("tmp"), "mine");
-        assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 3, "no temporary left");
-        let _ = std::fs::remove_dir_all(&dir);
+        assert_eq!(std::fs::read_dir(dir).expect("dir").count(), 3, "no temporary left");
     }
 
     use super::*;

@@ -503,9 +503,8 @@ mod tests {
     /// saved runs and reports with none and exit 0.
     #[test]
     fn a_filter_that_matches_nothing_is_refused_and_the_saved_runs_are_kept() {
-        let dir = std::env::temp_dir().join(format!("nprl-bench-typo-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
-        std::fs::create_dir_all(&dir).expect("dir");
+        let scratch = store::ScratchDir::new("bench-typo").expect("scratch dir");
+        let dir = scratch.path().to_path_buf();
         let runs = dir.join("runs.json");
         std::fs::write(&runs, "saved").expect("write");
         for set in [ProblemSet::Mgh, ProblemSet::Nist, ProblemSet::Trajectory] {
@@ -525,13 +524,12 @@ mod tests {
         }
         assert_eq!(std::fs::read_to_string(&runs).expect("kept"), "saved");
         assert_eq!(std::fs::read_dir(&dir).expect("dir").count(), 1, "nothing else written");
-        let _ = std::fs::remove_dir_all(&dir);
     }
 
     #[test]
     fn the_trajectory_set_runs_every_solver_on_a_tiny_instance_and_writes_its_own_files() {
-        let dir = std::env::temp_dir().join(format!("nprl-bench-smoke-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&dir);
+        let scratch = store::ScratchDir::new("bench-smoke").expect("scratch dir");
+        let dir = scratch.path().to_path_buf();
         let settings = RunnerSettings {
             set: ProblemSet::Trajectory,
             solvers: Solver::ALL.to_vec(),
@@ -625,6 +623,5 @@ mod tests {
             md.contains("pendulum-h50-lambda1e2") && md.contains("rolled out"),
             "{md}"
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }

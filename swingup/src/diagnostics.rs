@@ -99,18 +99,11 @@ pub fn split_sample(d: &TrialDiagnostics) -> Option<usize> {
     d.angle_gap.iter().position(|g| *g > SPLIT_ANGLE)
 }
 
+/// The [`median`](crate::record::median) of the finite `values`; NaN when
+/// there are none.
 pub(crate) fn median(values: &[f64]) -> f64 {
     let mut v: Vec<f64> = values.iter().copied().filter(|x| x.is_finite()).collect();
-    if v.is_empty() {
-        return f64::NAN;
-    }
-    v.sort_by(f64::total_cmp);
-    let m = v.len() / 2;
-    if v.len() % 2 == 1 {
-        v[m]
-    } else {
-        0.5 * (v[m - 1] + v[m])
-    }
+    crate::record::median(&mut v).unwrap_or(f64::NAN)
 }
 
 pub(crate) fn rms(values: &[f64]) -> f64 {

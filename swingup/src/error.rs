@@ -255,6 +255,31 @@ macro_rules! ensure_config {
 }
 pub(crate) use ensure_config;
 
+/// Checks that each setting `(key, value)` is finite and positive; the
+/// [`Error::Config`] names the first that is not, as `prefix` then its key.
+pub(crate) fn ensure_positive(prefix: &str, settings: &[(&str, f64)]) -> Result<()> {
+    ensure_each(prefix, settings, "positive", |v| v > 0.0)
+}
+
+/// Checks that each setting `(key, value)` is finite and nonnegative; the
+/// [`Error::Config`] names the first that is not, as `prefix` then its key.
+pub(crate) fn ensure_nonnegative(prefix: &str, settings: &[(&str, f64)]) -> Result<()> {
+    ensure_each(prefix, settings, "nonnegative", |v| v >= 0.0)
+}
+
+/// Checks that each setting is finite and `holds`, which is what `sign`
+/// says in the error.
+fn ensure_each(prefix: &str, settings: &[(&str, f64)], sign: &str, holds: impl Fn(f64) -> bool) -> Result<()> {
+    for &(key, v) in settings {
+        ensure_config!(
+            format!("{prefix}{key}"),
+            v.is_finite() && holds(v),
+            "{prefix}{key} must be finite and {sign}, got {v}"
+        );
+    }
+    Ok(())
+}
+
 /// Returns an [`Error::Refused`] with the formatted message unless `cond`
 /// holds.
 macro_rules! ensure_refused {

@@ -211,6 +211,22 @@ pub fn quantile(values: &[f64], q: f64) -> f64 {
     }
 }
 
+/// The median of `v` (sorted in place; the mean of the middle two for an
+/// even count), the one the experiments' tables and the diagnostics
+/// report; `None` when it is empty.
+pub fn median(v: &mut [f64]) -> Option<f64> {
+    if v.is_empty() {
+        return None;
+    }
+    v.sort_by(f64::total_cmp);
+    let n = v.len();
+    Some(if n % 2 == 1 {
+        v[n / 2]
+    } else {
+        0.5 * (v[n / 2 - 1] + v[n / 2])
+    })
+}
+
 /// Where a trial's wall time went (s).
 #[derive(Debug, Clone, Copy, Default, PartialEq, Serialize, Deserialize)]
 pub struct TrialTiming {

@@ -3,7 +3,7 @@
 //! each test's name and doc). Each failed on `main` at dd6e7f8.
 
 use std::io::Read as _;
-use std::path::Path;
+use std::path::{Path, PathBuf};
 use std::process::{Command, Output, Stdio};
 
 mod common;
@@ -92,18 +92,25 @@ fn case_1_a_refused_rerun_never_rewrites_the_settings() {
     );
 }
 
+/// A grid of one trial run in `dir`, then its log's last record torn as
+/// a kill in the middle of writing it leaves it (its last 40 bytes cut):
+/// the log's path and its whole text before the tear.
+fn torn_grid(dir: &Path) -> (PathBuf, String) {
+    ok(&swingup(&grid("1", &[]), dir));
+    let log = dir.join("runs.jsonl");
+    let text = std::fs::read_to_string(&log).expect("runs");
+    std::fs::write(&log, &text[..text.len() - 40]).expect("tear");
+    (log, text)
+}
+
 /// Case 3: a torn last line of `runs.jsonl` is moved aside (named with the
 /// log in a warning), the log keeps its whole records, the run is made
 /// again, and the next resume reads the log cleanly.
 #[test]
 fn case_3_a_torn_last_record_is_moved_aside_and_the_grid_resumes() {
     let dir = scratch("issue37-case3");
-    ok(&swingup(&grid("1", &[]), dir.path()));
-    let log = dir.path().join("runs.jsonl");
-    let text = std::fs::read_to_string(&log).expect("runs");
+    let (log, text) = torn_grid(dir.path());
     assert_eq!(text.lines().count(), 3);
-    // a kill in the middle of writing the last record
-    std::fs::write(&log, &text[..text.len() - 40]).expect("tear");
     let o = swingup(&grid("1", &["--resume"]), dir.path());
     ok(&o);
     let e = stderr(&o);
@@ -345,11 +352,8 @@ fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
 #[test]
 fn a_refused_resume_leaves_a_torn_record_alone() {
     let dir = scratch("issue37-refused-torn");
-    ok(&swingup(&grid("1", &[]), dir.path()));
-    let log = dir.path().join("runs.jsonl");
-    let text = std::fs::read_to_string(&log).expect("runs");
+    let (log, text) = torn_grid(dir.path());
     let torn = &text[..text.len() - 40];
-    std::fs::write(&log, torn).expect("tear");
     refused(&swingup(&grid("2", &["--resume"]), dir.path()), &["max_trials differs"]);
     assert_eq!(std::fs::read_to_string(&log).expect("runs"), torn);
     let names: Vec<String> = std::fs::read_dir(dir.path())

@@ -1,7 +1,7 @@
 //! The run directory: report, logs and plots written by `swingup::output::run_report`.
 
 use std::fs;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 use swingup::output::run_report::{
     DEMONSTRATION_CSV_HEADER, TRIAL_CSV_HEADER, read_trials, trial_csv_name, trial_json_name, write_run, write_trial,
@@ -9,31 +9,10 @@ use swingup::output::run_report::{
 use swingup::plant::demo::Demonstration;
 use swingup::record::{ModelSummary, PlanSummary, RunRecord, TrialDiagnostics, TrialKind, TrialRecord, TrialTiming};
 
+mod common;
+use common::scratch;
+
 const DT: f64 = 1.0 / 60.0;
-
-/// A temporary directory, removed when dropped.
-struct TempDir(PathBuf);
-
-impl TempDir {
-    fn new(tag: &str) -> Self {
-        let nanos = std::time::SystemTime::now()
-            .duration_since(std::time::UNIX_EPOCH)
-            .map(|d| d.as_nanos())
-            .unwrap_or(0);
-        let dir = std::env::temp_dir().join(format!("swingup-report-{tag}-{}-{nanos}", std::process::id()));
-        Self(dir)
-    }
-
-    fn path(&self) -> &Path {
-        &self.0
-    }
-}
-
-impl Drop for TempDir {
-    fn drop(&mut self) {
-        let _ = fs::remove_dir_all(&self.0);
-    }
-}
 
 fn swing(n: usize, peak: f64, phase: f64) -> Vec<[f64; 4]> {
     (0..=n)
@@ -225,7 +204,7 @@ fn read(dir: &Path, name: &str) -> Result<String, Box<dyn std::error::Error>> {
 
 #[test]
 fn report_json_round_trips_with_nan() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("json");
+    let dir = scratch("report-json");
     let run = run();
     write_run(dir.path(), &run)?;
     let back: RunRecord = serde_json::from_str(&read(dir.path(), "report.json")?)?;
@@ -259,7 +238,7 @@ fn infinities_are_read_back_as_nan() -> Result<(), Box<dyn std::error::Error>> {
 
 #[test]
 fn markdown_has_the_trial_table_and_the_result() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("md");
+    let dir = scratch("report-md");
     let run = run();
     write_run(dir.path(), &run)?;
     let md = read(dir.path(), "report.md")?;
@@ -339,7 +318,7 @@ fn markdown_has_the_trial_table_and_the_result() -> Result<(), Box<dyn std::erro
 
 #[test]
 fn csv_logs_have_the_header_and_one_row_per_sample() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("csv");
+    let dir = scratch("report-csv");
     let run = run();
     write_run(dir.path(), &run)?;
     for t in &run.trials {
@@ -418,7 +397,7 @@ fn png_size(png: &[u8]) -> Option<(u32, u32)> {
 
 #[test]
 fn plots_are_svg_and_png_with_a_line_per_trial() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("svg");
+    let dir = scratch("report-svg");
     let mut run = run();
     run.trials[0].failure = "x < 0 & \"lost\"".into();
     write_run(dir.path(), &run)?;
@@ -479,7 +458,7 @@ fn plots_are_svg_and_png_with_a_line_per_trial() -> Result<(), Box<dyn std::erro
 
 #[test]
 fn inconsistency_spanning_decades_is_on_a_log_scale() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("log");
+    let dir = scratch("report-log");
     let mut run = run();
     if let Some(p) = run.trials[1].plan.as_mut() {
         p.inconsistency = 5.0;
@@ -500,15 +479,16 @@ fn inconsistency_spanning_decades_is_on_a_log_scale() -> Result<(), Box<dyn std:
 
 #[test]
 fn trials_are_read_back_in_order_until_the_first_gap() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("trials");
-    assert!(read_trials(dir.path())?.is_empty(), "no directory: no trials");
+    let root = scratch("report-trials");
+    let dir = root.path().join("run");
+    assert!(read_trials(&dir)?.is_empty(), "no directory: no trials");
     let run = run();
     // written out of order
     for i in [1, 0, 2] {
-        write_trial(dir.path(), &run.trials[i])?;
+        write_trial(&dir, &run.trials[i])?;
     }
-    assert!(dir.path().join(trial_csv_name(2)).exists());
-    let back = read_trials(dir.path())?;
+    assert!(dir.join(trial_csv_name(2)).exists());
+    let back = read_trials(&dir)?;
     assert_eq!(back.len(), 3);
     for (a, b) in back.iter().zip(&run.trials) {
         assert!(same_trial(a, b), "trial {} differs", b.index);
@@ -516,15 +496,15 @@ fn trials_are_read_back_in_order_until_the_first_gap() -> Result<(), Box<dyn std
     // a gap: trial 5 without trial 4 is not read
     let mut five = run.trials[2].clone();
     five.index = 5;
-    write_trial(dir.path(), &five)?;
-    assert_eq!(read_trials(dir.path())?.len(), 3);
-    assert!(!dir.path().join("trial_03.json.tmp").exists());
+    write_trial(&dir, &five)?;
+    assert_eq!(read_trials(&dir)?.len(), 3);
+    assert!(!dir.join("trial_03.json.tmp").exists());
     Ok(())
 }
 
 #[test]
 fn a_corrupt_trial_file_is_an_error_naming_it() -> Result<(), Box<dyn std::error::Error>> {
-    let dir = TempDir::new("corrupt");
+    let dir = scratch("report-corrupt");
     let run = run();
     write_trial(dir.path(), &run.trials[0])?;
     write_trial(dir.path(), &run.trials[1])?;

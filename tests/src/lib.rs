@@ -2,6 +2,8 @@
 //! `tests/tests/`. This library holds what several of them share.
 #![warn(missing_docs)]
 
+use std::path::{Path, PathBuf};
+
 use faer::Mat;
 use trajopt::{CostBreakdown, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Model, StageCost};
 
@@ -42,4 +44,17 @@ pub fn gauss_newton_plan<M: Model, C: StageCost>(
         states,
         controls,
     }
+}
+
+/// The workspace's root (this crate is one of its members).
+pub fn workspace_root() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
+}
+
+/// The text of the file at `relative` to the workspace's root (a saved
+/// result, a README, a seed file); panics naming the file if it cannot be
+/// read (a test's failure).
+pub fn read_workspace_file(relative: &str) -> String {
+    let path = workspace_root().join(relative);
+    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()))
 }

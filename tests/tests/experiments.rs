@@ -141,9 +141,8 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
     // saved as the records of two parts (the grid's and a shard's): a torn
     // last line is skipped with a warning naming the file and line, a bad
     // complete line is an error naming them
-    let dir = std::env::temp_dir().join(format!("swingup-saved-runs-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir)?;
+    let scratch = store::ScratchDir::new("swingup-saved-runs")?;
+    let dir = scratch.path().to_path_buf();
     for name in ["settings.json", "settings-2-of-2.json"] {
         let path = dir.join(name);
         grid::grid_manifest(&settings, &path)?.write(&path)?;
@@ -172,7 +171,6 @@ fn lambda_zero_fails_and_a_moderate_lambda_learns() -> Result<(), Box<dyn std::e
         .expect_err("bad line")
         .to_string();
     assert!(e.contains("runs.jsonl line 2"), "{e}");
-    std::fs::remove_dir_all(&dir)?;
     let md = swingup::output::grid_report::markdown(&report);
     assert!(md.contains("| claim | paper | ours | reproduced |"));
     Ok(())
@@ -247,9 +245,8 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
         "{block}"
     );
     // saved as a runs file and read back, the record is the same
-    let dir = std::env::temp_dir().join(format!("swingup-cartpole-runs-{}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir)?;
+    let scratch = store::ScratchDir::new("swingup-cartpole-runs")?;
+    let dir = scratch.path().to_path_buf();
     let settings_file = dir.join(grid::SETTINGS_FILE);
     grid::grid_manifest(&settings, &settings_file)?.write(&settings_file)?;
     let lines: Vec<String> = report
@@ -290,6 +287,5 @@ fn the_cartpole_part_runs_alone_round_trips_and_refuses_other_settings() -> Resu
     let mut changed = ExperimentSettings::full();
     changed.cartpole.episode = 3.0;
     assert!(grid::open_grid(&dir, &changed, None, grid::GridMode::ReportOnly).is_err());
-    std::fs::remove_dir_all(&dir)?;
     Ok(())
 }

@@ -28,7 +28,8 @@ use swingup::config::{BasisKind, Config, Controller, Solver, Start};
 use swingup::experiments::RunSummary;
 
 mod fuzz;
-use fuzz::{Edit, Input, Tally, apply, head, numbers, place, read, with_file};
+use fuzz::{Edit, Input, Tally, apply, head, numbers, place, with_file};
+use integration_tests::read_workspace_file as read;
 
 /// Random inputs of each target under `cargo test`, about a second each
 /// on a CI machine (two cores); `BOLERO_RANDOM_ITERATIONS` replaces them.

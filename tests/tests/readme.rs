@@ -3,19 +3,9 @@
 //! results regenerated without rewriting the README (or the other way
 //! round), fails here.
 
-use std::path::{Path, PathBuf};
-
+use integration_tests::read_workspace_file as read;
 use swingup::experiments::ExperimentsReport;
 use swingup::experiments::sensitivity::SensitivityReport;
-
-fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-fn read(relative: &str) -> String {
-    let path = root().join(relative);
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("reading {}: {e}", path.display()))
-}
 
 /// The text between `<!-- NAME:start -->\n` and `<!-- NAME:end -->`, as
 /// `swingup::output::run_report::update_between` writes it.
@@ -107,8 +97,8 @@ fn the_benchmark_summary_is_the_one_results_gives() {
 /// The section finder reads what `update_between` writes.
 #[test]
 fn sections_round_trip_through_update_between() {
-    let dir = std::env::temp_dir().join(format!("nprl-readme-test-{}", std::process::id()));
-    std::fs::create_dir_all(&dir).expect("temp dir");
+    let scratch = store::ScratchDir::new("readme-test").expect("scratch dir");
+    let dir = scratch.path();
     let path = dir.join("README.md");
     std::fs::write(&path, "intro\n<!-- t:start -->\nold\n<!-- t:end -->\noutro\n").expect("write");
     swingup::output::run_report::update_between(&path, "<!-- t:start -->", "<!-- t:end -->", "new\nlines\n")
@@ -116,5 +106,4 @@ fn sections_round_trip_through_update_between() {
     let text = std::fs::read_to_string(&path).expect("read");
     assert_eq!(section(&text, "README.md", "t"), "new\nlines\n");
     assert!(text.starts_with("intro\n") && text.ends_with("<!-- t:end -->\noutro\n"));
-    std::fs::remove_dir_all(&dir).expect("cleanup");
 }

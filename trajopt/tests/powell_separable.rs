@@ -3,7 +3,7 @@
 //! through `BandTerms`.
 
 use trajopt::powell::{BandTerms, Objective, SeparableObjective};
-use trajopt::problems::trajectory;
+use trajopt::problems::trajectory::{self, SwingUpProblem};
 use trajopt::{Powell, PowellSettings};
 
 /// $\sum_{k < n-1} 100 (x_{k+1} - x_k^2)^2 + (1 - x_k)^2$, one term per $k$.
@@ -77,12 +77,17 @@ fn separable_solve_follows_the_plain_solve() {
     assert!((f.cost(&banded.x).expect("cost") - banded.cost).abs() <= 1e-12);
 }
 
-#[test]
-fn band_terms_sum_to_the_eq3_criterion() {
-    let (problem, theta0) = trajectory::by_name("pendulum-h50-lambda1e2")
+/// The standard pendulum instance (horizon 50, lambda 1e2) and its start.
+fn pendulum() -> (SwingUpProblem, Vec<f64>) {
+    trajectory::by_name("pendulum-h50-lambda1e2")
         .expect("standard")
         .problem()
-        .expect("problem");
+        .expect("problem")
+}
+
+#[test]
+fn band_terms_sum_to_the_eq3_criterion() {
+    let (problem, theta0) = pendulum();
     let terms = BandTerms::new(&problem, problem.horizon() + 1, &theta0).expect("terms");
     let k = terms.n_terms();
     let all: Vec<usize> = (0..k).collect();
@@ -116,10 +121,7 @@ fn band_terms_sum_to_the_eq3_criterion() {
 
 #[test]
 fn separable_solve_on_eq3_matches_the_plain_solve_early_on() {
-    let (problem, theta0) = trajectory::by_name("pendulum-h50-lambda1e2")
-        .expect("standard")
-        .problem()
-        .expect("problem");
+    let (problem, theta0) = pendulum();
     let terms = BandTerms::new(&problem, problem.horizon() + 1, &theta0).expect("terms");
     let powell = Powell::new(PowellSettings {
         max_evals: Some(3000),

@@ -170,29 +170,23 @@ impl CartPoleSettings {
         self.plant.validate()?;
         self.weights.validate()?;
         self.model.lwr.validate(crate::cartpole::model::N_INPUTS)?;
-        for (key, v) in [
-            ("episode", self.episode),
-            ("success_distance", self.success_distance),
-            ("lambda", self.lambda),
-            ("x0_weight", self.x0_weight),
-        ] {
-            crate::error::ensure_config!(
-                format!("cartpole.{key}"),
-                v.is_finite() && v > 0.0,
-                "cartpole.{key} must be finite and positive, got {v}"
-            );
-        }
-        for (key, v) in [
-            ("initial_std", self.initial_std),
-            ("success_hold", self.success_hold),
-            ("tol_cost", self.tol_cost),
-        ] {
-            crate::error::ensure_config!(
-                format!("cartpole.{key}"),
-                v.is_finite() && v >= 0.0,
-                "cartpole.{key} must be finite and nonnegative, got {v}"
-            );
-        }
+        crate::error::ensure_positive(
+            "cartpole.",
+            &[
+                ("episode", self.episode),
+                ("success_distance", self.success_distance),
+                ("lambda", self.lambda),
+                ("x0_weight", self.x0_weight),
+            ],
+        )?;
+        crate::error::ensure_nonnegative(
+            "cartpole.",
+            &[
+                ("initial_std", self.initial_std),
+                ("success_hold", self.success_hold),
+                ("tol_cost", self.tol_cost),
+            ],
+        )?;
         crate::error::ensure_config!(
             "cartpole.episode",
             self.steps() > self.hold_steps(),

@@ -78,27 +78,21 @@ impl Default for CartPoleParams {
 impl CartPoleParams {
     /// Checks every field.
     pub fn validate(&self) -> crate::Result<()> {
-        for (key, v) in [
-            ("cart_mass", self.cart_mass),
-            ("pole_mass", self.pole_mass),
-            ("pole_length", self.pole_length),
-            ("gravity", self.gravity),
-            ("max_force", self.max_force),
-            ("dt", self.dt),
-        ] {
-            crate::error::ensure_config!(
-                format!("cartpole.plant.{key}"),
-                v.is_finite() && v > 0.0,
-                "cartpole.plant.{key} must be finite and positive, got {v}"
-            );
-        }
-        for (key, v) in [("friction", self.friction), ("sensor_noise", self.sensor_noise)] {
-            crate::error::ensure_config!(
-                format!("cartpole.plant.{key}"),
-                v.is_finite() && v >= 0.0,
-                "cartpole.plant.{key} must be finite and nonnegative, got {v}"
-            );
-        }
+        crate::error::ensure_positive(
+            "cartpole.plant.",
+            &[
+                ("cart_mass", self.cart_mass),
+                ("pole_mass", self.pole_mass),
+                ("pole_length", self.pole_length),
+                ("gravity", self.gravity),
+                ("max_force", self.max_force),
+                ("dt", self.dt),
+            ],
+        )?;
+        crate::error::ensure_nonnegative(
+            "cartpole.plant.",
+            &[("friction", self.friction), ("sensor_noise", self.sensor_noise)],
+        )?;
         crate::error::ensure_config!(
             "cartpole.plant.substeps",
             self.substeps >= 1,

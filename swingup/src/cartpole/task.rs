@@ -83,26 +83,17 @@ impl Default for TaskWeights {
 impl TaskWeights {
     /// Checks every weight (finite, nonnegative; `terminal_factor` positive).
     pub fn validate(&self) -> crate::Result<()> {
-        for (key, v) in [
-            ("tip", self.tip),
-            ("cart_velocity", self.cart_velocity),
-            ("angular_velocity", self.angular_velocity),
-            ("force", self.force),
-            ("bound_weight", self.bound_weight),
-        ] {
-            crate::error::ensure_config!(
-                format!("cartpole.task.{key}"),
-                v.is_finite() && v >= 0.0,
-                "cartpole.task.{key} must be finite and nonnegative, got {v}"
-            );
-        }
-        crate::error::ensure_config!(
-            "cartpole.task.terminal_factor",
-            self.terminal_factor.is_finite() && self.terminal_factor > 0.0,
-            "cartpole.task.terminal_factor must be finite and positive, got {}",
-            self.terminal_factor
-        );
-        Ok(())
+        crate::error::ensure_nonnegative(
+            "cartpole.task.",
+            &[
+                ("tip", self.tip),
+                ("cart_velocity", self.cart_velocity),
+                ("angular_velocity", self.angular_velocity),
+                ("force", self.force),
+                ("bound_weight", self.bound_weight),
+            ],
+        )?;
+        crate::error::ensure_positive("cartpole.task.", &[("terminal_factor", self.terminal_factor)])
     }
 }
 

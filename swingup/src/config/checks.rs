@@ -212,13 +212,7 @@ impl Config {
             ("planner.support_bandwidth", p.support_bandwidth),
             ("planner.support_full", p.support_full),
         ];
-        for (key, v) in positive {
-            ensure_config!(
-                key,
-                v.is_finite() && v > 0.0,
-                "{key} must be finite and positive, got {v}"
-            );
-        }
+        crate::error::ensure_positive("", &positive)?;
         let nonnegative = [
             ("planner.lambda_start", p.lambda_start),
             ("planner.confidence_floor", p.confidence_floor),
@@ -232,13 +226,7 @@ impl Config {
             ("planner.support_weight", p.support_weight),
             ("exploration", self.exploration),
         ];
-        for (key, v) in nonnegative {
-            ensure_config!(
-                key,
-                v.is_finite() && v >= 0.0,
-                "{key} must be finite and nonnegative, got {v}"
-            );
-        }
+        crate::error::ensure_nonnegative("", &nonnegative)?;
         let arrays: [(&str, &[f64]); 5] = [
             ("sensor_noise", &self.sensor_noise),
             ("feedback", &self.feedback),

@@ -4,6 +4,8 @@
 
 use serde::{Deserialize, Serialize};
 
+pub use crate::record::median;
+
 use super::{Experiment, ExperimentSettings};
 
 /// How far forward integration of a model learned after `after_trial`
@@ -278,22 +280,6 @@ impl ExperimentsReport {
     pub fn task_time(&self, task: &str) -> Option<&TaskTime> {
         self.task_times.iter().find(|p| p.task == task)
     }
-}
-
-/// The median of `v` (sorted in place; the mean of the middle two for an
-/// even count), the one the experiments' tables report; `None` when it is
-/// empty.
-pub fn median(v: &mut [f64]) -> Option<f64> {
-    if v.is_empty() {
-        return None;
-    }
-    v.sort_by(f64::total_cmp);
-    let n = v.len();
-    Some(if n % 2 == 1 {
-        v[n / 2]
-    } else {
-        0.5 * (v[n / 2 - 1] + v[n / 2])
-    })
 }
 
 /// One [`VariantSummary`] per (experiment, variant) of `runs`, in their order.

@@ -159,6 +159,16 @@ fn csv_num(out: &mut String, x: Option<f64>) {
     }
 }
 
+/// The start of state sample `k`'s CSV row, shared by the trial and
+/// demonstration logs: `k`, its time `k dt` and the state's values.
+fn csv_state(out: &mut String, k: usize, dt: f64, state: &[f64]) {
+    let _ = write!(out, "{k},{}", k as f64 * dt);
+    for v in state {
+        out.push(',');
+        csv_num(out, Some(*v));
+    }
+}
+
 /// The phase of sample `k` of a trial: `imitate`, `explore` or `plan` before the
 /// balancing controller took over, `balance` from then on.
 pub fn phase(trial: &TrialRecord, k: usize) -> &'static str {
@@ -179,11 +189,7 @@ pub fn trial_csv(trial: &TrialRecord) -> String {
     out.push_str(TRIAL_CSV_HEADER);
     out.push('\n');
     for (k, s) in trial.states.iter().enumerate() {
-        let _ = write!(out, "{k},{}", k as f64 * trial.dt);
-        for v in s {
-            out.push(',');
-            csv_num(&mut out, Some(*v));
-        }
+        csv_state(&mut out, k, trial.dt, s);
         let obs = trial.observed.get(k);
         for j in 0..4 {
             out.push(',');
@@ -203,11 +209,7 @@ pub fn demonstration_csv(demo: &Demonstration) -> String {
     out.push_str(DEMONSTRATION_CSV_HEADER);
     out.push('\n');
     for (k, s) in demo.states.iter().enumerate() {
-        let _ = write!(out, "{k},{}", k as f64 * demo.dt);
-        for v in s {
-            out.push(',');
-            csv_num(&mut out, Some(*v));
-        }
+        csv_state(&mut out, k, demo.dt, s);
         out.push(',');
         csv_num(&mut out, demo.controls.get(k).copied());
         out.push('\n');

@@ -301,8 +301,8 @@ mod tests {
     /// and resumes that one, whatever gaps lie below it (issue 37).
     #[test]
     fn numbered_runs_resume_the_highest_and_skip_past_gaps() {
-        let root = std::env::temp_dir().join(format!("swingup-numbered-{}", std::process::id()));
-        let _ = std::fs::remove_dir_all(&root);
+        let scratch = store::ScratchDir::new("swingup-numbered").expect("scratch dir");
+        let root = scratch.path().join("runs");
         assert_eq!(numbered_run_dir(&root, false).expect("fresh"), root.join("swingup-001"));
         let e = numbered_run_dir(&root, true)
             .expect_err("nothing to resume")
@@ -320,6 +320,5 @@ mod tests {
             numbered_run_dir(&root, true).expect("latest"),
             root.join("swingup-1000")
         );
-        let _ = std::fs::remove_dir_all(&root);
     }
 }

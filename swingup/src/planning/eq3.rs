@@ -406,6 +406,16 @@ mod tests {
             .expect("demonstration")
     }
 
+    /// The defaults changed by `change`, their demonstration, and the
+    /// robot's true dynamics as the planner's model.
+    fn setup(change: impl FnOnce(&mut Config)) -> (Config, Demonstration, KnownHand<TrueRegression>) {
+        let mut cfg = Config::default();
+        change(&mut cfg);
+        let d = demo(&cfg);
+        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        (cfg, d, model)
+    }
+
     /// From scratch the task cost's tracking part is zero upright at rest
     /// with no command, at every step; with the demonstration it is zero
     /// on the demonstration (but its last state, where the target is
@@ -439,10 +449,7 @@ mod tests {
     /// criterion close to the tight one's.
     #[test]
     fn plans_stop_at_the_configured_cost_tolerance() {
-        let mut cfg = Config::default();
-        cfg.planner.lambda_start = cfg.planner.lambda;
-        let d = demo(&cfg);
-        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let (cfg, d, model) = setup(|c| c.planner.lambda_start = c.planner.lambda);
         let plan_at = |tol: f64| {
             let mut c = cfg.clone();
             c.planner.tol_cost = tol;
@@ -465,10 +472,7 @@ mod tests {
     /// evaluations of their differences counted.
     #[test]
     fn derivative_free_plans_reach_gauss_newtons() {
-        let mut cfg = Config::default();
-        cfg.planner.tol_cost = 1e-10;
-        let d = demo(&cfg);
-        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let (cfg, d, model) = setup(|c| c.planner.tol_cost = 1e-10);
         let reference = plan(&cfg, &d, &model, None).expect("plan");
         for differences in [Differences::Elements, Differences::Groups] {
             let mut c = cfg.clone();
@@ -498,12 +502,11 @@ mod tests {
     /// what it needs it says so (`MaxEvaluations`), having only descended.
     #[test]
     fn powell_plans_report_their_own_criterion() {
-        let mut cfg = Config::default();
-        cfg.planner.solver = Solver::Powell;
-        cfg.planner.lambda_start = 0.0;
-        cfg.planner.powell_evals = 3000;
-        let d = demo(&cfg);
-        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let (cfg, d, model) = setup(|c| {
+            c.planner.solver = Solver::Powell;
+            c.planner.lambda_start = 0.0;
+            c.planner.powell_evals = 3000;
+        });
         let p = plan(&cfg, &d, &model, None).expect("plan");
         assert_eq!(p.planner, "powell");
         assert_eq!(p.status, "MaxEvaluations");
@@ -523,10 +526,7 @@ mod tests {
     /// demonstration bit for bit as without one.
     #[test]
     fn warm_start_begins_at_the_previous_plan() {
-        let mut cfg = Config::default();
-        cfg.planner.tol_cost = 1e-10;
-        let d = demo(&cfg);
-        let model = KnownHand::new(TrueRegression::robot(), cfg.robot.dt);
+        let (cfg, d, model) = setup(|c| c.planner.tol_cost = 1e-10);
         let cold = plan(&cfg, &d, &model, None).expect("plan");
         let warm = plan_from(&cfg, &d, &model, None, Some(&cold)).expect("warm plan");
         let rel = (warm.initial_cost - cold.cost).abs() / cold.cost;

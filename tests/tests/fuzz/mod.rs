@@ -1,21 +1,12 @@
-//! What the fuzz targets of `fuzz_parsers.rs` share: the seed files'
-//! paths and the mutator (edits of a seed file, with each target's
-//! dictionary of tokens), the tally of accepted inputs and scratch files.
+//! What the fuzz targets of `fuzz_parsers.rs` share: the mutator (edits
+//! of a seed file, with each target's dictionary of tokens), the tally of
+//! accepted inputs and scratch files. The seed files are read with
+//! [`integration_tests::read_workspace_file`].
 
-use std::path::{Path, PathBuf};
+use std::path::Path;
 use std::sync::atomic::{AtomicUsize, Ordering::Relaxed};
 
 use bolero::TypeGenerator;
-
-/// The workspace's root (this crate is one of its members).
-pub(crate) fn root() -> PathBuf {
-    Path::new(env!("CARGO_MANIFEST_DIR")).join("..")
-}
-
-pub(crate) fn read(path: &str) -> String {
-    let path = root().join(path);
-    std::fs::read_to_string(&path).unwrap_or_else(|e| panic!("seed file {}: {e}", path.display()))
-}
 
 /// The first `n` lines of `text`, each with its line break.
 pub(crate) fn head(text: &str, n: usize) -> String {

@@ -702,6 +702,15 @@ mod tests {
             .sum())
     }
 
+    /// Powell under `settings` on the two-dimensional Rosenbrock function
+    /// from its standard start $(-1.2, 1)$.
+    fn solve_rosenbrock(settings: PowellSettings) -> PowellResult {
+        Powell::new(settings)
+            .expect("settings")
+            .solve(&rosenbrock, &[-1.2, 1.0])
+            .expect("solve")
+    }
+
     #[test]
     fn settings_are_validated() {
         let bad = [
@@ -786,31 +795,24 @@ mod tests {
     #[test]
     fn budget_is_never_exceeded() {
         for max_evals in [1, 2, 5, 17, 60] {
-            let powell = Powell::new(PowellSettings {
+            let result = solve_rosenbrock(PowellSettings {
                 max_evals: Some(max_evals),
                 ..Default::default()
-            })
-            .expect("settings");
-            let result = powell.solve(&rosenbrock, &[-1.2, 1.0]).expect("solve");
+            });
             assert!(result.evals <= max_evals, "{} > {max_evals}", result.evals);
             assert_eq!(result.status, PowellStatus::MaxEvaluations);
             assert!(result.cost <= result.initial_cost);
         }
-        let powell = Powell::new(PowellSettings {
+        let result = solve_rosenbrock(PowellSettings {
             max_iterations: Some(2),
             ..Default::default()
-        })
-        .expect("settings");
-        let result = powell.solve(&rosenbrock, &[-1.2, 1.0]).expect("solve");
+        });
         assert_eq!((result.status, result.iterations), (PowellStatus::MaxIterations, 2));
     }
 
     #[test]
     fn stop_cost_stops_at_the_first_value_below_it() {
-        let full = Powell::new(PowellSettings::default())
-            .expect("settings")
-            .solve(&rosenbrock, &[-1.2, 1.0])
-            .expect("solve");
+        let full = solve_rosenbrock(PowellSettings::default());
         for stop in [1.0, 1e-3, 1e-10] {
             let calls = std::cell::Cell::new(0);
             let first_below = std::cell::Cell::new(None);
@@ -847,10 +849,7 @@ mod tests {
 
     #[test]
     fn cost_history_has_one_falling_entry_per_iteration() {
-        let result = Powell::new(PowellSettings::default())
-            .expect("settings")
-            .solve(&rosenbrock, &[-1.2, 1.0])
-            .expect("solve");
+        let result = solve_rosenbrock(PowellSettings::default());
         assert_eq!(result.cost_history.len(), result.iterations);
         assert!(result.cost_history.windows(2).all(|w| w[1] <= w[0]));
         assert_eq!(result.cost_history.last(), Some(&result.cost));

@@ -227,8 +227,8 @@ mod tests {
     #[test]
     fn write_puts_svg_and_png_side_by_side() {
         let plot = render(&Empty).expect("plot");
-        let dir = std::env::temp_dir().join(format!("swingup-plot-{}", std::process::id()));
-        std::fs::create_dir_all(&dir).expect("dir");
+        let scratch = store::ScratchDir::new("swingup-plot").expect("scratch dir");
+        let dir = scratch.path().to_path_buf();
         plot.write(&dir, "empty").expect("write");
         assert!(dir.join("empty.svg").exists() && dir.join("empty.png").exists());
         let err = plot.write(&dir.join("missing"), "empty").expect_err("no directory");
@@ -236,6 +236,5 @@ mod tests {
             matches!(err, PlotError::Store(ref e) if e.to_string().contains("empty.svg")),
             "{err}"
         );
-        let _ = std::fs::remove_dir_all(&dir);
     }
 }
