@@ -7,7 +7,7 @@ use crate::error::{LwrError, Result};
 use crate::loo::{BOUND_MARGIN, Objective};
 use crate::model::LwrModel;
 use crate::settings::LwrSettings;
-use solve::{Finish as _, Interrupt, Termination, Watch};
+use solve::{Finish as _, Termination, Watch};
 
 /// Smallest relative decrease of the objective that counts as a move.
 const MIN_IMPROVEMENT: f64 = 1e-9;
@@ -127,14 +127,7 @@ pub enum TuneStatus {
     Stopped,
 }
 
-impl From<Interrupt> for TuneStatus {
-    fn from(why: Interrupt) -> Self {
-        match why {
-            Interrupt::TimeLimit => Self::TimeLimit,
-            Interrupt::Observer => Self::Stopped,
-        }
-    }
-}
+solve::from_interrupt!(TuneStatus);
 
 impl solve::Status for TuneStatus {
     fn termination(&self) -> Termination {

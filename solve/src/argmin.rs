@@ -244,71 +244,12 @@ pub fn finish<I: Finish>(run: OptimizationResult<I, Stepper<I>, StepperState>) -
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::Snapshot;
+    use crate::testing::Halving;
     use argmin::core::Executor;
-
-    /// Halves x each iteration; ends with `Failed` at iteration `give_up`,
-    /// errs at `err_at`.
-    struct Halving {
-        x: [f64; 1],
-        it: usize,
-        give_up: usize,
-        err_at: usize,
-    }
-
-    #[derive(Debug)]
-    struct Boom;
-    impl fmt::Display for Boom {
-        fn fmt(&self, f: &mut fmt::Formatter<'_>) -> fmt::Result {
-            f.write_str("boom")
-        }
-    }
-    impl std::error::Error for Boom {}
-
-    impl Iterate for Halving {
-        type Status = Termination;
-        type Error = Boom;
-        const NAME: &'static str = "halving";
-        fn next_iter(&mut self, _: &Watch<'_>) -> Result<Option<Termination>, Boom> {
-            if self.it == self.err_at {
-                return Err(Boom);
-            }
-            if self.it == self.give_up {
-                return Ok(Some(Termination::Failed));
-            }
-            self.x[0] *= 0.5;
-            self.it += 1;
-            Ok(None)
-        }
-        fn snapshot(&self) -> Snapshot<'_> {
-            Snapshot {
-                iteration: self.it,
-                evals: 2 * self.it + 1,
-                cost: self.x[0],
-                x: &self.x,
-            }
-        }
-    }
-
-    impl Finish for Halving {
-        type Output = (usize, Termination);
-        fn finish(self, status: Termination) -> (usize, Termination) {
-            (self.it, status)
-        }
-    }
-
-    fn halving(give_up: usize, err_at: usize) -> Halving {
-        Halving {
-            x: [1.0],
-            it: 0,
-            give_up,
-            err_at,
-        }
-    }
 
     #[test]
     fn the_solvers_own_end_and_counts_reach_argmin() {
-        let run = Executor::new(halving(5, usize::MAX), Stepper::new())
+        let run = Executor::new(Halving::new(1.0, 5, Termination::Failed), Stepper::new())
             .run()
             .expect("run");
         assert_eq!(
@@ -317,44 +258,56 @@ mod tests {
         );
         assert_eq!(run.state.get_best_cost(), 1.0 / 32.0);
         assert_eq!(run.state.get_best_param(), Some(&vec![1.0 / 32.0]));
-        assert_eq!(run.problem.counts.get(EVALS), Some(&11));
+        assert_eq!(run.problem.counts.get(EVALS), Some(&10));
         assert_eq!(run.solver.status(), Some(&Termination::Failed));
         assert_eq!(finish(run).expect("finish"), (5, Termination::Failed));
     }
 
     #[test]
-    fn a_passed_time_limit_ends_the_solve_after_its_iteration() {
+    fn a_passed_time_limit_reaches_the_solvers_own_polls() {
         let stepper = Stepper::new().with_time_limit(Duration::ZERO);
-        let run = Executor::new(halving(usize::MAX, usize::MAX), stepper)
+        let run = Executor::new(Halving::new(1.0, usize::MAX, Termination::MaxIterations), stepper)
             .run()
             .expect("run");
         assert_eq!(run.state.get_termination_reason(), Some(&TerminationReason::Timeout));
-        assert_eq!(finish(run).expect("finish"), (1, Termination::TimeLimit));
+        // the solver saw the stepper's limit as its first iteration started
+        assert_eq!(finish(run).expect("finish"), (0, Termination::TimeLimit));
     }
 
     #[test]
     fn argmins_own_stops_are_stops_from_outside() {
-        let run = Executor::new(halving(usize::MAX, usize::MAX), Stepper::new())
-            .configure(|s| s.target_cost(0.1))
-            .run()
-            .expect("run");
+        let run = Executor::new(
+            Halving::new(1.0, usize::MAX, Termination::MaxIterations),
+            Stepper::new(),
+        )
+        .configure(|s| s.target_cost(0.1))
+        .run()
+        .expect("run");
         assert_eq!(
             run.state.get_termination_reason(),
             Some(&TerminationReason::TargetCostReached)
         );
         assert_eq!(finish(run).expect("finish"), (4, Termination::Stopped));
-        let run = Executor::new(halving(usize::MAX, usize::MAX), Stepper::new())
-            .timeout(Duration::ZERO)
-            .run()
-            .expect("run");
+        let run = Executor::new(
+            Halving::new(1.0, usize::MAX, Termination::MaxIterations),
+            Stepper::new(),
+        )
+        .timeout(Duration::ZERO)
+        .run()
+        .expect("run");
         assert_eq!(run.state.get_termination_reason(), Some(&TerminationReason::Timeout));
         assert_eq!(finish(run).expect("finish").1, Termination::TimeLimit);
     }
 
     #[test]
     fn the_solvers_error_is_argmins() {
-        match Executor::new(halving(usize::MAX, 3), Stepper::new()).run() {
-            Err(err) => assert_eq!(err.to_string(), "boom"),
+        match Executor::new(
+            Halving::new(-1.0, usize::MAX, Termination::MaxIterations),
+            Stepper::new(),
+        )
+        .run()
+        {
+            Err(err) => assert_eq!(err.to_string(), "negative"),
             Ok(run) => panic!("ran to {:?}", run.state.get_termination_reason()),
         }
     }

@@ -9,6 +9,8 @@ use std::time::{Duration, Instant};
 pub mod argmin;
 mod check;
 pub mod dense;
+#[cfg(test)]
+mod testing;
 pub use check::JacobianCheck;
 
 /// One iteration as a solver reports it to its observers.
@@ -506,6 +508,32 @@ macro_rules! outcome {
     )+};
 }
 
+/// Implements `From<Interrupt>` for solver statuses with the workspace's
+/// two interrupt variants, `TimeLimit` and `Stopped` (an observer's stop),
+/// so that each solver states the mapping once.
+///
+/// ```
+/// #[derive(Debug, PartialEq)]
+/// enum MyStatus { Converged, TimeLimit, Stopped }
+/// solve::from_interrupt!(MyStatus);
+///
+/// assert_eq!(MyStatus::from(solve::Interrupt::TimeLimit), MyStatus::TimeLimit);
+/// assert_eq!(MyStatus::from(solve::Interrupt::Observer), MyStatus::Stopped);
+/// ```
+#[macro_export]
+macro_rules! from_interrupt {
+    ($($status:ty),+ $(,)?) => {$(
+        impl From<$crate::Interrupt> for $status {
+            fn from(why: $crate::Interrupt) -> Self {
+                match why {
+                    $crate::Interrupt::TimeLimit => Self::TimeLimit,
+                    $crate::Interrupt::Observer => Self::Stopped,
+                }
+            }
+        }
+    )+};
+}
+
 /// Defines a crate's two input checks over its own error type, so that the
 /// solver crates share one definition: `check_finite(what, values)` fails
 /// with `$error::NotFinite { what, index, value }` at the first non-finite
@@ -567,6 +595,7 @@ macro_rules! input_checks {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::testing::{Halving, Negative};
 
     #[test]
     fn an_idle_watch_never_interrupts_and_builds_no_progress() {
@@ -616,49 +645,10 @@ mod tests {
         assert_eq!(second.records[1].x.as_deref(), Some(&[2.0][..]));
     }
 
-    /// A solver that never converges on its own: halves its cost.
-    struct Halving {
-        x: [f64; 1],
-        it: usize,
-        ends_at: usize,
-    }
-
-    impl Iterate for Halving {
-        type Status = Termination;
-        type Error = String;
-        const NAME: &'static str = "halving";
-        fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<Termination>, String> {
-            if let Some(why) = watch.out_of_time() {
-                return Ok(Some(why.into()));
-            }
-            if self.it == self.ends_at {
-                return Ok(Some(Termination::MaxIterations));
-            }
-            if self.x[0] < 0.0 {
-                return Err("negative".into());
-            }
-            self.x[0] *= 0.5;
-            self.it += 1;
-            Ok(None)
-        }
-        fn snapshot(&self) -> Snapshot<'_> {
-            Snapshot {
-                iteration: self.it,
-                evals: 2 * self.it,
-                cost: self.x[0],
-                x: &self.x,
-            }
-        }
-    }
-
     #[test]
     fn the_driver_reports_every_iteration_and_ends_on_the_first_stop() {
         // the solver's own end
-        let mut s = Halving {
-            x: [1.0],
-            it: 0,
-            ends_at: 7,
-        };
+        let mut s = Halving::new(1.0, 7, Termination::MaxIterations);
         let mut trace = Trace::new();
         let mut watch = Watch::new().with_observer(&mut trace);
         assert_eq!(drive(&mut s, &mut watch), Ok(Termination::MaxIterations));
@@ -667,11 +657,7 @@ mod tests {
         assert_eq!(trace.records[6].evaluations, 14);
         assert_eq!(trace.records[2].cost, 0.125);
         // an observer's stop after the iteration it saw
-        let mut s = Halving {
-            x: [1.0],
-            it: 0,
-            ends_at: 100,
-        };
+        let mut s = Halving::new(1.0, 100, Termination::MaxIterations);
         let mut stop = |p: &Progress<'_>| {
             if p.iteration == 4 {
                 Control::Stop
@@ -683,21 +669,13 @@ mod tests {
         assert_eq!(drive(&mut s, &mut watch), Ok(Termination::Stopped));
         assert_eq!(s.it, 4);
         // a passed time limit, from inside the step or after it
-        let mut s = Halving {
-            x: [1.0],
-            it: 0,
-            ends_at: 100,
-        };
+        let mut s = Halving::new(1.0, 100, Termination::MaxIterations);
         let mut watch = Watch::new().with_time_limit(Duration::ZERO);
         assert_eq!(drive(&mut s, &mut watch), Ok(Termination::TimeLimit));
         assert_eq!(s.it, 0);
         // an error ends the drive
-        let mut s = Halving {
-            x: [-1.0],
-            it: 0,
-            ends_at: 100,
-        };
-        assert_eq!(drive(&mut s, &mut Watch::new()), Err("negative".to_string()));
+        let mut s = Halving::new(-1.0, 100, Termination::MaxIterations);
+        assert_eq!(drive(&mut s, &mut Watch::new()), Err(Negative));
     }
 
     #[test]

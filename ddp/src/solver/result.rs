@@ -58,14 +58,7 @@ impl DdpStatus {
     }
 }
 
-impl From<solve::Interrupt> for DdpStatus {
-    fn from(why: solve::Interrupt) -> Self {
-        match why {
-            solve::Interrupt::TimeLimit => Self::TimeLimit,
-            solve::Interrupt::Observer => Self::Stopped,
-        }
-    }
-}
+solve::from_interrupt!(DdpStatus);
 
 impl solve::Status for DdpStatus {
     fn termination(&self) -> solve::Termination {

@@ -34,14 +34,7 @@ pub enum GaussNewtonStatus {
     Stopped,
 }
 
-impl From<solve::Interrupt> for GaussNewtonStatus {
-    fn from(why: solve::Interrupt) -> Self {
-        match why {
-            solve::Interrupt::TimeLimit => Self::TimeLimit,
-            solve::Interrupt::Observer => Self::Stopped,
-        }
-    }
-}
+solve::from_interrupt!(GaussNewtonStatus);
 
 impl solve::Status for GaussNewtonStatus {
     fn termination(&self) -> solve::Termination {

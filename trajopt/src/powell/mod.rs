@@ -464,14 +464,7 @@ impl PowellStatus {
     }
 }
 
-impl From<Interrupt> for PowellStatus {
-    fn from(why: Interrupt) -> Self {
-        match why {
-            Interrupt::TimeLimit => Self::TimeLimit,
-            Interrupt::Observer => Self::Stopped,
-        }
-    }
-}
+solve::from_interrupt!(PowellStatus);
 
 impl solve::Status for PowellStatus {
     fn termination(&self) -> Termination {
