@@ -294,7 +294,8 @@ pub fn drive<I: Iterate>(solver: &mut I, watch: &mut Watch<'_>) -> Result<I::Sta
 /// through `argmin::Stepper` with the feature `argmin`, or the caller's own).
 ///
 /// Each solver makes its state with a `start` method (Gauss-Newton's
-/// `GaussNewton::start`, DDP's `Ddp::start`, the LWR's
+/// `GaussNewton::start`, the derivative-free mode's
+/// `DerivativeFree::start`, DDP's `Ddp::start`, the LWR's
 /// `LwrModel::tune_start`), and `start`, [`drive`], [`finish`](Self::finish)
 /// is the solver's watched entry point.
 pub trait Finish: Iterate {

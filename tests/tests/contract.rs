@@ -251,6 +251,25 @@ fn every_solver_runs_under_argmins_executor() {
     assert_eq!((r.status, r.iterations), (GaussNewtonStatus::Stopped, 2));
     assert!(r.cost < r.initial_cost && r.cost > own.cost);
 
+    // the derivative-free mode, on its differenced problem; and with a
+    // budget that runs out, a status with the best point evaluated
+    for max_evals in [None, Some(40)] {
+        let df = DerivativeFree::new(DerivativeFreeSettings {
+            max_evals,
+            ..DerivativeFreeSettings::default()
+        })
+        .expect("settings");
+        let own = df.solve(&problem, &theta0).expect("derivative-free");
+        let differences = df.differences(&problem).expect("differences");
+        let start = df.start(&differences, &theta0).expect("start");
+        let run = Executor::new(start, Stepper::new()).run().expect("argmin");
+        let r = finish(run).expect("finish").expect("stationarity");
+        assert_eq!((&r.x, r.status, r.evals), (&own.x, own.status, own.evals));
+        let budget = max_evals.is_some();
+        assert_eq!(r.status == GaussNewtonStatus::MaxEvaluations, budget, "{:?}", r.status);
+        assert_eq!(r.status.is_converged(), !budget, "{:?}", r.status);
+    }
+
     // Powell on the same problem, through its cost
     let settings = PowellSettings {
         max_evals: Some(400_000),

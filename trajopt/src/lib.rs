@@ -47,7 +47,9 @@ pub mod strategies;
 pub use faer;
 
 pub use check::{JacobianCheck, check_jacobian, check_model_jacobians, check_stage_cost_jacobians};
-pub use derivative_free::{DerivativeFree, DerivativeFreeResult, DerivativeFreeSettings, Difference};
+pub use derivative_free::{
+    DerivativeFree, DerivativeFreeResult, DerivativeFreeRun, DerivativeFreeSettings, Difference,
+};
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use gauss_newton::{

@@ -117,9 +117,9 @@ pub use elements::Differenced;
 pub use groups::{ColumnGroups, GroupedDifferences};
 
 use crate::error::{Result, TrajoptError};
-use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
+use crate::gauss_newton::{EvalCount, GaussNewton, GaussNewtonRun, GaussNewtonSettings, GaussNewtonStatus};
 use crate::least_squares::LeastSquaresProblem;
-use solve::Watch;
+use solve::{Finish as _, Watch};
 
 /// Which differences form the Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
@@ -281,61 +281,196 @@ impl DerivativeFree {
         theta0: &[f64],
         watch: &mut Watch<'_>,
     ) -> Result<DerivativeFreeResult> {
-        let start = Instant::now();
+        let differences = self.differences(problem)?;
+        let mut run = self.start(&differences, theta0)?;
+        let status = solve::drive(&mut run, watch)?;
+        run.finish(status)
+    }
+
+    /// The problem a solve works on: `problem`'s residuals with their
+    /// Jacobian formed by grouped differences, under the settings' budget
+    /// of evaluations; [`start`](Self::start) borrows it.
+    ///
+    /// # Errors
+    /// A difference step that is not finite and positive.
+    pub fn differences<'a, P: LeastSquaresProblem + ?Sized>(
+        &self,
+        problem: &'a P,
+    ) -> Result<GroupedDifferences<'a, P>> {
         let s = &self.settings;
-        let budget = s.max_evals.unwrap_or(usize::MAX);
-        let wrapped = GroupedDifferences::new(problem, s.difference, s.step(), budget)?;
+        GroupedDifferences::new(problem, s.difference, s.step(), s.max_evals.unwrap_or(usize::MAX))
+    }
+
+    /// The solve's state before its first iteration, on `differences`
+    /// (made by [`differences`](Self::differences), fresh for each solve:
+    /// it counts the evaluations), for a loop other than
+    /// [`solve_watched`](Self::solve_watched)'s: argmin's `Executor`
+    /// through `solve::argmin::Stepper` (feature `argmin`), or the caller's
+    /// own, calling [`solve::Iterate::next_iter`] until it returns a status
+    /// and then [`solve::Finish::finish`]. A used-up budget is the status
+    /// [`GaussNewtonStatus::MaxEvaluations`], with the best point
+    /// evaluated.
+    ///
+    /// ```
+    /// use solve::{Finish, Iterate, Watch};
+    /// use trajopt::{DerivativeFree, DerivativeFreeSettings};
+    /// use trajopt::problems::pendulum_swingup;
+    ///
+    /// let (problem, theta0) = pendulum_swingup(40, 10.0)?;
+    /// let df = DerivativeFree::new(DerivativeFreeSettings::default())?;
+    /// let differences = df.differences(&problem)?;
+    /// let mut run = df.start(&differences, &theta0)?;
+    /// let status = loop {
+    ///     if let Some(status) = run.next_iter(&Watch::new())? {
+    ///         break status;
+    ///     }
+    /// };
+    /// let r = run.finish(status)?;
+    /// assert!(r.status.is_converged());
+    /// assert_eq!(r.x, df.solve(&problem, &theta0)?.x);
+    /// # Ok::<(), trajopt::TrajoptError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`solve`](Self::solve), for the start.
+    pub fn start<'a, P: LeastSquaresProblem + ?Sized>(
+        &'a self,
+        differences: &'a GroupedDifferences<'a, P>,
+        theta0: &[f64],
+    ) -> Result<DerivativeFreeRun<'a, P>> {
+        let started = Instant::now();
+        let gauss_newton = match self.gauss_newton.start_counted(differences, theta0, differences) {
+            Ok(run) => Some(run),
+            // the budget ran out at the start (a move into the bounds)
+            Err(TrajoptError::BudgetExhausted { .. }) => None,
+            Err(e) => return Err(e),
+        };
+        let best = match (&gauss_newton, differences.best()) {
+            (Some(_), _) => (Vec::new(), f64::NAN),
+            (None, Some(best)) => best,
+            (None, None) => {
+                return Err(TrajoptError::InvalidParameter {
+                    name: "max_evals",
+                    reason: "the budget ran out before the start was evaluated".into(),
+                });
+            }
+        };
+        Ok(DerivativeFreeRun {
+            settings: &self.settings,
+            differences,
+            gauss_newton,
+            best,
+            started,
+        })
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> EvalCount for GroupedDifferences<'_, P> {
+    fn evals(&self) -> usize {
+        GroupedDifferences::evals(self)
+    }
+}
+
+/// A derivative-free solve between iterations ([`DerivativeFree::start`]):
+/// a [`solve::Iterate`] state, and a [`solve::Finish`] one whose result is
+/// the [`DerivativeFreeResult`] (or the error of the final stationarity
+/// check).
+pub struct DerivativeFreeRun<'a, P: LeastSquaresProblem + ?Sized> {
+    settings: &'a DerivativeFreeSettings,
+    differences: &'a GroupedDifferences<'a, P>,
+    /// `None` once the budget has run out.
+    gauss_newton: Option<GaussNewtonRun<'a, GroupedDifferences<'a, P>>>,
+    /// The best point evaluated and its cost, once the budget has run out.
+    best: (Vec<f64>, f64),
+    started: Instant,
+}
+
+impl<P: LeastSquaresProblem + ?Sized> std::fmt::Debug for DerivativeFreeRun<'_, P> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("DerivativeFreeRun")
+            .field("evals", &self.differences.evals())
+            .field("gauss_newton", &self.gauss_newton)
+            .finish_non_exhaustive()
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for DerivativeFreeRun<'_, P> {
+    type Status = GaussNewtonStatus;
+    type Error = TrajoptError;
+    const NAME: &'static str = "derivative-free";
+
+    fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<GaussNewtonStatus>> {
+        let Some(run) = &mut self.gauss_newton else {
+            return Ok(Some(GaussNewtonStatus::MaxEvaluations));
+        };
+        match run.next_iter(watch) {
+            Err(TrajoptError::BudgetExhausted { .. }) => {
+                self.best = self.differences.best().unwrap_or_default();
+                self.gauss_newton = None;
+                Ok(Some(GaussNewtonStatus::MaxEvaluations))
+            }
+            outcome => outcome,
+        }
+    }
+
+    fn snapshot(&self) -> solve::Snapshot<'_> {
+        match &self.gauss_newton {
+            Some(run) => run.snapshot(),
+            None => solve::Snapshot {
+                iteration: self.differences.jacobian_evals(),
+                evals: self.differences.evals(),
+                cost: self.best.1,
+                x: &self.best.0,
+            },
+        }
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> solve::Finish for DerivativeFreeRun<'_, P> {
+    type Output = Result<DerivativeFreeResult>;
+
+    /// The result; a cost or step test is believed only at a stationary
+    /// point (else the status is [`GaussNewtonStatus::Stalled`]).
+    ///
+    /// # Errors
+    /// An error of the residuals in the stationarity check.
+    fn finish(self, status: GaussNewtonStatus) -> Result<DerivativeFreeResult> {
+        let wrapped = self.differences;
         let jacobian_groups = wrapped.groups().n_groups();
-        let count = || wrapped.evals();
-        let solved = self
-            .gauss_newton
-            .solve_counted(&wrapped, theta0, watch, &count)
-            .and_then(|mut r| {
-                // a cost or step test is believed only at a stationary point
-                if matches!(
-                    r.status,
-                    GaussNewtonStatus::ConvergedCost | GaussNewtonStatus::ConvergedStep
-                ) && wrapped.stationarity(&r.x)? > s.tol_stationary
-                {
-                    r.status = GaussNewtonStatus::Stalled;
-                }
-                Ok(r)
-            });
-        match solved {
-            Ok(r) => Ok(DerivativeFreeResult {
-                x: r.x,
-                cost: r.cost,
-                initial_cost: r.initial_cost,
-                status: r.status,
-                iterations: r.iterations,
+        let Some(run) = self.gauss_newton else {
+            let (x, cost) = self.best;
+            // the start is the first point evaluated (before any move into the bounds)
+            let initial_cost = wrapped.first_cost().unwrap_or(cost);
+            return Ok(DerivativeFreeResult {
+                x,
+                cost,
+                initial_cost,
+                status: GaussNewtonStatus::MaxEvaluations,
+                iterations: wrapped.jacobian_evals(),
                 evals: wrapped.evals(),
                 jacobian_groups,
-                cost_history: r.cost_history,
-                solve_time: start.elapsed(),
-            }),
-            Err(TrajoptError::BudgetExhausted { .. }) => {
-                let Some((x, cost)) = wrapped.best() else {
-                    // the budget did not even cover the start
-                    return Err(TrajoptError::InvalidParameter {
-                        name: "max_evals",
-                        reason: "the budget ran out before the start was evaluated".into(),
-                    });
-                };
-                // the start is the first point evaluated (before any move into the bounds)
-                let initial_cost = wrapped.first_cost().unwrap_or(cost);
-                Ok(DerivativeFreeResult {
-                    x,
-                    cost,
-                    initial_cost,
-                    status: GaussNewtonStatus::MaxEvaluations,
-                    iterations: wrapped.jacobian_evals(),
-                    evals: wrapped.evals(),
-                    jacobian_groups,
-                    cost_history: Vec::new(),
-                    solve_time: start.elapsed(),
-                })
-            }
-            Err(e) => Err(e),
+                cost_history: Vec::new(),
+                solve_time: self.started.elapsed(),
+            });
+        };
+        let mut r = run.finish(status);
+        if matches!(
+            r.status,
+            GaussNewtonStatus::ConvergedCost | GaussNewtonStatus::ConvergedStep
+        ) && wrapped.stationarity(&r.x)? > self.settings.tol_stationary
+        {
+            r.status = GaussNewtonStatus::Stalled;
         }
+        Ok(DerivativeFreeResult {
+            x: r.x,
+            cost: r.cost,
+            initial_cost: r.initial_cost,
+            status: r.status,
+            iterations: r.iterations,
+            evals: wrapped.evals(),
+            jacobian_groups,
+            cost_history: r.cost_history,
+            solve_time: self.started.elapsed(),
+        })
     }
 }

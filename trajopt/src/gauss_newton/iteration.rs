@@ -9,7 +9,7 @@ use super::damping::{
     lower_damping, raise_damping,
 };
 use super::normal_equations::{BandSystem, Damping, NormalEquations, sum_sq};
-use super::{DampingScale, GaussNewtonSettings, GaussNewtonStatus, NAME};
+use super::{DampingScale, EvalCount, GaussNewtonSettings, GaussNewtonStatus, NAME};
 use crate::error::{Result, TrajoptError};
 use crate::least_squares::{BandForm, LeastSquaresProblem, LinearBounds, Point};
 use crate::linalg::BandLayout;
@@ -25,7 +25,7 @@ pub(super) struct Iteration<'a, P: LeastSquaresProblem + ?Sized> {
     pub(super) band_layout: Option<(&'a dyn BandForm, BandLayout)>,
     /// Counts the evaluations the observers see, when not `residual_evals`
     /// (the derivative-free mode's).
-    pub(super) evaluations: Option<&'a dyn Fn() -> usize>,
+    pub(super) evaluations: Option<&'a dyn EvalCount>,
     pub(super) system: Box<dyn NormalEquations<P> + 'a>,
     /// The iteration from which the solve went on with one thread.
     pub(super) one_thread_from: Option<usize>,
@@ -71,7 +71,7 @@ pub(super) struct Start<'a, P: LeastSquaresProblem + ?Sized> {
     pub(super) problem: &'a P,
     pub(super) settings: &'a GaussNewtonSettings,
     pub(super) band_layout: Option<(&'a dyn BandForm, BandLayout)>,
-    pub(super) evaluations: Option<&'a dyn Fn() -> usize>,
+    pub(super) evaluations: Option<&'a dyn EvalCount>,
     pub(super) system: Box<dyn NormalEquations<P> + 'a>,
     pub(super) theta: Vec<f64>,
     pub(super) r: Vec<f64>,
@@ -345,7 +345,7 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
     fn snapshot(&self) -> solve::Snapshot<'_> {
         solve::Snapshot {
             iteration: self.iterations,
-            evals: self.evaluations.map_or(self.residual_evals, |count| count()),
+            evals: self.evaluations.map_or(self.residual_evals, EvalCount::evals),
             cost: self.cost,
             x: &self.theta,
         }

@@ -275,26 +275,13 @@ impl GaussNewton {
         })
     }
 
-    /// [`solve_watched`](Self::solve_watched) reporting `evaluations()`
-    /// to the watch instead of its own count of residual evaluations (the
-    /// derivative-free mode's, whose differences it does not see).
-    pub(crate) fn solve_counted<P: LeastSquaresProblem + ?Sized>(
-        &self,
-        problem: &P,
-        theta0: &[f64],
-        watch: &mut Watch<'_>,
-        evaluations: &dyn Fn() -> usize,
-    ) -> Result<GaussNewtonResult> {
-        self.solve_with(problem, theta0, None, watch, Some(evaluations))
-    }
-
     fn solve_with<P: LeastSquaresProblem + ?Sized>(
         &self,
         problem: &P,
         theta0: &[f64],
         helpers: Option<Helpers>,
         watch: &mut Watch<'_>,
-        evaluations: Option<&dyn Fn() -> usize>,
+        evaluations: Option<&dyn EvalCount>,
     ) -> Result<GaussNewtonResult> {
         let mut run = self.start_with(problem, theta0, helpers, evaluations)?;
         let status = solve::drive(&mut run, watch)?;
@@ -344,12 +331,24 @@ impl GaussNewton {
         self.start_with(problem, theta0, None, None)
     }
 
+    /// [`start`](Self::start) reporting `evaluations`' count to the
+    /// watch instead of its own count of residual evaluations (the
+    /// derivative-free mode's, whose differences it does not see).
+    pub(crate) fn start_counted<'a, P: LeastSquaresProblem + ?Sized>(
+        &'a self,
+        problem: &'a P,
+        theta0: &[f64],
+        evaluations: &'a dyn EvalCount,
+    ) -> Result<GaussNewtonRun<'a, P>> {
+        self.start_with(problem, theta0, None, Some(evaluations))
+    }
+
     fn start_with<'a, P: LeastSquaresProblem + ?Sized>(
         &'a self,
         problem: &'a P,
         theta0: &[f64],
         helpers: Option<Helpers>,
-        evaluations: Option<&'a dyn Fn() -> usize>,
+        evaluations: Option<&'a dyn EvalCount>,
     ) -> Result<GaussNewtonRun<'a, P>> {
         let started = Instant::now();
         let (n_p, n_r) = (problem.n_params(), problem.n_residuals());
@@ -444,6 +443,13 @@ impl GaussNewton {
             started,
         })
     }
+}
+
+/// A count of evaluations the observers see in place of Gauss-Newton's
+/// own (the derivative-free mode's, the differences' included).
+pub(crate) trait EvalCount {
+    /// The evaluations so far.
+    fn evals(&self) -> usize;
 }
 
 /// A Gauss-Newton solve between iterations ([`GaussNewton::start`]): a
