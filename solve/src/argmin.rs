@@ -264,7 +264,7 @@ mod tests {
     }
 
     #[test]
-    fn a_passed_time_limit_reaches_the_solvers_own_polls() {
+    fn a_passed_time_limit_ends_the_solve_inside_or_after_an_iteration() {
         let stepper = Stepper::new().with_time_limit(Duration::ZERO);
         let run = Executor::new(Halving::new(1.0, usize::MAX, Termination::MaxIterations), stepper)
             .run()
@@ -272,6 +272,15 @@ mod tests {
         assert_eq!(run.state.get_termination_reason(), Some(&TerminationReason::Timeout));
         // the solver saw the stepper's limit as its first iteration started
         assert_eq!(finish(run).expect("finish"), (0, Termination::TimeLimit));
+        // a solver that does not poll: the stepper ends it after its iteration
+        let stepper = Stepper::new().with_time_limit(Duration::ZERO);
+        let halving = Halving::new(1.0, usize::MAX, Termination::MaxIterations).ignoring_the_clock();
+        let run = Executor::new(halving, stepper)
+            .configure(|s| s.max_iters(1000))
+            .run()
+            .expect("run");
+        assert_eq!(run.state.get_termination_reason(), Some(&TerminationReason::Timeout));
+        assert_eq!(finish(run).expect("finish"), (1, Termination::TimeLimit));
     }
 
     #[test]

@@ -5,13 +5,14 @@ use std::fmt;
 use crate::{Finish, Iterate, Snapshot, Termination, Watch};
 
 /// A solver that halves its cost each iteration: it polls the watch's
-/// clock as each iteration starts, ends with `ends_with` after `ends_at`
+/// clock as each iteration starts (unless [`ignoring_the_clock`](Self::ignoring_the_clock)), ends with `ends_with` after `ends_at`
 /// iterations, and fails with [`Negative`] from a negative point.
 pub(crate) struct Halving {
     pub(crate) x: [f64; 1],
     pub(crate) it: usize,
     ends_at: usize,
     ends_with: Termination,
+    polls: bool,
 }
 
 impl Halving {
@@ -22,7 +23,15 @@ impl Halving {
             it: 0,
             ends_at,
             ends_with,
+            polls: true,
         }
+    }
+
+    /// The same solver, never polling the clock (the time limit is then
+    /// the driver's to check).
+    pub(crate) fn ignoring_the_clock(mut self) -> Self {
+        self.polls = false;
+        self
     }
 }
 
@@ -43,7 +52,7 @@ impl Iterate for Halving {
     type Error = Negative;
     const NAME: &'static str = "halving";
     fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<Termination>, Negative> {
-        if let Some(why) = watch.out_of_time() {
+        if let Some(why) = watch.out_of_time().filter(|_| self.polls) {
             return Ok(Some(why.into()));
         }
         if self.it == self.ends_at {

@@ -339,27 +339,24 @@ impl DerivativeFree {
         theta0: &[f64],
     ) -> Result<DerivativeFreeRun<'a, P>> {
         let started = Instant::now();
-        let gauss_newton = match self.gauss_newton.start_counted(differences, theta0, differences) {
-            Ok(run) => Some(run),
+        let stage = match self.gauss_newton.start_counted(differences, theta0, differences) {
+            Ok(run) => Stage::Iterating(Box::new(run)),
             // the budget ran out at the start (a move into the bounds)
-            Err(TrajoptError::BudgetExhausted { .. }) => None,
+            Err(TrajoptError::BudgetExhausted { .. }) => match differences.best() {
+                Some((x, cost)) => Stage::OutOfBudget { x, cost },
+                None => {
+                    return Err(TrajoptError::InvalidParameter {
+                        name: "max_evals",
+                        reason: "the budget ran out before the start was evaluated".into(),
+                    });
+                }
+            },
             Err(e) => return Err(e),
-        };
-        let best = match (&gauss_newton, differences.best()) {
-            (Some(_), _) => (Vec::new(), f64::NAN),
-            (None, Some(best)) => best,
-            (None, None) => {
-                return Err(TrajoptError::InvalidParameter {
-                    name: "max_evals",
-                    reason: "the budget ran out before the start was evaluated".into(),
-                });
-            }
         };
         Ok(DerivativeFreeRun {
             settings: &self.settings,
             differences,
-            gauss_newton,
-            best,
+            stage,
             started,
         })
     }
@@ -378,19 +375,37 @@ impl<P: LeastSquaresProblem + ?Sized> EvalCount for GroupedDifferences<'_, P> {
 pub struct DerivativeFreeRun<'a, P: LeastSquaresProblem + ?Sized> {
     settings: &'a DerivativeFreeSettings,
     differences: &'a GroupedDifferences<'a, P>,
-    /// `None` once the budget has run out.
-    gauss_newton: Option<GaussNewtonRun<'a, GroupedDifferences<'a, P>>>,
-    /// The best point evaluated and its cost, once the budget has run out.
-    best: (Vec<f64>, f64),
+    stage: Stage<'a, P>,
     started: Instant,
+}
+
+/// Where a [`DerivativeFreeRun`] is.
+enum Stage<'a, P: LeastSquaresProblem + ?Sized> {
+    /// Gauss-Newton iterates on the differenced problem.
+    /// (boxed: one allocation a solve, and a small stage when out of budget)
+    Iterating(Box<GaussNewtonRun<'a, GroupedDifferences<'a, P>>>),
+    /// The budget has run out: the best point evaluated and its cost.
+    OutOfBudget { x: Vec<f64>, cost: f64 },
 }
 
 impl<P: LeastSquaresProblem + ?Sized> std::fmt::Debug for DerivativeFreeRun<'_, P> {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
         f.debug_struct("DerivativeFreeRun")
             .field("evals", &self.differences.evals())
-            .field("gauss_newton", &self.gauss_newton)
+            .field("stage", &self.stage)
             .finish_non_exhaustive()
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> std::fmt::Debug for Stage<'_, P> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::Iterating(run) => f.debug_tuple("Iterating").field(run).finish(),
+            Self::OutOfBudget { cost, .. } => f
+                .debug_struct("OutOfBudget")
+                .field("cost", cost)
+                .finish_non_exhaustive(),
+        }
     }
 }
 
@@ -400,13 +415,17 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for DerivativeFreeRun<'_, P
     const NAME: &'static str = "derivative-free";
 
     fn next_iter(&mut self, watch: &Watch<'_>) -> Result<Option<GaussNewtonStatus>> {
-        let Some(run) = &mut self.gauss_newton else {
+        let Stage::Iterating(run) = &mut self.stage else {
             return Ok(Some(GaussNewtonStatus::MaxEvaluations));
         };
         match run.next_iter(watch) {
             Err(TrajoptError::BudgetExhausted { .. }) => {
-                self.best = self.differences.best().unwrap_or_default();
-                self.gauss_newton = None;
+                // the best point evaluated (a trial's, maybe), else the last accepted
+                let (x, cost) = self.differences.best().unwrap_or_else(|| {
+                    let at = run.snapshot();
+                    (at.x.to_vec(), at.cost)
+                });
+                self.stage = Stage::OutOfBudget { x, cost };
                 Ok(Some(GaussNewtonStatus::MaxEvaluations))
             }
             outcome => outcome,
@@ -414,13 +433,13 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for DerivativeFreeRun<'_, P
     }
 
     fn snapshot(&self) -> solve::Snapshot<'_> {
-        match &self.gauss_newton {
-            Some(run) => run.snapshot(),
-            None => solve::Snapshot {
+        match &self.stage {
+            Stage::Iterating(run) => run.snapshot(),
+            Stage::OutOfBudget { x, cost } => solve::Snapshot {
                 iteration: self.differences.jacobian_evals(),
                 evals: self.differences.evals(),
-                cost: self.best.1,
-                x: &self.best.0,
+                cost: *cost,
+                x,
             },
         }
     }
@@ -437,21 +456,23 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Finish for DerivativeFreeRun<'_, P>
     fn finish(self, status: GaussNewtonStatus) -> Result<DerivativeFreeResult> {
         let wrapped = self.differences;
         let jacobian_groups = wrapped.groups().n_groups();
-        let Some(run) = self.gauss_newton else {
-            let (x, cost) = self.best;
-            // the start is the first point evaluated (before any move into the bounds)
-            let initial_cost = wrapped.first_cost().unwrap_or(cost);
-            return Ok(DerivativeFreeResult {
-                x,
-                cost,
-                initial_cost,
-                status: GaussNewtonStatus::MaxEvaluations,
-                iterations: wrapped.jacobian_evals(),
-                evals: wrapped.evals(),
-                jacobian_groups,
-                cost_history: Vec::new(),
-                solve_time: self.started.elapsed(),
-            });
+        let run = match self.stage {
+            Stage::Iterating(run) => *run,
+            Stage::OutOfBudget { x, cost } => {
+                // the start is the first point evaluated (before any move into the bounds)
+                let initial_cost = wrapped.first_cost().unwrap_or(cost);
+                return Ok(DerivativeFreeResult {
+                    x,
+                    cost,
+                    initial_cost,
+                    status: GaussNewtonStatus::MaxEvaluations,
+                    iterations: wrapped.jacobian_evals(),
+                    evals: wrapped.evals(),
+                    jacobian_groups,
+                    cost_history: Vec::new(),
+                    solve_time: self.started.elapsed(),
+                });
+            }
         };
         let mut r = run.finish(status);
         if matches!(
