@@ -107,6 +107,45 @@ pub enum BenchError {
         /// The set's name.
         set: &'static str,
     },
+    /// A run in which no chosen solver applies to any chosen instance
+    /// (refused before anything is written).
+    #[error(
+        "none of the solvers {solvers} applies to {what} of the {set} set: there are no runs to save, \
+         and nothing was written"
+    )]
+    NoRuns {
+        /// The solvers asked for.
+        solvers: String,
+        /// The set's name.
+        set: &'static str,
+        /// `any instance`, or the instances a filter chose.
+        what: String,
+    },
+    /// A run that would replace only part of a saved result set made by
+    /// other code or with another budget (refused before anything is
+    /// written, unless `--force`).
+    #[error(
+        "{}: holds {saved} runs made by {saved_by}; this run made {new} of them again with {new_by}, \
+         and merging would mix the two in one result set; rerun the whole set, choose another --out, \
+         or pass --force to replace the saved runs by this run's {new}",
+        path.display()
+    )]
+    WouldMix {
+        /// The saved records file (`OUT/runs.json`).
+        path: PathBuf,
+        /// How many runs it holds.
+        saved: usize,
+        /// The code and budget that made them.
+        saved_by: String,
+        /// How many runs this run made.
+        new: usize,
+        /// The code and budget of this run.
+        new_by: String,
+    },
+    /// Standard output closed or full: the files were saved, but the
+    /// summary could not be printed.
+    #[error("standard output: {0} (the files were written)")]
+    Stdout(std::io::Error),
     /// Drawing a figure failed.
     #[error("figure {figure}: {reason}")]
     Plot {

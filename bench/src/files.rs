@@ -3,19 +3,19 @@
 
 use std::path::Path;
 
-use crate::error::{BenchError, Result};
+use crate::error::Result;
 
 /// Writes `text` to `path` whole or not at all (`store::replace_file`: a
-/// unique temporary in the same directory, synced and renamed over it; a
-/// symlink's target replaced, an existing file's mode kept), making the
-/// directory first.
+/// unique temporary in the same directory, synced and renamed over it; an
+/// existing file's mode kept; a symbolic link, device, FIFO or directory
+/// at `path` refused and left alone), making the directory first
+/// (`store::create_output_dir`).
 ///
 /// # Errors
-/// [`BenchError::Io`] for the directory, [`BenchError::Store`] naming the
-/// file.
+/// [`BenchError::Store`] naming the file or directory.
 pub fn write(path: &Path, text: &str) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(BenchError::io(dir))?;
+        store::create_output_dir(dir)?;
     }
     Ok(store::replace_file(path, text.as_bytes())?)
 }

@@ -19,6 +19,7 @@
 //!     report_dir: "target/bench-example".into(),
 //!     outside: vec![],
 //!     reuse: false,
+//!     force: false,
 //! };
 //! let (analysis, stamp) = execute(&settings)?;
 //! println!("{} runs at {}", stamp.runs, stamp.commit);

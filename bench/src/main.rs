@@ -32,7 +32,7 @@ struct Cli {
     /// equivalents each).
     #[arg(long, default_value_t = 2000)]
     budget: u64,
-    /// Time budget per run, seconds.
+    /// Time budget per run, seconds (above 0, at most a year).
     #[arg(long, default_value_t = 10.0)]
     time_limit: f64,
     /// Times each solve is timed (the median is reported).
@@ -43,15 +43,23 @@ struct Cli {
     /// mgh, `results/benchmarks/<set>` for the others.
     #[arg(long)]
     out: Option<PathBuf>,
-    /// Directory of benchmarks.md, benchmarks.json, benchmarks_summary.md.
-    #[arg(long, default_value = "results")]
-    report_dir: PathBuf,
+    /// Directory of benchmarks.md, benchmarks.json, benchmarks_summary.md;
+    /// default OUT when --out is given, `results` otherwise.
+    #[arg(long)]
+    report_dir: Option<PathBuf>,
     /// More outside record files to merge.
     #[arg(long)]
     outside: Vec<PathBuf>,
-    /// Do not run: reuse OUT/runs.json (to merge new outside records).
+    /// Do not run: reuse OUT/runs.json (to merge new outside records, or to
+    /// rewrite the tables and reports of a run stopped while writing them).
     #[arg(long)]
     reuse: bool,
+    /// Replace the saved runs of OUT/runs.json by this run's even when this
+    /// run makes only some of them with other code or another budget
+    /// (refused otherwise: a result set never mixes them). A run of the
+    /// same code and budget merges without it.
+    #[arg(long)]
+    force: bool,
     /// Compare our runs with those of REF: a directory holding runs.json,
     /// a records file, or a git revision whose committed OUT/runs.json is
     /// read; prints per-solver instances solved, gained, lost and median
@@ -69,17 +77,34 @@ fn main() -> ExitCode {
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {
-            eprintln!("nprl-bench: {e}");
+            use std::io::Write as _;
+            let _ = writeln!(std::io::stderr(), "nprl-bench: {e}");
             ExitCode::FAILURE
         }
     }
 }
 
+/// The longest `--time-limit` taken: a year.
+const MAX_TIME_LIMIT_S: f64 = 365.0 * 24.0 * 3600.0;
+
+/// Prints `text` and a newline on standard output; a closed or full
+/// standard output is an error (after the files are saved), never a panic.
+fn say(text: &str) -> bench::Result<()> {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    writeln!(out, "{text}")
+        .and_then(|()| out.flush())
+        .map_err(bench::BenchError::Stdout)
+}
+
 fn run(cli: Cli) -> bench::Result<()> {
-    if !(cli.time_limit.is_finite() && cli.time_limit > 0.0) {
+    if !(cli.time_limit > 0.0 && cli.time_limit <= MAX_TIME_LIMIT_S) {
         return Err(bench::BenchError::InvalidSetting {
             name: "time_limit",
-            reason: format!("must be finite and > 0, got {}", cli.time_limit),
+            reason: format!(
+                "must be above 0 and at most a year ({MAX_TIME_LIMIT_S} s), got {}",
+                cli.time_limit
+            ),
         });
     }
     let set = ProblemSet::parse(&cli.set)?;
@@ -95,13 +120,20 @@ fn run(cli: Cli) -> bench::Result<()> {
         filter: cli.filter,
         budget: Budget {
             simplex_gradients: cli.budget,
-            time: Duration::from_secs_f64(cli.time_limit),
+            time: Duration::try_from_secs_f64(cli.time_limit).map_err(|e| bench::BenchError::InvalidSetting {
+                name: "time_limit",
+                reason: e.to_string(),
+            })?,
         },
         repeats: cli.repeats,
+        report_dir: cli
+            .report_dir
+            .or_else(|| cli.out.clone())
+            .unwrap_or_else(|| PathBuf::from("results")),
         out: cli.out.unwrap_or_else(|| set.default_out()),
-        report_dir: cli.report_dir,
         outside: cli.outside,
         reuse: cli.reuse,
+        force: cli.force,
     };
     // a README without its markers, or a reference that names no records,
     // is refused before anything runs
@@ -126,21 +158,21 @@ fn run(cli: Cli) -> bench::Result<()> {
         let updated = readme_with_summary(path, &summary)?;
         // whole or not at all; a symlinked README's target, its mode kept
         bench::report::write(path, &updated)?;
-        println!("updated the benchmark summary in {}", path.display());
+        say(&format!("updated the benchmark summary in {}", path.display()))?;
     }
     if settings.set == ProblemSet::Mgh {
         for goal in bench::report::goals(&analysis) {
-            println!("{}: {}", goal.verdict, goal.goal);
+            say(&format!("{}: {}", goal.verdict, goal.goal))?;
         }
     }
-    println!(
+    say(&format!(
         "{} runs on {} instances at {}; wrote {} and {}",
         stamp.runs,
         analysis.instances.len(),
         stamp.commit,
         settings.out.display(),
         settings.report_dir.display()
-    );
+    ))?;
     Ok(())
 }
 
@@ -176,13 +208,13 @@ fn compare(
             missing.join(", ")
         ));
     }
-    println!("{md}");
     bench::report::write(&settings.out.join("compare.md"), &md)?;
     let json = serde_json::json!({"before": label, "after": now_label, "changes": changes});
     bench::report::write(
         &settings.out.join("compare.json"),
         &(serde_json::to_string_pretty(&json).unwrap_or_default() + "\n"),
-    )
+    )?;
+    say(&md)
 }
 
 /// The README at `path` with `summary` between its benchmark markers.

@@ -194,6 +194,18 @@ pub struct MadeBy {
     pub budget_time_s: f64,
 }
 
+/// What identifies one run in a result set: its set, problem, start
+/// scale and solver ([`RunRecord::key`]).
+pub type RunKey = (String, String, u64, String);
+
+impl RunRecord {
+    /// The run's key: a result set holds at most one run per key, and a
+    /// run of a subset replaces the saved run of the same key.
+    pub fn key(&self) -> RunKey {
+        (self.set.clone(), self.problem.clone(), self.scale.to_bits(), self.solver.clone())
+    }
+}
+
 impl RecordFile {
     /// A file of `runs` from `source`.
     pub fn new(source: impl Into<String>, runs: Vec<RunRecord>) -> Self {

@@ -31,7 +31,7 @@ use crate::error::{BenchError, Result};
 use crate::minima::{self, Reference};
 use crate::plot::ProfileFigure;
 use crate::problems::{Budget, ProblemSet};
-use crate::record::{MadeBy, RecordFile, RunRecord};
+use crate::record::{MadeBy, RecordFile, RunKey, RunRecord};
 use crate::report::{self, Stamp};
 use crate::solvers::Solver;
 
@@ -56,6 +56,9 @@ pub struct RunnerSettings {
     pub outside: Vec<PathBuf>,
     /// Reuse `OUT/runs.json` instead of running.
     pub reuse: bool,
+    /// Replace a saved result set that this run would otherwise refuse to
+    /// merge with (other code or budget; see [`merge_runs`]).
+    pub force: bool,
 }
 
 impl RunnerSettings {
@@ -106,12 +109,35 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     }
     let load_before = Stamp::load();
     let runs_path = settings.out.join("runs.json");
+    // one writer per directory, for the whole run: a second one is refused
+    // before it runs anything
+    store::create_output_dir(&settings.out)?;
+    let _lock = store::DirLock::acquire(&settings.out, LOCK_FILE, std::time::Duration::from_secs(2))?;
+    store::remove_stale_temporaries(&settings.out)?;
+    let marker = settings.out.join(INCOMPLETE_MARKER);
+    if store::check_output(&marker)?.is_some() {
+        note(&format!(
+            "{}: the last run into this directory was stopped while writing its files, so its tables, \
+             profiles and reports may not be runs.json's; this run rewrites them",
+            settings.out.display()
+        ));
+    }
     let started = std::time::Instant::now();
+    let mut whole_set = true;
     let ours = if settings.reuse {
         RecordFile::load(&runs_path)?
     } else {
         let runs = run_all(settings)?;
-        std::fs::create_dir_all(&settings.out).map_err(BenchError::io(&settings.out))?;
+        if runs.is_empty() {
+            return Err(BenchError::NoRuns {
+                solvers: settings.solvers.iter().map(|s| s.name()).collect::<Vec<_>>().join(", "),
+                set: settings.set.name(),
+                what: settings
+                    .filter
+                    .as_ref()
+                    .map_or("any instance".into(), |f| format!("the instances matching `{f}`")),
+            });
+        }
         let mut file = RecordFile::new(
             format!(
                 "nprl-bench {} ({:.1} s for the runs)",
@@ -125,9 +151,27 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
             budget_simplex_gradients: settings.budget.simplex_gradients,
             budget_time_s: settings.budget.time.as_secs_f64(),
         });
-        file.save(&runs_path)?;
-        file
+        let saved = match store::check_output(&runs_path)? {
+            Some(_) => Some(RecordFile::load(&runs_path)?),
+            None => None,
+        };
+        let merged = merge_runs(saved, file, &runs_path, settings.force)?;
+        whole_set = !merged.kept_saved;
+        if merged.kept_saved {
+            note(&format!(
+                "{}: {} runs of this run replaced or joined the saved ones; it holds {} runs",
+                runs_path.display(),
+                merged.new,
+                merged.file.runs.len()
+            ));
+        }
+        begin_generation(&marker)?;
+        merged.file.save(&runs_path)?;
+        merged.file
     };
+    if settings.reuse {
+        begin_generation(&marker)?;
+    }
     // the code and budget that made the runs; for records saved before they
     // were recorded, this binary's and the command line's
     let made_by = ours.made_by.clone().unwrap_or_else(|| MadeBy {
@@ -141,10 +185,17 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         started.elapsed().as_secs_f64()
     };
     let repeats = ours.runs.first().map_or(settings.repeats, |r| r.repeats);
+    // a subset merged into a saved set is judged with the whole set, every
+    // solver of it in its column
+    let (filter, solvers) = if whole_set {
+        (settings.filter.as_deref(), settings.solvers.clone())
+    } else {
+        (None, Solver::ALL.to_vec())
+    };
     let (analysis, sources) = analyse(
         settings.set,
-        settings.filter.as_deref(),
-        &settings.solvers,
+        filter,
+        &solvers,
         ours,
         &settings.out,
         &settings.outside,
@@ -165,7 +216,128 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         elapsed_s,
     };
     write_all(&analysis, &stamp, settings)?;
+    // every file of this generation is written: the marker goes last
+    store::remove_output(&marker)?;
     Ok((analysis, stamp))
+}
+
+/// The lock file `nprl-bench` holds in its output directory for a run.
+pub const LOCK_FILE: &str = ".nprl-bench.lock";
+
+/// The file that says a run's files are being written: present from just
+/// before `runs.json` is replaced until every table, profile and report of
+/// the same run is written, so that a run stopped in between is detected
+/// (and repaired) by the next one, or by `--reuse`.
+pub const INCOMPLETE_MARKER: &str = ".nprl-bench.incomplete";
+
+/// Writes the generation marker ([`INCOMPLETE_MARKER`]).
+fn begin_generation(marker: &Path) -> Result<()> {
+    let text = format!(
+        "nprl-bench (pid {}) is writing runs.json, its tables, profiles and reports; if this file outlives it, \
+         rerun with --reuse to rewrite them from runs.json\n",
+        std::process::id()
+    );
+    Ok(store::replace_file(marker, text.as_bytes())?)
+}
+
+/// Says `text` on standard error; a closed stderr loses the line, never
+/// the work.
+fn note(text: &str) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "nprl-bench: {text}");
+}
+
+/// What [`merge_runs`] made.
+#[derive(Debug, Clone)]
+pub struct Merged {
+    /// The records to save.
+    pub file: RecordFile,
+    /// Whether saved runs that this run did not make again were kept.
+    pub kept_saved: bool,
+    /// How many runs this run made.
+    pub new: usize,
+}
+
+/// Merges this run's records `new` into the result set `saved` (read from
+/// `path`), keyed by [`RunRecord::key`]:
+/// - no saved set, or a run that made every saved run again: `new` alone;
+/// - a subset made by the same code with the same budget: the saved runs
+///   with this run's replacing those of the same key, new keys added;
+/// - a subset made otherwise: refused ([`BenchError::WouldMix`]: one
+///   result set never mixes code versions or budgets), unless `force`,
+///   which replaces the saved set by `new`.
+///
+/// # Errors
+/// [`BenchError::WouldMix`]; [`BenchError::BadField`] when `new` holds
+/// two runs of one key.
+pub fn merge_runs(saved: Option<RecordFile>, new: RecordFile, path: &Path, force: bool) -> Result<Merged> {
+    let mut keys = std::collections::BTreeSet::new();
+    for (index, run) in new.runs.iter().enumerate() {
+        if !keys.insert(run.key()) {
+            return Err(BenchError::BadField {
+                path: path.to_path_buf(),
+                index,
+                field: "solver",
+                reason: format!("a second run of {} on {} at scale {}", run.solver, run.problem, run.scale),
+            });
+        }
+    }
+    let n_new = new.runs.len();
+    let whole = |file| Merged {
+        file,
+        kept_saved: false,
+        new: n_new,
+    };
+    let Some(saved) = saved.filter(|s| !s.runs.is_empty()) else {
+        return Ok(whole(new));
+    };
+    if saved.runs.iter().all(|r| keys.contains(&r.key())) {
+        return Ok(whole(new));
+    }
+    let same_maker = saved.made_by.is_some()
+        && saved.made_by == new.made_by
+        && saved.runs.first().map(|r| r.repeats) == new.runs.first().map(|r| r.repeats);
+    if !same_maker {
+        if force {
+            return Ok(whole(new));
+        }
+        let by = |f: &RecordFile| {
+            f.made_by.as_ref().map_or("code that did not record itself".into(), |m| {
+                format!(
+                    "{} at {} simplex gradients and {} s per run, {} repeats",
+                    m.code_version,
+                    m.budget_simplex_gradients,
+                    m.budget_time_s,
+                    f.runs.first().map_or(0, |r| r.repeats)
+                )
+            })
+        };
+        return Err(BenchError::WouldMix {
+            path: path.to_path_buf(),
+            saved: saved.runs.len(),
+            saved_by: by(&saved),
+            new: n_new,
+            new_by: by(&new),
+        });
+    }
+    let mut fresh: BTreeMap<RunKey, RunRecord> = new.runs.into_iter().map(|r| (r.key(), r)).collect();
+    let mut runs: Vec<RunRecord> = saved
+        .runs
+        .into_iter()
+        .map(|r| fresh.remove(&r.key()).unwrap_or(r))
+        .collect();
+    let mut added: Vec<RunRecord> = fresh.into_values().collect();
+    runs.append(&mut added);
+    let file = RecordFile {
+        runs,
+        source: new.source,
+        ..saved
+    };
+    Ok(Merged {
+        file,
+        kept_saved: true,
+        new: n_new,
+    })
 }
 
 /// Judges saved records: `ours` (a `runs.json`) with the outside records
@@ -244,7 +416,7 @@ fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
                 continue;
             }
             let run = solver.run(instance, &settings.budget, settings.repeats)?;
-            eprintln!(
+            progress(format_args!(
                 "[{}/{}] {:?} {:<20} f = {:.6e} evals = {:>7} {:.2e} s {}",
                 k + 1,
                 instances.len(),
@@ -254,11 +426,18 @@ fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
                 run.evals,
                 run.time_s,
                 run.status
-            );
+            ));
             runs.push(run);
         }
     }
     Ok(runs)
+}
+
+/// A progress line on standard error; a closed stderr loses it, never
+/// the work.
+fn progress(line: std::fmt::Arguments<'_>) {
+    use std::io::Write as _;
+    let _ = writeln!(std::io::stderr(), "{line}");
 }
 
 /// `dir/*.json` in name order (none if `dir` does not exist), then `extra`.
@@ -518,6 +697,7 @@ mod tests {
                 report_dir: dir.clone(),
                 outside: vec![],
                 reuse: false,
+                force: false,
             };
             let err = execute(&settings).expect_err("refused").to_string();
             assert!(err.contains("rosenbrok") && err.contains(set.name()), "{err}");
@@ -543,6 +723,7 @@ mod tests {
             report_dir: dir.clone(),
             outside: vec![],
             reuse: false,
+            force: false,
         };
         let (analysis, stamp) = execute(&settings).expect("runs");
         assert_eq!(analysis.instances.len(), 1);
@@ -609,6 +790,7 @@ mod tests {
         other.save(&runs_path).expect("save");
         let reuse = RunnerSettings {
             reuse: true,
+            force: false,
             budget: Budget {
                 simplex_gradients: 99,
                 time: Duration::from_secs(1),

@@ -9,6 +9,7 @@ use serde::de::DeserializeOwned;
 
 use crate::error::{Result, StoreError};
 use crate::fault::{OpKind, op, parent_dir, sync_dir, write_all};
+use crate::output::open_no_follow;
 
 /// An incomplete last record of a log: a write cut short by a kill, a
 /// crash or a full disk.
@@ -118,9 +119,11 @@ fn parse<T: DeserializeOwned>(path: &Path, bytes: &[u8]) -> Result<LogContents<T
 /// last record reported (not moved). A missing file is an empty log.
 ///
 /// # Errors
-/// The file cannot be read, or a whole record other than the last does
-/// not parse ([`StoreError::Corrupt`]).
+/// A link or anything but a regular file at `path`
+/// ([`StoreError::NotRegular`]), the file cannot be read, or a whole
+/// record other than the last does not parse ([`StoreError::Corrupt`]).
 pub fn read_log<T: DeserializeOwned>(path: &Path) -> Result<LogContents<T>> {
+    crate::check_output(path)?;
     let bytes = match op(OpKind::Read, path, || fs::read(path)) {
         Ok(b) => b,
         Err(e) if e.kind() == std::io::ErrorKind::NotFound => Vec::new(),
@@ -167,10 +170,13 @@ impl AppendLog {
     /// Creates the log `path` empty (truncating a log that is there).
     ///
     /// # Errors
-    /// The file cannot be created, truncated or synced.
+    /// A symbolic link or anything but a regular file at `path`
+    /// ([`StoreError::NotRegular`]); the file cannot be created, truncated
+    /// or synced.
     pub fn create(path: &Path) -> Result<Self> {
+        crate::check_output(path)?;
         let file = op(OpKind::Open, path, || {
-            OpenOptions::new().read(true).append(true).create(true).open(path)
+            open_no_follow(path, OpenOptions::new().read(true).append(true).create(true))
         })
         .map_err(|e| StoreError::io("opening", path, e))?;
         op(OpKind::Truncate, path, || file.set_len(0)).map_err(|e| StoreError::io("emptying", path, e))?;
@@ -192,12 +198,15 @@ impl AppendLog {
     /// the caller can say so, naming both files.
     ///
     /// # Errors
-    /// The file cannot be opened, read or repaired, or a whole record
+    /// A symbolic link or anything but a regular file at `path`
+    /// ([`StoreError::NotRegular`]); the file cannot be opened, read or
+    /// repaired, or a whole record
     /// other than the last does not parse ([`StoreError::Corrupt`]: an
     /// edited or damaged log is never changed).
     pub fn open<T: DeserializeOwned>(path: &Path) -> Result<(Self, LogContents<T>)> {
+        crate::check_output(path)?;
         let mut file = op(OpKind::Open, path, || {
-            OpenOptions::new().read(true).append(true).create(true).open(path)
+            open_no_follow(path, OpenOptions::new().read(true).append(true).create(true))
         })
         .map_err(|e| StoreError::io("opening", path, e))?;
         let mut bytes = Vec::new();

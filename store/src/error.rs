@@ -81,6 +81,32 @@ pub enum StoreError {
         /// The log.
         path: PathBuf,
     },
+    /// An output path holds something a program must not write through or
+    /// replace: a symbolic link, a device, a FIFO, a socket or a directory
+    /// (or, for an output directory, a dangling link or a file).
+    #[error(
+        "{} is {found}: outputs are never written through links or over anything but a regular file; \
+         remove it or choose another path",
+        path.display()
+    )]
+    NotRegular {
+        /// The path.
+        path: PathBuf,
+        /// What is there, in words (`a symbolic link to /dev/null`).
+        found: String,
+    },
+    /// Another process holds the lock of a directory.
+    #[error(
+        "another program is writing into {} (it holds {}); wait for it to finish, or choose another directory",
+        dir.display(),
+        path.display()
+    )]
+    Locked {
+        /// The directory.
+        dir: PathBuf,
+        /// Its lock file.
+        path: PathBuf,
+    },
     /// A record or manifest could not be serialised as JSON.
     #[error("serialising a record for {}: {message}", path.display())]
     Serialize {
@@ -109,7 +135,9 @@ impl StoreError {
             | Self::TaskMismatch { path, .. }
             | Self::SettingsMismatch { path, .. }
             | Self::Poisoned { path }
-            | Self::Serialize { path, .. } => path,
+            | Self::Serialize { path, .. }
+            | Self::NotRegular { path, .. }
+            | Self::Locked { path, .. } => path,
         }
     }
 

@@ -5,7 +5,8 @@
 //! | item | what it guarantees |
 //! |---|---|
 //! | [`AppendLog`] | JSON lines appended whole (one write, then `sync_data`); a torn last line is moved aside to `LOG.torn-MS-PID` and reported on the next open |
-//! | [`replace_file`] | a file holds its old or its new contents, never a mix: a uniquely named temporary file, synced, renamed, the directory synced; symbolic links and permissions kept |
+//! | [`replace_file`] | a file holds its old or its new contents, never a mix: a uniquely named temporary file, synced, renamed, the directory synced; permissions kept; a symbolic link, device, FIFO, socket or directory at the path is refused, never written through or replaced |
+//! | [`check_output`], [`remove_output`], [`create_output_dir`], [`remove_stale_temporaries`], [`DirLock`] | the rules of every output ([`output`]): no link followed, nothing but a regular file replaced, `--force` deletes links instead of writing through them, a killed writer's temporaries cleaned, one writer per directory |
 //! | [`Manifest`] | a directory records the program, task and settings that made it, once; a program reopening it with another task or other settings is refused, naming the keys |
 //! | [`ScratchDir`] | a unique temporary directory removed on drop, for tests and examples |
 //! | [`fault`] | tests fail the Nth open, write, sync, rename, ... of the crate ([`FaultPlan`]), from any crate |
@@ -44,6 +45,7 @@ pub mod block;
 pub mod error;
 pub mod fault;
 mod manifest;
+pub mod output;
 mod replace;
 mod scratch;
 
@@ -52,6 +54,9 @@ pub use block::with_block;
 pub use error::{Result, StoreError};
 pub use fault::{FaultGuard, FaultPlan, OpKind};
 pub use manifest::{Manifest, ManifestStatus, differing_keys, digest};
+pub use output::{
+    DirLock, check_output, create_output_dir, create_output_subdir, remove_output, remove_stale_temporaries,
+};
 pub use replace::{is_temporary, replace_file};
 pub use scratch::ScratchDir;
 

@@ -64,6 +64,7 @@ impl Manifest {
     /// # Errors
     /// The file cannot be read, or is not a manifest ([`StoreError::BadManifest`]).
     pub fn read(path: &Path) -> Result<Option<Self>> {
+        crate::check_output(path)?;
         let bytes = match op(OpKind::Read, path, || std::fs::read(path)) {
             Ok(b) => b,
             Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(None),

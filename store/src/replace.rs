@@ -7,42 +7,16 @@ use std::sync::atomic::{AtomicU64, Ordering};
 use crate::error::{Result, StoreError};
 use crate::fault::{OpKind, op, parent_dir, sync_dir, write_all};
 
-/// Symbolic links followed before giving up (as the kernel's `ELOOP`).
-const MAX_LINKS: usize = 40;
-
 /// Temporary files created by this process so far (part of their names).
 static COUNTER: AtomicU64 = AtomicU64::new(0);
 
-/// The file a write to `path` lands in: `path` itself, or the target of
-/// the symbolic link(s) `path` names (a relative target is taken from the
-/// link's directory).
-fn resolve(path: &Path) -> Result<PathBuf> {
-    let mut current = path.to_path_buf();
-    for _ in 0..MAX_LINKS {
-        match op(OpKind::Metadata, &current, || fs::symlink_metadata(&current)) {
-            Ok(m) if m.file_type().is_symlink() => {
-                let target = op(OpKind::Metadata, &current, || fs::read_link(&current))
-                    .map_err(|e| StoreError::io("following the link", &current, e))?;
-                current = if target.is_absolute() {
-                    target
-                } else {
-                    parent_dir(&current).join(target)
-                };
-            }
-            Ok(_) => return Ok(current),
-            Err(e) if e.kind() == std::io::ErrorKind::NotFound => return Ok(current),
-            Err(e) => return Err(StoreError::io("reading the metadata of", &current, e)),
-        }
-    }
-    Err(StoreError::io(
-        "following the links of",
-        path,
-        std::io::Error::other(format!("more than {MAX_LINKS} symbolic links")),
-    ))
-}
+/// At most this many bytes of a file's name go into its temporary file's
+/// name, so that a valid long name (up to 255 bytes) stays valid.
+const NAME_PREFIX: usize = 40;
 
 /// Whether `name` is the name of one of [`replace_file`]'s temporary files
-/// (`.NAME.tmp-PID-N-NANOS`): a reader listing a directory must skip them.
+/// (`.NAME.tmp-PID-N-NANOS`, `NAME` cut to 40 bytes): a reader listing a
+/// directory must skip them.
 pub fn is_temporary(name: &str) -> bool {
     name.starts_with('.') && name.contains(".tmp-")
 }
@@ -52,14 +26,18 @@ pub fn is_temporary(name: &str) -> bool {
 /// never a mix.
 ///
 /// The bytes go to a temporary file of a unique name in the same
-/// directory (`.NAME.tmp-PID-N-NANOS`, created with `create_new`, so two
-/// processes or threads never share one), which is synced, renamed over
-/// `path`, and the directory synced. If `path` is a symbolic link, its
-/// target is replaced and the link kept; an existing file keeps its
-/// permissions. On failure the temporary file is removed (if that too
-/// fails, it is left under its temporary name, which [`is_temporary`]
-/// tells readers to skip) and `path` is unchanged, unless only the final
-/// directory sync failed.
+/// directory (`.NAME.tmp-PID-N-NANOS`, `NAME` cut to its first 40 bytes,
+/// created with `create_new`, so two processes or threads never share
+/// one), which is synced, renamed over `path`, and the directory synced.
+/// An existing file keeps its permissions. Nothing is written through a
+/// link: a symbolic link at `path` (to anything), a device, a FIFO, a
+/// socket or a directory is refused ([`StoreError::NotRegular`]) and left
+/// as it is ([`crate::check_output`]; a program's `--force` deletes a link
+/// first with [`crate::remove_output`]). On failure the temporary file is
+/// removed (if that too fails, it is left under its temporary name, which
+/// [`is_temporary`] tells readers to skip and
+/// [`crate::remove_stale_temporaries`] deletes once its writer is gone)
+/// and `path` is unchanged, unless only the final directory sync failed.
 ///
 /// ```
 /// let dir = std::env::temp_dir().join(format!("store-replace-doc-{}", std::process::id()));
@@ -73,17 +51,18 @@ pub fn is_temporary(name: &str) -> bool {
 /// ```
 ///
 /// # Errors
-/// [`StoreError::Io`] naming the file (the temporary one, or `path`)
-/// whose operation failed.
+/// [`StoreError::NotRegular`] naming `path`, or [`StoreError::Io`] naming
+/// the file (the temporary one, or `path`) whose operation failed.
 pub fn replace_file(path: &Path, bytes: &[u8]) -> Result<()> {
-    let target = resolve(path)?;
+    let target = path.to_path_buf();
     let dir = parent_dir(&target);
-    let permissions = match op(OpKind::Metadata, &target, || fs::metadata(&target)) {
-        Ok(m) => Some(m.permissions()),
-        Err(e) if e.kind() == std::io::ErrorKind::NotFound => None,
-        Err(e) => return Err(StoreError::io("reading the metadata of", &target, e)),
-    };
-    let name = target.file_name().unwrap_or_default().to_string_lossy().into_owned();
+    let permissions = crate::check_output(&target)?.map(|m| m.permissions());
+    let name = target.file_name().unwrap_or_default().to_string_lossy();
+    let mut cut = name.len().min(NAME_PREFIX);
+    while !name.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    let name = name[..cut].to_string();
     let (tmp, mut file) = create_temporary(&dir, &name)?;
     let written = (|| {
         write_all(&mut file, &tmp, bytes).map_err(|e| StoreError::io("writing", &tmp, e))?;
@@ -145,19 +124,34 @@ mod tests {
 
     #[cfg(unix)]
     #[test]
-    fn keeps_permissions_and_replaces_a_links_target() {
+    fn keeps_permissions_and_never_writes_through_a_link() {
         use std::os::unix::fs::PermissionsExt as _;
         let dir = ScratchDir::new("replace-link").expect("scratch dir");
         let real = dir.path().join("real.md");
         fs::write(&real, "old").expect("write");
         fs::set_permissions(&real, fs::Permissions::from_mode(0o600)).expect("chmod");
-        let link = dir.path().join("README.md");
-        std::os::unix::fs::symlink("real.md", &link).expect("symlink");
-        replace_file(&link, b"new").expect("replace");
-        assert!(fs::symlink_metadata(&link).expect("link").file_type().is_symlink());
-        assert_eq!(fs::read(&real).expect("read"), b"new");
+        replace_file(&real, b"new").expect("replace");
         let mode = fs::metadata(&real).expect("meta").permissions().mode() & 0o777;
         assert_eq!(mode, 0o600);
+        let link = dir.path().join("README.md");
+        std::os::unix::fs::symlink("real.md", &link).expect("symlink");
+        let err = replace_file(&link, b"through").expect_err("a link");
+        assert!(matches!(err, StoreError::NotRegular { .. }), "{err}");
+        assert!(fs::symlink_metadata(&link).expect("link").file_type().is_symlink());
+        assert_eq!(fs::read(&real).expect("read"), b"new");
+        let sub = dir.path().join("sub.json");
+        fs::create_dir(&sub).expect("mkdir");
+        assert!(replace_file(&sub, b"x").is_err());
+        assert!(sub.is_dir());
+        assert_eq!(fs::read_dir(dir.path()).expect("dir").count(), 3, "no temporary left");
+    }
+
+    #[test]
+    fn a_name_of_255_bytes_gets_a_short_temporary_name() {
+        let dir = ScratchDir::new("replace-long").expect("scratch dir");
+        let f = dir.path().join(format!("{}.json", "é".repeat(125)));
+        replace_file(&f, b"long").expect("a valid name");
+        assert_eq!(fs::read(&f).expect("read"), b"long");
     }
 
     #[test]

@@ -218,7 +218,7 @@ pub fn open_grid(
     shard: Option<Shard>,
     mode: GridMode,
 ) -> crate::Result<OpenGrid> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    store::create_output_dir(dir)?;
     let own_settings = dir.join(settings_file_name(shard));
     let own_runs = dir.join(runs_file_name(shard));
     let manifest = grid_manifest(settings, &own_settings)?;

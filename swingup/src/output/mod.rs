@@ -15,7 +15,7 @@ pub mod rundir;
 /// # Errors
 /// [`Error::Io`](crate::Error::Io) naming the directory or the probe file.
 pub fn check_out_dir(dir: &std::path::Path) -> crate::Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    store::create_output_dir(dir)?;
     let probe = dir.join(format!(".swingup-probe-{}", std::process::id()));
     std::fs::OpenOptions::new()
         .write(true)

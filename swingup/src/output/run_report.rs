@@ -51,7 +51,7 @@ pub fn trial_csv_name(index: usize) -> String {
 /// # Errors
 /// A file cannot be written; the error names it.
 pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
-    fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    store::create_output_dir(dir)?;
     for trial in &run.trials {
         write_trial(dir, trial)?;
     }
@@ -70,7 +70,7 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
 /// Each file is replaced atomically ([`write_atomic`]), so an interrupted
 /// run never leaves a half-written record behind.
 pub fn write_trial(dir: &Path, trial: &TrialRecord) -> crate::Result<()> {
-    fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    store::create_output_dir(dir)?;
     let saving = || format!("saving trial {}", trial.index);
     write_atomic(&dir.join(trial_csv_name(trial.index)), &trial_csv(trial)).with_context(saving)?;
     let json = to_json(trial).with_context(saving)?;

@@ -45,7 +45,10 @@ pub fn run_files(dir: &Path) -> Vec<PathBuf> {
     };
     let mut files: Vec<PathBuf> = entries
         .filter_map(|e| e.ok())
-        .filter(|e| e.file_type().is_ok_and(|t| t.is_file()))
+        // a link or a device under a run file's name counts too: a fresh run
+        // refuses it, and `--force` deletes a link (never its target) and
+        // refuses a device, instead of writing through either
+        .filter(|e| e.file_type().is_ok_and(|t| !t.is_dir()))
         .map(|e| e.path())
         .filter(|p| p.file_name().and_then(|n| n.to_str()).is_some_and(is_run_file))
         .collect();
@@ -96,57 +99,37 @@ pub fn numbered_run_dir(root: &Path, latest: bool) -> crate::Result<PathBuf> {
 /// grid holds one per runs file (`.runs.jsonl.lock`, and one per shard).
 pub const LOCK_FILE: &str = ".swingup.lock";
 
-/// An exclusive lock on a directory, held until the value is dropped (or
-/// the process ends, however it ends: the operating system releases it).
-#[derive(Debug)]
-pub struct DirLock {
-    _file: std::fs::File,
-}
+/// An exclusive lock on a directory ([`store::DirLock`]), held until the
+/// value is dropped (or the process ends, however it ends).
+pub type DirLock = store::DirLock;
 
-/// Creates `dir` if needed and takes the exclusive lock on its file `name`
-/// (e.g. [`LOCK_FILE`]), waiting at most [`LOCK_PATIENCE`]: a lock is
-/// shared with a child process between its fork and its exec, so a lock
-/// just released by a process that is starting another program can stay
-/// held for a moment (seen under load, with one test's grid resuming while
-/// another test spawned the program).
+/// Creates `dir` if needed ([`store::create_output_dir`]), deletes the
+/// temporary files a killed writer left there, and takes the exclusive
+/// lock on its file `name` (e.g. [`LOCK_FILE`]), waiting at most
+/// [`LOCK_PATIENCE`]: a lock is shared with a child process between its
+/// fork and its exec, so a lock just released by a process that is
+/// starting another program can stay held for a moment.
 ///
 /// # Errors
 /// Another process holds the lock (the error names the directory and the
 /// ways on), or a file system error naming the path.
 pub fn lock_dir(dir: &Path, name: &str) -> crate::Result<DirLock> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
-    let path = dir.join(name);
-    let file = std::fs::OpenOptions::new()
-        .create(true)
-        .truncate(false)
-        .write(true)
-        .open(&path)
-        .map_err(|e| crate::Error::io("opening the lock file", &path, e))?;
-    let waited = std::time::Instant::now();
-    loop {
-        match file.try_lock() {
-            Ok(()) => return Ok(DirLock { _file: file }),
-            Err(std::fs::TryLockError::WouldBlock) if waited.elapsed() < LOCK_PATIENCE => {
-                std::thread::sleep(std::time::Duration::from_millis(50));
-            }
-            Err(e) => return Err(lock_error(dir, &path, e)),
-        }
-    }
-}
-
-/// How long [`lock_dir`] waits for a held lock before it refuses.
-pub const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_secs(2);
-
-fn lock_error(dir: &Path, path: &Path, e: std::fs::TryLockError) -> crate::Error {
-    match e {
-        std::fs::TryLockError::WouldBlock => crate::Error::Refused(format!(
+    store::create_output_dir(dir)?;
+    let lock = store::DirLock::acquire(dir, name, LOCK_PATIENCE).map_err(|e| match e {
+        store::StoreError::Locked { dir, path } => crate::Error::Refused(format!(
             "another swingup program is working in {} (it holds {}); wait for it to finish, or choose another --out",
             dir.display(),
             path.display()
         )),
-        std::fs::TryLockError::Error(e) => crate::Error::io("locking", path, e),
-    }
+        e => e.into(),
+    })?;
+    // only once the lock is held: a live writer's temporaries are its own
+    store::remove_stale_temporaries(dir)?;
+    Ok(lock)
 }
+
+/// How long [`lock_dir`] waits for a held lock before it refuses.
+pub const LOCK_PATIENCE: std::time::Duration = std::time::Duration::from_secs(2);
 
 /// Makes `dir` ready for a fresh run: creates it, and refuses when it holds
 /// another run's files, unless `force`, which deletes those files only.
@@ -155,7 +138,7 @@ fn lock_error(dir: &Path, path: &Path, e: std::fs::TryLockError) -> crate::Error
 /// Another run's files without `force` (the error names the directory and
 /// the ways on), or a file system error naming the path.
 pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| crate::Error::io("creating", dir, e))?;
+    store::create_output_dir(dir)?;
     let files = run_files(dir);
     if files.is_empty() {
         return Ok(());
@@ -176,7 +159,8 @@ pub fn prepare_fresh(dir: &Path, force: bool) -> crate::Result<()> {
         files[0].file_name().and_then(|n| n.to_str()).unwrap_or("?")
     );
     for f in files {
-        std::fs::remove_file(&f).map_err(|e| crate::Error::io("deleting", &f, e))?;
+        // a link is deleted, never followed; a device or FIFO is refused
+        store::remove_output(&f)?;
     }
     Ok(())
 }
