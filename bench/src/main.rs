@@ -156,7 +156,7 @@ fn run(cli: Cli) -> bench::Result<()> {
         })?;
         // read again: the README may have been edited during the runs
         let updated = readme_with_summary(path, &summary)?;
-        // whole or not at all; a symlinked README's target, its mode kept
+        // whole or not at all, its mode kept; a symbolic link there is refused
         bench::report::write(path, &updated)?;
         say(&format!("updated the benchmark summary in {}", path.display()))?;
     }

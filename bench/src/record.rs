@@ -202,7 +202,12 @@ impl RunRecord {
     /// The run's key: a result set holds at most one run per key, and a
     /// run of a subset replaces the saved run of the same key.
     pub fn key(&self) -> RunKey {
-        (self.set.clone(), self.problem.clone(), self.scale.to_bits(), self.solver.clone())
+        (
+            self.set.clone(),
+            self.problem.clone(),
+            self.scale.to_bits(),
+            self.solver.clone(),
+        )
     }
 }
 

@@ -715,12 +715,14 @@ pub fn references_markdown(a: &Analysis) -> String {
 
 #[cfg(test)]
 mod tests {
-    /// Issue 37, case 8: writing through a symlinked README replaces its
-    /// target whole, keeps the link and the file's mode, and leaves a
-    /// `README.tmp` beside it alone.
+    /// Issue 37, case 8, as issue 51 revised it: a symlinked README is
+    /// never written through (a link planted among the outputs could point
+    /// anywhere, a device included): the write is refused naming the link,
+    /// and the link, its target (mode included) and a `README.tmp` beside
+    /// it are left as they were; a regular file keeps its mode.
     #[cfg(unix)]
     #[test]
-    fn write_replaces_a_symlinks_target_whole_and_keeps_its_mode_and_neighbours() {
+    fn write_refuses_a_symlink_and_keeps_modes_and_neighbours() {
         use std::os::unix::fs::PermissionsExt;
         let scratch = store::ScratchDir::new("bench-write").expect("scratch dir");
         let dir = scratch.path();
@@ -729,13 +731,16 @@ mod tests {
         std::fs::set_permissions(&target, std::fs::Permissions::from_mode(0o600)).expect("mode");
         std::os::unix::fs::symlink(&target, dir.join("README.md")).expect("link");
         std::fs::write(dir.join("README.tmp"), "mine").expect("write");
-        write(&dir.join("README.md"), "new").expect("written");
+        let e = write(&dir.join("README.md"), "new").expect_err("a link");
+        assert!(e.to_string().contains("symbolic link"), "{e}");
         assert!(
             std::fs::symlink_metadata(dir.join("README.md"))
                 .expect("link")
                 .file_type()
                 .is_symlink()
         );
+        assert_eq!(std::fs::read_to_string(&target).expect("target"), "old");
+        write(&target, "new").expect("a regular file");
         assert_eq!(std::fs::read_to_string(&target).expect("target"), "new");
         assert_eq!(
             std::fs::metadata(&target).expect("meta").permissions().mode() & 0o777,

@@ -114,6 +114,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     store::create_output_dir(&settings.out)?;
     let _lock = store::DirLock::acquire(&settings.out, LOCK_FILE, std::time::Duration::from_secs(2))?;
     store::remove_stale_temporaries(&settings.out)?;
+    preflight(settings)?;
     let marker = settings.out.join(INCOMPLETE_MARKER);
     if store::check_output(&marker)?.is_some() {
         note(&format!(
@@ -192,14 +193,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     } else {
         (None, Solver::ALL.to_vec())
     };
-    let (analysis, sources) = analyse(
-        settings.set,
-        filter,
-        &solvers,
-        ours,
-        &settings.out,
-        &settings.outside,
-    )?;
+    let (analysis, sources) = analyse(settings.set, filter, &solvers, ours, &settings.out, &settings.outside)?;
     let (commit, dirty) = store::parse_code_version(&made_by.code_version);
     let stamp = Stamp {
         commit: commit.unwrap_or("unknown").to_string(),
@@ -219,6 +213,33 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     // every file of this generation is written: the marker goes last
     store::remove_output(&marker)?;
     Ok((analysis, stamp))
+}
+
+/// Refuses, before any run, an output directory holding a symbolic link,
+/// a device, a FIFO or a socket (every file of `OUT` is the program's, and
+/// none is written through a link), and report files that are not regular
+/// files: a planted link is named, never followed, and no run's work is
+/// lost to a refusal at the end.
+///
+/// # Errors
+/// [`store::StoreError::NotRegular`] naming the entry.
+fn preflight(settings: &RunnerSettings) -> Result<()> {
+    let out = &settings.out;
+    for entry in std::fs::read_dir(out).map_err(BenchError::io(out))? {
+        let path = entry.map_err(BenchError::io(out))?.path();
+        if !std::fs::symlink_metadata(&path).is_ok_and(|m| m.is_dir()) {
+            store::check_output(&path)?;
+        }
+    }
+    let stem = settings.set.report_stem();
+    for name in [
+        format!("{stem}.md"),
+        format!("{stem}.json"),
+        "benchmarks_summary.md".into(),
+    ] {
+        store::check_output(&settings.report_dir.join(name))?;
+    }
+    Ok(())
 }
 
 /// The lock file `nprl-bench` holds in its output directory for a run.
@@ -278,7 +299,10 @@ pub fn merge_runs(saved: Option<RecordFile>, new: RecordFile, path: &Path, force
                 path: path.to_path_buf(),
                 index,
                 field: "solver",
-                reason: format!("a second run of {} on {} at scale {}", run.solver, run.problem, run.scale),
+                reason: format!(
+                    "a second run of {} on {} at scale {}",
+                    run.solver, run.problem, run.scale
+                ),
             });
         }
     }
@@ -302,15 +326,17 @@ pub fn merge_runs(saved: Option<RecordFile>, new: RecordFile, path: &Path, force
             return Ok(whole(new));
         }
         let by = |f: &RecordFile| {
-            f.made_by.as_ref().map_or("code that did not record itself".into(), |m| {
-                format!(
-                    "{} at {} simplex gradients and {} s per run, {} repeats",
-                    m.code_version,
-                    m.budget_simplex_gradients,
-                    m.budget_time_s,
-                    f.runs.first().map_or(0, |r| r.repeats)
-                )
-            })
+            f.made_by
+                .as_ref()
+                .map_or("code that did not record itself".into(), |m| {
+                    format!(
+                        "{} at {} simplex gradients and {} s per run, {} repeats",
+                        m.code_version,
+                        m.budget_simplex_gradients,
+                        m.budget_time_s,
+                        f.runs.first().map_or(0, |r| r.repeats)
+                    )
+                })
         };
         return Err(BenchError::WouldMix {
             path: path.to_path_buf(),

@@ -83,10 +83,16 @@ pub struct FitArgs {
     /// is an input.
     #[arg(long = "target", value_name = "NAME", required = true)]
     pub targets: Vec<String>,
-    /// Write the predictions for the test rows here: per target
-    /// `NAME_pred,NAME_std,NAME_lo,NAME_hi`.
+    /// Write the predictions for the test rows here (`-`: standard output,
+    /// the summary then going to standard error): per target
+    /// `NAME_pred,NAME_std,NAME_lo,NAME_hi`. The file is replaced whole; a
+    /// symbolic link, device, FIFO or directory there is refused.
     #[arg(long, value_name = "PRED.csv", requires = "test")]
     pub out: Option<PathBuf>,
+    /// Delete a symbolic link at `--out` (never its target) before writing
+    /// a regular file there.
+    #[arg(long)]
+    pub force: bool,
     /// Print the summary as JSON instead of text.
     #[arg(long)]
     pub json: bool,
@@ -118,6 +124,7 @@ impl FitArgs {
             test: None,
             targets: targets.iter().map(|t| (*t).to_owned()).collect(),
             out: None,
+            force: false,
             json: false,
             kernel: KernelArg::Gaussian,
             degree: DegreeArg::Linear,
@@ -217,7 +224,21 @@ fn check_args(args: &FitArgs) -> Result<(), FitError> {
             reason: "needs --test (the predictions are for the test rows)".into(),
         });
     }
-    if let Some(out) = &args.out {
+    if let Some(out) = args.out.as_deref().filter(|o| !is_stdout(o)) {
+        // refused before any work: a link, device, FIFO or directory at --out
+        if let Err(e) = store::check_output(out) {
+            let link = fs::symlink_metadata(out).is_ok_and(|m| m.file_type().is_symlink());
+            if !(args.force && link) {
+                return Err(FitError::InvalidArgument {
+                    name: "--out",
+                    reason: if link {
+                        format!("{e} (or pass --force to delete the link)")
+                    } else {
+                        e.to_string()
+                    },
+                });
+            }
+        }
         for (flag, input) in [("--train", Some(&args.train)), ("--test", args.test.as_ref())] {
             if input.is_some_and(|input| same_file(out, input)) {
                 return Err(FitError::InvalidArgument {
@@ -231,6 +252,11 @@ fn check_args(args: &FitArgs) -> Result<(), FitError> {
         }
     }
     Ok(())
+}
+
+/// Whether `path` is `-`, standard output.
+pub fn is_stdout(path: &Path) -> bool {
+    path.as_os_str() == "-"
 }
 
 /// Whether `a` and `b` name one existing file (through links and `..`).
@@ -469,7 +495,7 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
         };
         let (report_test, predictions) = run_test(&scaled, &train, &input_cols, &args.targets, &test)?;
         if let Some(out) = &args.out {
-            write_predictions(out, &args.targets, &predictions)?;
+            write_predictions(out, args.force, &args.targets, &predictions)?;
             report.out_file = Some(out.clone());
         }
         report.test = Some(report_test);
@@ -631,7 +657,12 @@ fn run_test(
     Ok((report, predictions))
 }
 
-fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPrediction]) -> Result<(), FitError> {
+fn write_predictions(
+    out: &Path,
+    force: bool,
+    targets: &[String],
+    predictions: &[RowPrediction],
+) -> Result<(), FitError> {
     let mut text = String::new();
     let header: Vec<String> = targets
         .iter()
@@ -652,54 +683,48 @@ fn write_predictions(out: &Path, targets: &[String], predictions: &[RowPredictio
         text.push_str(&cells.join(","));
         text.push('\n');
     }
-    // through a temporary file: a failed write leaves any old file whole
-    write_atomic(out, &text).map_err(|source| FitError::Write {
+    if is_stdout(out) {
+        use std::io::Write as _;
+        let mut stdout = io::stdout().lock();
+        return stdout
+            .write_all(text.as_bytes())
+            .and_then(|()| stdout.flush())
+            .map_err(FitError::Stdout);
+    }
+    let write = |source| FitError::Write {
         file: out.to_path_buf(),
         source,
-    })
+    };
+    if force && fs::symlink_metadata(out).is_ok_and(|m| m.file_type().is_symlink()) {
+        // the link is deleted, never written through
+        store::remove_output(out).map_err(|e| write(io::Error::other(e.to_string())))?;
+    }
+    // through a temporary file: a failed write leaves any old file whole
+    write_atomic(out, &text).map_err(write)
 }
 
 /// Writes `contents` to `path` through a temporary file of its own in the
-/// same directory (`.NAME.PID-N.tmp`, created new: it never replaces an
-/// existing file, such as an input named like a temporary file) and a
-/// rename, so that `path` holds either its old or its new contents; on
-/// failure the temporary file is removed and the error names the file.
+/// same directory and a rename ([`store::replace_file`]: the temporary is
+/// created new, so it never replaces an existing file such as an input
+/// named like a temporary file), so that `path` holds either its old or its
+/// new contents; on failure the temporary file is removed and the error
+/// names the file. A symbolic link, device, FIFO or directory at `path` is
+/// refused and left as it is; an existing file keeps its mode.
 ///
 /// # Errors
-/// The temporary file cannot be created, written or renamed.
+/// Something other than a regular file at `path`, or the temporary file
+/// cannot be created, written or renamed.
 pub fn write_atomic(path: &Path, contents: &str) -> io::Result<()> {
-    use std::io::Write as _;
-    use std::sync::atomic::{AtomicUsize, Ordering};
-    static NEXT: AtomicUsize = AtomicUsize::new(0);
-    let named =
-        |e: io::Error, what: &str, file: &Path| io::Error::new(e.kind(), format!("{what} {}: {e}", file.display()));
-    let name = path.file_name().unwrap_or_default().to_string_lossy().into_owned();
-    let (tmp, mut file) = loop {
-        let n = NEXT.fetch_add(1, Ordering::Relaxed);
-        let tmp = path.with_file_name(format!(".{name}.{}-{n}.tmp", std::process::id()));
-        match fs::OpenOptions::new().write(true).create_new(true).open(&tmp) {
-            Ok(file) => break (tmp, file),
-            Err(e) if e.kind() == io::ErrorKind::AlreadyExists => continue,
-            Err(e) => return Err(named(e, "creating", &tmp)),
-        }
-    };
-    if let Err(e) = file.write_all(contents.as_bytes()).and_then(|()| file.sync_all()) {
-        drop(file);
-        let _ = fs::remove_file(&tmp);
-        return Err(named(e, "writing", &tmp));
-    }
-    drop(file);
-    fs::rename(&tmp, path).map_err(|e| {
-        let _ = fs::remove_file(&tmp);
-        named(e, "renaming into place", path)
-    })
+    store::replace_file(path, contents.as_bytes())
+        .map_err(|e| io::Error::new(e.io_kind().unwrap_or(io::ErrorKind::Other), e.to_string()))
 }
 
 /// Runs the fit tool: [`fit_report_with`] with the phases on stderr, then
 /// prints the summary on stdout as text or, with `--json`, as JSON
 /// (non-finite numbers as `null`). The predictions file is written before
-/// anything is printed, and a closed stdout or stderr (`| head`) is not an
-/// error: the work is done and saved, and printing stops.
+/// anything is printed: a closed or full stdout (`| head`, `> /dev/full`)
+/// loses only the summary, and is then an error ([`FitError::Stdout`]); a
+/// closed stderr loses the phases' lines only.
 ///
 /// # Errors
 /// As [`fit_report`].
@@ -714,10 +739,18 @@ pub fn fit_command(args: &FitArgs) -> Result<(), FitError> {
     } else {
         report.to_string()
     };
-    match io::stdout().lock().write_all(text.as_bytes()) {
-        Err(e) if e.kind() != io::ErrorKind::BrokenPipe => Err(FitError::Stdout(e)),
-        _ => Ok(()),
+    if args.out.as_deref().is_some_and(is_stdout) {
+        // the predictions took standard output
+        let _ = io::stderr().write_all(text.as_bytes());
+        return Ok(());
     }
+    // a closed or full stdout: the files are saved, the summary is lost,
+    // and the status says so
+    let mut stdout = io::stdout().lock();
+    stdout
+        .write_all(text.as_bytes())
+        .and_then(|()| stdout.flush())
+        .map_err(FitError::Stdout)
 }
 
 /// An error and its causes, joined by `": "` (what the `lwr-fit` binary

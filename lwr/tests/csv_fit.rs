@@ -474,7 +474,8 @@ fn the_binary_fits_and_reports_bad_files() {
     assert_eq!(value["n_train"], 80);
 
     // issue 37: with stdout and stderr closed (`| head`), no panic; the
-    // predictions are saved before anything is printed
+    // predictions are saved before anything is printed; issue 51: the
+    // status then says the summary was lost
     let test = dir.write("test.csv", &data(9, 12));
     let out = dir.path("closed.csv");
     let mut child = std::process::Command::new(bin)
@@ -489,7 +490,7 @@ fn the_binary_fits_and_reports_bad_files() {
     drop(child.stdout.take());
     drop(child.stderr.take());
     let status = child.wait().expect("waits");
-    assert!(status.success(), "{status:?}");
+    assert_eq!(status.code(), Some(1), "{status:?}");
     assert_eq!(fs::read_to_string(&out).expect("predictions saved").lines().count(), 10);
 
     let bad = dir.write("bad.csv", "a,b,y\n1,2,3\n4,x,6\n");
@@ -657,4 +658,76 @@ fn duplicated_rows_are_reported() {
     let report = fit_report(&args).expect("fit");
     assert_eq!(report.duplicate_inputs, 0);
     assert!(!report.to_string().contains("warning"));
+}
+
+/// Issue 51: `--out` never writes through a link or over a device (as root
+/// `--out /dev/full` once replaced the device with a file); the refusal
+/// comes before any work and names the path; `--force` deletes a link
+/// (never its target); a file keeps its mode; a 254-byte name works; `-`
+/// writes the predictions on standard output.
+#[cfg(unix)]
+#[test]
+fn the_predictions_never_go_through_a_link_or_over_a_device() {
+    use std::os::unix::fs::PermissionsExt as _;
+    let dir = TempDir::new("safety");
+    let train = dir.write("train.csv", &data(40, 31));
+    let test = dir.write("test.csv", &data(6, 32));
+    let sentinel = store::Sentinel::new("lwr-fit-sentinel").expect("sentinel");
+    let before = sentinel.snapshot();
+    let mut targets = vec![sentinel.victim(), sentinel.path().join("dir")];
+    if let Some((null, full)) = sentinel.devices() {
+        targets.extend([null.clone(), full.clone()]);
+    }
+    let args_for = |out: PathBuf, force: bool| {
+        let mut args = FitArgs::new(&train, &["y"]);
+        args.tune_evals = 0;
+        args.test = Some(test.clone());
+        args.out = Some(out);
+        args.force = force;
+        args
+    };
+    for (k, target) in targets.iter().enumerate() {
+        let link = dir.path(&format!("pred{k}.csv"));
+        std::os::unix::fs::symlink(target, &link).expect("link");
+        let err = fit_report(&args_for(link.clone(), false)).expect_err("a link");
+        let msg = error_chain(&err);
+        assert!(msg.contains("symbolic link") && msg.contains("--force"), "{msg}");
+        fit_report(&args_for(link.clone(), true)).expect("--force deletes the link");
+        assert!(fs::symlink_metadata(&link).expect("written").is_file());
+        // a device or a directory named directly (`--out /dev/full`)
+        if !fs::symlink_metadata(target).expect("target").is_file() {
+            let err = fit_report(&args_for(target.clone(), true)).expect_err("not a regular file");
+            assert!(
+                error_chain(&err).contains("never written through links"),
+                "{}",
+                error_chain(&err)
+            );
+        }
+    }
+    assert_eq!(sentinel.changes(&before), Vec::<String>::new());
+    // the mode of a replaced file is kept
+    let out = dir.path("mode.csv");
+    fs::write(&out, "old\n").expect("write");
+    fs::set_permissions(&out, fs::Permissions::from_mode(0o600)).expect("chmod");
+    fit_report(&args_for(out.clone(), false)).expect("fit");
+    assert_eq!(fs::metadata(&out).expect("meta").permissions().mode() & 0o777, 0o600);
+    // a valid name of 254 bytes
+    let long = dir.path(&format!("{}.csv", "p".repeat(250)));
+    fit_report(&args_for(long.clone(), false)).expect("a long name");
+    assert_eq!(fs::read_to_string(&long).expect("written").lines().count(), 7);
+    // `--out -`: the predictions on stdout, the summary on stderr
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_lwr-fit"))
+        .args(["--target", "y", "--tune-evals", "0", "--out", "-", "--train"])
+        .arg(&train)
+        .arg("--test")
+        .arg(&test)
+        .output()
+        .expect("runs");
+    assert!(o.status.success(), "{}", String::from_utf8_lossy(&o.stderr));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.starts_with("y_pred,y_std,y_lo,y_hi\n") && stdout.lines().count() == 7,
+        "{stdout}"
+    );
+    assert!(!dir.path("-").exists());
 }

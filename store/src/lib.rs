@@ -58,7 +58,7 @@ pub use output::{
     DirLock, check_output, create_output_dir, create_output_subdir, remove_output, remove_stale_temporaries,
 };
 pub use replace::{is_temporary, replace_file};
-pub use scratch::ScratchDir;
+pub use scratch::{ScratchDir, Sentinel, output_within};
 
 /// The commit the workspace's code was built from, as results name it:
 /// `commit <hash>` (7 hex digits), with `-dirty` when a tracked code file

@@ -16,8 +16,8 @@ use std::path::{Path, PathBuf};
 use crate::error::{Result, StoreError};
 use crate::fault::{OpKind, op};
 
-/// What a path is, in words, for an error message.
-pub(crate) fn describe(file_type: &fs::FileType) -> &'static str {
+/// What a file type is, in words (`a symbolic link`, `a FIFO (named pipe)`), as errors say it.
+pub fn describe(file_type: &fs::FileType) -> &'static str {
     #[cfg(unix)]
     {
         use std::os::unix::fs::FileTypeExt as _;
@@ -169,8 +169,11 @@ fn temporary_pid(name: &str) -> Option<u32> {
     let mut parts = tail.split('-');
     let pid = parts.next()?.parse().ok()?;
     let numbers = parts.collect::<Vec<_>>();
-    (numbers.len() == 2 && numbers.iter().all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit())))
-        .then_some(pid)
+    (numbers.len() == 2
+        && numbers
+            .iter()
+            .all(|p| !p.is_empty() && p.bytes().all(|b| b.is_ascii_digit())))
+    .then_some(pid)
 }
 
 /// Whether the process `pid` is running: on Linux, whether `/proc/PID`
@@ -346,7 +349,12 @@ mod tests {
         assert!(err.to_string().contains("symbolic link"), "{err}");
         let sub = dir.path().join("sub");
         fs::create_dir(&sub).expect("mkdir");
-        assert!(check_output(&sub).expect_err("a dir").to_string().contains("a directory"));
+        assert!(
+            check_output(&sub)
+                .expect_err("a dir")
+                .to_string()
+                .contains("a directory")
+        );
         assert!(remove_output(&sub).is_err());
         assert!(remove_output(&link).expect("remove"));
         assert!(fs::symlink_metadata(&link).is_err());

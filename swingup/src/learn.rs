@@ -381,7 +381,10 @@ fn execute_mpc<G: PendulumRegression>(
     let settings = ReplanSettings {
         max_iterations: m.iterations,
         tol_cost: cfg.planner.tol_cost,
-        budget: (m.budget_ms > 0.0).then(|| Duration::from_secs_f64(m.budget_ms / 1e3)),
+        // bounded by Config::validate; a budget no Duration holds is no limit
+        budget: (m.budget_ms > 0.0)
+            .then(|| Duration::try_from_secs_f64(m.budget_ms / 1e3).ok())
+            .flatten(),
     };
     let mut trace = MpcTrace::default();
     let mut planned_at = 0;

@@ -14,13 +14,15 @@ use swingup::output::grid::{GridEvent, GridMode, GridOptions};
 use swingup::output::run_report;
 use swingup::record::TrialRecord;
 
-/// Set once stdout is found closed (a pipe whose reader is gone, as in
-/// `swingup ... | head -1`): output is dropped from then on, and the work
-/// goes on and is saved.
+/// Set once stdout is found closed or full (a pipe whose reader is gone,
+/// as in `swingup ... | head -1`, or `> /dev/full`): output is dropped from
+/// then on, the work goes on and is saved, and the program then ends with
+/// a message and status 1 ([`main`]).
 static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
 
-/// Writes a line to stdout; a closed stdout never stops the program (nor
-/// panics, as `println!` would): the line is dropped, said once on stderr.
+/// Writes a line to stdout; a closed or full stdout never stops the work
+/// (nor panics, as `println!` would): the line is dropped, said once on
+/// stderr, and the program's status is 1 at the end.
 fn say_line(args: std::fmt::Arguments<'_>) {
     use std::io::Write as _;
     use std::sync::atomic::Ordering;
@@ -36,7 +38,7 @@ fn say_line(args: std::fmt::Arguments<'_>) {
         && !STDOUT_CLOSED.swap(true, Ordering::Relaxed)
     {
         note_line(format_args!(
-            "note: stdout is closed; the program goes on and saves its results without showing them"
+            "note: stdout is closed or full; the program goes on and saves its results without showing them"
         ));
     }
 }
@@ -58,6 +60,15 @@ macro_rules! note {
     ($($arg:tt)*) => { note_line(format_args!($($arg)*)) };
 }
 
+/// Where `swingup config` writes.
+#[derive(Debug, clap::Args)]
+struct ConfigArgs {
+    /// Write the configuration to this file (replaced whole; a link, device
+    /// or directory there is refused) instead of standard output.
+    #[arg(long, value_name = "FILE.toml")]
+    out: Option<PathBuf>,
+}
+
 /// Learn a pendulum swing-up from a human demonstration, as in Atkeson's
 /// "Nonparametric Model-Based Reinforcement Learning" (simulated).
 #[derive(Debug, Parser)]
@@ -76,7 +87,7 @@ enum Command {
     Learn(LearnArgs),
     /// Print the default configuration as TOML (every parameter; edit it
     /// and pass it back with `learn --config FILE`).
-    Config,
+    Config(ConfigArgs),
     /// Run the experiments behind the paper's claims (C1-C8): grids of
     /// learning runs over seeds, in parallel; writes experiments.json and
     /// experiments.md (the claims table first).
@@ -277,6 +288,12 @@ fn main() -> std::process::ExitCode {
         }
     };
     match run_command() {
+        Ok(()) if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) => {
+            note!(
+                "error: standard output was closed or full, so some of the output above is missing (the files were saved)"
+            );
+            std::process::ExitCode::FAILURE
+        }
         Ok(()) => std::process::ExitCode::SUCCESS,
         Err(e) => {
             note!("error: {e}");
@@ -291,8 +308,16 @@ fn main() -> std::process::ExitCode {
 fn run_command() -> anyhow::Result<()> {
     let cli = Cli::parse();
     match cli.command.unwrap_or(Command::Learn(LearnArgs::default())) {
-        Command::Config => {
-            say!("{}", toml::to_string(&Config::default())?.trim_end());
+        Command::Config(args) => {
+            let text = toml::to_string(&Config::default())?;
+            match args.out {
+                // whole or not at all; never through a link or over a device
+                Some(path) => {
+                    store::replace_file(&path, text.as_bytes())?;
+                    note!("wrote {}", path.display());
+                }
+                None => say!("{}", text.trim_end()),
+            }
             Ok(())
         }
         Command::Learn(args) => learn(&args),
@@ -450,22 +475,25 @@ enum Task {
     Cartpole,
 }
 
-/// `learn --task cartpole`: one run of `swingup::cartpole`, each trial shown,
-/// the run written to `cartpole.json` in a fresh run directory.
+/// `learn --task cartpole`: one run of `swingup::cartpole`, each trial
+/// saved as `trial_NN.json` as it ends and then shown, the whole run
+/// written to `cartpole.json` at the end; `--resume` continues an
+/// interrupted run from its saved trials (replayed, so that it ends as the
+/// uninterrupted run would have).
 fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
+    use swingup::output::rundir;
     anyhow::ensure!(
         args.controller.is_none_or(|c| c == Controller::Mpc),
         "the cart-pole is learned from scratch with --controller mpc only (there is no demonstration to run open loop)"
     );
     anyhow::ensure!(
-        !args.resume
-            && args.config.is_none()
+        args.config.is_none()
             && args.model.is_none()
             && args.prior.is_none()
             && args.planner.is_none()
             && args.basis.is_none()
             && args.lambda.is_none(),
-        "--task cartpole takes --seed, --max-trials, --out and --force only (its settings are PILCO's, see swingup::cartpole)"
+        "--task cartpole takes --seed, --max-trials, --out, --resume and --force only (its settings are PILCO's, see swingup::cartpole)"
     );
     let mut settings = swingup::cartpole::CartPoleSettings::default();
     if let Some(n) = args.max_trials {
@@ -475,28 +503,41 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     settings.validate()?;
     let out = &match &args.out {
         Some(out) => out.clone(),
-        None => swingup::output::rundir::numbered_run_dir(Path::new(RUNS_ROOT), false)?,
+        None => rundir::numbered_run_dir(Path::new(RUNS_ROOT), args.resume)?,
     };
-    let _lock = swingup::output::rundir::lock_dir(out, swingup::output::rundir::LOCK_FILE)?;
+    let _lock = rundir::lock_dir(out, rundir::LOCK_FILE)?;
     let file = out.join("cartpole.json");
-    let seed = args.seed.unwrap_or(1);
-    // a directory holding a run (of either task) is refused unless --force,
-    // which deletes that run's files only; the run records its task
-    swingup::output::rundir::prepare_fresh(out, args.force)?;
-    swingup::output::rundir::create_manifest(
-        out,
-        "cartpole",
-        &serde_json::json!({ "settings": &settings, "seed": seed }),
-    )?;
+    let (settings, seed, previous) = if args.resume {
+        cartpole_resume(out, args)?
+    } else {
+        let seed = args.seed.unwrap_or(1);
+        // a directory holding a run (of either task) is refused unless
+        // --force, which deletes that run's files only; the run records its task
+        rundir::prepare_fresh(out, args.force)?;
+        rundir::create_manifest(
+            out,
+            "cartpole",
+            &serde_json::json!({ "settings": &settings, "seed": seed }),
+        )?;
+        (settings, seed, Vec::new())
+    };
     say!(
         "cartpole (PILCO's): one random trial, then MPC with the LWR; up to {} MPC trials of {} s; seed {seed}; writing to {}",
         settings.max_trials,
         settings.episode,
         out.display()
     );
+    if !previous.is_empty() {
+        say!("resuming {}: {} saved trial(s) replayed", out.display(), previous.len());
+    }
     let start = std::time::Instant::now();
-    let record = swingup::cartpole::run(&settings, seed)?;
-    for t in &record.trials {
+    let record = swingup::cartpole::run_resumable(&settings, seed, previous, &mut |t| {
+        // saved before it is shown: a closed stdout never loses a trial
+        let name = run_report::trial_json_name(t.trial);
+        run_report::write_atomic(
+            &out.join(&name),
+            &serde_json::to_string_pretty(t).map_err(swingup::Error::from)?,
+        )?;
         say!(
             "trial {:>2}: {:<6} {}, tip {:.2} m from the target at the end, PILCO cost {:.1}, {:.0} s of data{}",
             t.trial,
@@ -514,7 +555,8 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
                 )
             }
         );
-    }
+        Ok(())
+    })?;
     write_atomic(&file, &serde_json::to_string_pretty(&record)?)?;
     match (record.success_trial, record.seconds_to_success) {
         (Some(t), Some(s)) => say!("**Result:** success at trial {t} after {s:.1} s of system data."),
@@ -522,6 +564,73 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     }
     say!("wrote {} ({:.1} s)", file.display(), start.elapsed().as_secs_f64());
     Ok(())
+}
+
+/// The settings, seed and saved trials of the cart-pole run in `out`, for
+/// `--resume`: the settings and seed its manifest records (a `--seed` or
+/// `--max-trials` other than those is refused), and its `trial_NN.json`
+/// files from 1 on.
+fn cartpole_resume(
+    out: &Path,
+    args: &LearnArgs,
+) -> anyhow::Result<(
+    swingup::cartpole::CartPoleSettings,
+    u64,
+    Vec<swingup::cartpole::CartPoleTrial>,
+)> {
+    use swingup::output::rundir;
+    let manifest_path = out.join(rundir::MANIFEST_FILE);
+    let Some(m) = store::Manifest::read(&manifest_path)? else {
+        anyhow::bail!(
+            "cannot resume {}: it has no {} recording the run's settings and seed (start a fresh run instead)",
+            out.display(),
+            manifest_path.display()
+        );
+    };
+    anyhow::ensure!(
+        m.program == rundir::LEARN_PROGRAM && m.task == "cartpole",
+        "cannot resume {} as a cartpole run: {} records a {} run of {}; choose another --out",
+        out.display(),
+        manifest_path.display(),
+        m.task,
+        m.program
+    );
+    #[derive(serde::Deserialize)]
+    struct Recorded {
+        settings: swingup::cartpole::CartPoleSettings,
+        seed: u64,
+    }
+    let recorded: Recorded = serde_json::from_value(m.settings)
+        .with_context(|| format!("{}: not a cart-pole run's settings", manifest_path.display()))?;
+    if let Some(seed) = args.seed {
+        anyhow::ensure!(
+            seed == recorded.seed,
+            "{} was made with seed {}, not {seed}; resume without --seed, or start a fresh run in another --out",
+            out.display(),
+            recorded.seed
+        );
+    }
+    if let Some(n) = args.max_trials {
+        anyhow::ensure!(
+            n == recorded.settings.max_trials,
+            "{} was made with --max-trials {}, not {n}; resume without --max-trials, or start a fresh run in another --out",
+            out.display(),
+            recorded.settings.max_trials
+        );
+    }
+    recorded.settings.validate()?;
+    let mut trials = Vec::new();
+    for index in 1.. {
+        let path = out.join(run_report::trial_json_name(index));
+        if store::check_output(&path)?.is_none() {
+            break;
+        }
+        let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
+        let trial: swingup::cartpole::CartPoleTrial =
+            serde_json::from_str(&text).with_context(|| format!("{}: not a cart-pole trial", path.display()))?;
+        trials.push(trial);
+    }
+    Ok((recorded.settings, recorded.seed, trials))
 }
 
 fn learn(args: &LearnArgs) -> anyhow::Result<()> {

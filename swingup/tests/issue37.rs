@@ -165,7 +165,8 @@ fn case_4_shards_with_other_settings_are_not_merged() {
 }
 
 /// Case 6: a closed stdout neither panics nor loses work: every trial and
-/// the report are saved.
+/// the report are saved, and the program then ends with status 1 and a
+/// message saying its output is missing (issue 51).
 #[test]
 fn case_6_a_closed_stdout_loses_nothing() {
     let dir = scratch("issue37-case6");
@@ -186,7 +187,8 @@ fn case_6_a_closed_stdout_loses_nothing() {
         .read_to_string(&mut err)
         .expect("read");
     let status = child.wait().expect("wait");
-    assert!(status.success(), "{status}: {err}");
+    assert!(!status.success(), "{status}: {err}");
+    assert!(err.contains("standard output was closed or full"), "{err}");
     assert!(!err.contains("panicked"), "{err}");
     for f in ["trial_01.json", "trial_02.json", "report.json", "report.md"] {
         assert!(dir.path().join(f).exists(), "{f} lost: {err}");
@@ -204,7 +206,12 @@ fn case_6_a_closed_stdout_loses_nothing() {
     let _ = child.stdout.as_mut().expect("stdout").read(&mut first);
     drop(child.stdout.take());
     let o = child.wait_with_output().expect("wait");
-    assert!(o.status.success(), "{}", stderr(&o));
+    assert!(!o.status.success(), "{}", stderr(&o));
+    assert!(
+        stderr(&o).contains("standard output was closed or full"),
+        "{}",
+        stderr(&o)
+    );
     assert!(!stderr(&o).contains("panicked"), "{}", stderr(&o));
     assert_eq!(lines(&dir.path().join("runs.jsonl")).len(), 3);
     assert!(dir.path().join("experiments.json").exists());

@@ -214,9 +214,9 @@ pub enum FitError {
         /// What to try.
         hint: String,
     },
-    /// The summary could not be printed (other than on a closed pipe,
-    /// which ends the printing quietly).
-    #[error("printing the summary on stdout")]
+    /// Standard output is closed or full: the summary (or, with `--out -`,
+    /// the predictions) could not be printed; the files were saved.
+    #[error("printing on standard output (closed or full; any --out file was saved)")]
     Stdout(#[source] std::io::Error),
     /// The summary could not be written as JSON.
     #[error("cannot write the summary as JSON")]

@@ -335,6 +335,64 @@ pub struct CartPoleRun {
     pub seconds_to_success: Option<f64>,
 }
 
+/// Replays the saved trial `saved` (number `number`): draws what the run
+/// drew for it from `rng` and steps its states through the plant from its
+/// saved forces, appending its transitions to `data`; refuses a trial
+/// whose draws or states differ from the saved ones.
+fn replay(
+    saved: &CartPoleTrial,
+    number: usize,
+    settings: &CartPoleSettings,
+    plant: &CartPolePlant,
+    rng: &mut ChaCha8Rng,
+    noise: &Option<Normal<f64>>,
+    data: &mut Vec<Transition>,
+) -> crate::Result<()> {
+    let random = number == 1;
+    let differs = |what: String| {
+        crate::Error::data(format!(
+            "saved trial {number} does not replay: {what}; it was made with another seed or other settings, \
+             or edited (start a fresh run with --force)"
+        ))
+    };
+    if saved.trial != number || saved.forces.len() != settings.steps() || saved.states.len() != settings.steps() + 1 {
+        return Err(differs(format!(
+            "it is trial {} with {} forces and {} states, not trial {number} with {} and {}",
+            saved.trial,
+            saved.forces.len(),
+            saved.states.len(),
+            settings.steps(),
+            settings.steps() + 1
+        )));
+    }
+    let mut s = initial_state(rng, settings.initial_std)?;
+    if s != saved.states[0] {
+        return Err(differs("its initial state".into()));
+    }
+    let mut measured = measure(rng, noise, &s);
+    let max_force = settings.plant.max_force;
+    for (k, &f) in saved.forces.iter().enumerate() {
+        if random {
+            let u = rng.random_range(-max_force..=max_force);
+            if plant.clip(u) != f {
+                return Err(differs(format!("its random force {}", k + 1)));
+            }
+        }
+        s = plant.step(&s, f);
+        if s != saved.states[k + 1] {
+            return Err(differs(format!("its state {}", k + 1)));
+        }
+        let next = measure(rng, noise, &s);
+        data.push(Transition {
+            state: measured,
+            force: f,
+            next,
+        });
+        measured = next;
+    }
+    Ok(())
+}
+
 /// The initial state of a trial, $\mathcal N(0, \sigma^2 I)$.
 fn initial_state(rng: &mut ChaCha8Rng, std: f64) -> crate::Result<[f64; 4]> {
     let normal = Normal::new(0.0, std).map_err(|e| crate::Error::data(format!("initial state: {e}")))?;
@@ -464,7 +522,34 @@ impl Mpc<'_> {
 
 /// Runs the learning loop of the [module docs](self) with `settings`, every
 /// random draw from `seed`.
+///
+/// # Errors
+/// Invalid settings, or a model or planner failure.
 pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun> {
+    run_resumable(settings, seed, Vec::new(), &mut |_| Ok(()))
+}
+
+/// [`run`], continued after the trials `previous` (the first
+/// `previous.len()` trials of a run of the same settings and seed, as
+/// saved by an interrupted run), calling `on_trial` with each new trial as
+/// it ends (to save it before the next one starts).
+///
+/// The saved trials are replayed, not rerun: their initial states, random
+/// forces and sensor noise are drawn again from `seed` and their states
+/// stepped again through the plant from the saved forces, which rebuilds
+/// the data and the random generator exactly (the model is refitted from
+/// the data alone at each trial's start), so the run goes on as the
+/// uninterrupted one would have and ends with the same trials.
+///
+/// # Errors
+/// A saved trial that does not replay (another seed or settings, an edited
+/// file: the error names the trial and what differs), or as [`run`].
+pub fn run_resumable(
+    settings: &CartPoleSettings,
+    seed: u64,
+    previous: Vec<CartPoleTrial>,
+    on_trial: &mut dyn FnMut(&CartPoleTrial) -> crate::Result<()>,
+) -> crate::Result<CartPoleRun> {
     settings.validate()?;
     let plant = CartPolePlant::new(settings.plant.clone())?;
     let mut rng = ChaCha8Rng::seed_from_u64(seed);
@@ -481,7 +566,23 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
     let mut model: Option<CartPoleModel> = None;
     let task = SwingupTask::new(settings.plant.pole_length, max_force, &settings.weights)?;
     let window = Window::new(settings.window, dt, settings.state_coeffs, settings.control_coeffs)?;
-    for trial in 1..=settings.max_trials + 1 {
+    let replayed = previous.len();
+    crate::error::ensure_data!(
+        replayed <= settings.max_trials + 1,
+        "{replayed} saved trials, more than the run's {} (one random, then max_trials)",
+        settings.max_trials + 1
+    );
+    for (k, saved) in previous.iter().enumerate() {
+        replay(saved, k + 1, settings, &plant, &mut rng, &noise, &mut data)?;
+    }
+    trials.extend(previous);
+    let finished = trials.last().is_some_and(|t| t.success) && settings.stop_at_success;
+    let first_new = if finished {
+        settings.max_trials + 2
+    } else {
+        replayed + 1
+    };
+    for trial in first_new..=settings.max_trials + 1 {
         let random = trial == 1;
         let mut tune_seconds = 0.0;
         if !random {
@@ -564,6 +665,7 @@ pub fn run(settings: &CartPoleSettings, seed: u64) -> crate::Result<CartPoleRun>
             states,
             forces,
         };
+        on_trial(&record)?;
         trials.push(record);
         if success && settings.stop_at_success {
             break;

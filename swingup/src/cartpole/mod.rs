@@ -42,4 +42,4 @@ pub mod model;
 pub mod plant;
 pub mod task;
 
-pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, run};
+pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, run, run_resumable};

@@ -31,6 +31,14 @@ pub mod limits {
     /// Samples linearised by the MPC's replans over a run (each one a
     /// model query with its Jacobian, microseconds to tens of them).
     pub const REPLAN_SAMPLES: f64 = 1e9;
+    /// The largest value of any scalar weight, scale, bound or physical
+    /// setting, lambda included: a weight $10^{15}$ times another's leaves
+    /// the smaller term below f64's 16 digits (the criterion is the large
+    /// term alone), and weights of $10^{308}$ overflow it to infinity.
+    pub const MAX_MAGNITUDE: f64 = 1e15;
+    /// The longest MPC time budget per replan (`mpc.budget_ms`): a year,
+    /// in milliseconds, far inside what a `Duration` holds.
+    pub const MAX_BUDGET_MS: f64 = 365.0 * 24.0 * 3600.0 * 1e3;
 }
 
 /// The size of a run ([`Config::workload`]), all trials run.
@@ -237,8 +245,9 @@ impl Config {
         for (key, v) in arrays {
             ensure_config!(
                 key,
-                v.iter().all(|x| x.is_finite() && *x >= 0.0),
-                "{key} must be finite and nonnegative, got {v:?}"
+                v.iter().all(|x| (0.0..=limits::MAX_MAGNITUDE).contains(x)),
+                "{key} must be nonnegative and at most {:e}, got {v:?}",
+                limits::MAX_MAGNITUDE
             );
         }
         ensure_config!(
@@ -260,8 +269,10 @@ impl Config {
             "planner.lambda_growth",
             self.planner.lambda_growth.is_finite()
                 && self.planner.lambda_growth > 0.0
-                && (self.planner.lambda * self.planner.lambda_growth.powi(self.max_trials as i32)).is_finite(),
-            "lambda_growth must be positive and keep lambda finite over max_trials"
+                && self.planner.lambda * self.planner.lambda_growth.powi(self.max_trials as i32)
+                    <= limits::MAX_MAGNITUDE,
+            "planner.lambda_growth must be positive and keep lambda at most {:e} over max_trials",
+            limits::MAX_MAGNITUDE
         );
         ensure_config!(
             "planner.state_coeffs",
@@ -290,8 +301,9 @@ impl Config {
         );
         ensure_config!(
             "mpc.budget_ms",
-            m.budget_ms.is_finite() && m.budget_ms >= 0.0,
-            "mpc.budget_ms must be finite and nonnegative, got {}",
+            m.budget_ms >= 0.0 && m.budget_ms <= limits::MAX_BUDGET_MS,
+            "mpc.budget_ms must be from 0 to a year ({:e} ms), got {}",
+            limits::MAX_BUDGET_MS,
             m.budget_ms
         );
         // metric scales: nonnegative, and at least one input in the distance

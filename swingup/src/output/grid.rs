@@ -224,8 +224,17 @@ pub fn open_grid(
     let manifest = grid_manifest(settings, &own_settings)?;
     let mut warnings = Vec::new();
     if let GridMode::Fresh { force } = mode {
-        // refused before anything is written
-        let saved = std::fs::metadata(&own_runs).map(|m| m.len()).unwrap_or(0);
+        // refused before anything is written; --force deletes a link under
+        // the grid's names instead of writing through it, and a device, a
+        // FIFO or a directory there is refused, named
+        let report_files = [dir.join("experiments.json"), dir.join("experiments.md")];
+        for path in [&own_runs, &own_settings].into_iter().chain(&report_files) {
+            if force && std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink()) {
+                store::remove_output(path)?;
+            }
+            store::check_output(path)?;
+        }
+        let saved = store::check_output(&own_runs)?.map_or(0, |m| m.len());
         crate::error::ensure_refused!(
             saved == 0 || force,
             "{} holds finished runs; continue that grid with --resume, choose another --out, or pass --force \
@@ -251,7 +260,7 @@ pub fn open_grid(
     // written once every check passed
     let mut create_own_settings = false;
     if !own_declared && !report_only {
-        if std::fs::metadata(&own_runs).is_ok_and(|m| m.len() > 0) {
+        if store::check_output(&own_runs)?.is_some_and(|m| m.len() > 0) {
             warnings.push(format!(
                 "{} has no {}: its saved runs cannot be checked against this grid's settings",
                 own_runs.display(),
