@@ -1,5 +1,7 @@
 //! Files written whole: every report, table and record file of the
 //! benchmark goes through [`write()`].
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::path::Path;
 

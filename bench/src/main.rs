@@ -1,5 +1,7 @@
 //! `nprl-bench`: runs solvers on a problem set and writes tables, profiles
 //! and figures (see `bench/README.md`).
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::path::PathBuf;
 use std::process::ExitCode;

@@ -22,6 +22,8 @@
 //! Jacobian costs, so that solvers with and without derivatives compare on
 //! one scale. `trace` lists `[evals, f]` where the best $f$ so far fell,
 //! thinned by [`thin_trace`].
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::path::Path;
 

@@ -19,6 +19,8 @@
 //! tables, every run's outcome; no goals, no summary), and its `OUT` is
 //! its own directory (`results/benchmarks/<set>` from the command line),
 //! so that no set overwrites another's files.
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};

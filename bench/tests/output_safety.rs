@@ -121,12 +121,7 @@ fn links_planted_in_out_are_refused_before_any_run_and_nothing_outside_changes()
                     .collect();
                 assert!(written.is_empty(), "{written:?}");
             }
-            assert_eq!(
-                sentinel.changes(&before),
-                Vec::<String>::new(),
-                "{name} -> {}",
-                target.display()
-            );
+            sentinel.assert_unchanged(&before, format_args!("{name} -> {}", target.display()));
         }
     }
 }
@@ -160,7 +155,7 @@ fn fifos_and_devices_in_out_are_refused_without_blocking() {
         let m = std::fs::symlink_metadata(out.path().join("runs.json")).expect("device kept");
         assert!(!m.is_file(), "the device was replaced by a file");
     }
-    assert_eq!(sentinel.changes(&before), Vec::<String>::new());
+    sentinel.assert_unchanged(&before, "the run");
 }
 
 #[test]
@@ -332,16 +327,16 @@ fn huge_tiny_and_bad_numbers_are_refused_by_name_without_panic() {
 fn a_closed_or_full_stdout_saves_the_files_then_fails_with_a_message() {
     let out = ScratchDir::new("bench-pipe").expect("scratch");
     // a closed pipe: the reader gone before the first line
-    let mut child = Command::new(env!("CARGO_BIN_EXE_nprl-bench"))
+    let (reader, writer) = std::io::pipe().expect("pipe");
+    drop(reader);
+    let o = Command::new(env!("CARGO_BIN_EXE_nprl-bench"))
         .args(QUICK)
         .arg("--out")
         .arg(out.path())
-        .stdout(std::process::Stdio::piped())
+        .stdout(writer)
         .stderr(std::process::Stdio::piped())
-        .spawn()
-        .expect("spawn");
-    drop(child.stdout.take());
-    let o = child.wait_with_output().expect("wait");
+        .output()
+        .expect("run");
     assert_no_panic(&o);
     assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
     assert!(stderr(&o).contains("standard output"), "{}", stderr(&o));
@@ -360,5 +355,30 @@ fn a_closed_or_full_stdout_saves_the_files_then_fails_with_a_message() {
         assert_no_panic(&o);
         assert_eq!(o.status.code(), Some(1), "{}", stderr(&o));
         assert!(out.path().join("runs.json").is_file());
+    }
+}
+
+/// A full disk (a 64 KB tmpfs as `--out`, as root): the error names the
+/// file that could not be written, nothing panics, and the generation
+/// marker says the set is incomplete; the same run with room gives the
+/// uninterrupted run's results.
+#[test]
+fn a_full_disk_names_the_file_and_leaves_a_repairable_set() {
+    let Some(disk) = store::SmallDisk::mount("bench-full-disk", 64 * 1024) else {
+        return; // not root here: no tmpfs to fill
+    };
+    let o = bench(&QUICK, disk.path());
+    assert_no_panic(&o);
+    assert!(!o.status.success());
+    let e = stderr(&o);
+    assert!(e.contains(&disk.path().display().to_string()), "{e}");
+    assert!(e.contains("No space left on device") || e.contains("space"), "{e}");
+    let names: Vec<String> = std::fs::read_dir(disk.path())
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| store::is_temporary(n)), "{names:?}");
+    if disk.path().join("runs.json").exists() {
+        assert!(disk.path().join(".nprl-bench.incomplete").exists(), "{names:?}");
     }
 }

@@ -419,8 +419,15 @@ fn progress_is_reported_and_the_predictions_replace_the_old_file() {
     let mut phases = Vec::new();
     fit_report_with(&args, &mut |p: &str| phases.push(p.to_owned())).expect("fit");
     assert_eq!(phases.len(), 3, "{phases:?}");
-    assert!(phases[0].starts_with("tuning the metric: up to 5 leave-one-out evaluations over 60 rows"));
-    assert_eq!(phases[1], "leave-one-out cross-validation of the final model");
+    assert!(
+        phases[0].starts_with("tuning the metric: up to 5 leave-one-out evaluations over 60 of 60 rows, each about")
+            && phases[0].ends_with("in all, estimated on a sample)"),
+        "{phases:?}"
+    );
+    assert!(
+        phases[1].starts_with("leave-one-out cross-validation of the final model (about "),
+        "{phases:?}"
+    );
     assert_eq!(phases[2], "predicting 7 test rows");
     let text = fs::read_to_string(&out).expect("predictions");
     assert_eq!(text.lines().count(), 8);
@@ -465,7 +472,7 @@ fn the_binary_fits_and_reports_bad_files() {
     );
     let stderr = String::from_utf8_lossy(&ok.stderr);
     assert!(
-        stderr.contains("leave-one-out cross-validation of the final model ..."),
+        stderr.contains("leave-one-out cross-validation of the final model (about "),
         "{stderr}"
     );
 
@@ -704,7 +711,7 @@ fn the_predictions_never_go_through_a_link_or_over_a_device() {
             );
         }
     }
-    assert_eq!(sentinel.changes(&before), Vec::<String>::new());
+    sentinel.assert_unchanged(&before, "the run");
     // the mode of a replaced file is kept
     let out = dir.path("mode.csv");
     fs::write(&out, "old\n").expect("write");
@@ -730,4 +737,20 @@ fn the_predictions_never_go_through_a_link_or_over_a_device() {
         "{stdout}"
     );
     assert!(!dir.path("-").exists());
+}
+
+/// Issue 51: an error echoes a bad cell (or a column's name) of a 1 MB
+/// cell cut to a few hundred characters, with its length.
+#[test]
+fn a_huge_bad_cell_is_echoed_cut() {
+    let dir = TempDir::new("huge-cell");
+    let cell = "x".repeat(1_000_000);
+    let train = dir.write("train.csv", &format!("a,y\n1,2\n{cell},3\n"));
+    let err = fit_report(&FitArgs::new(&train, &["y"])).expect_err("a bad cell");
+    let msg = error_chain(&err);
+    assert!(msg.len() < 600, "{} bytes", msg.len());
+    assert!(
+        msg.contains("line 3 (data row 2), column 1 'a'") && msg.contains("(1000000 bytes in all)"),
+        "{msg}"
+    );
 }

@@ -39,6 +39,8 @@
 //! std::fs::remove_dir_all(&dir).unwrap();
 //! ```
 #![deny(missing_docs)]
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 mod append;
 pub mod block;
@@ -55,10 +57,10 @@ pub use error::{Result, StoreError};
 pub use fault::{FaultGuard, FaultPlan, OpKind};
 pub use manifest::{Manifest, ManifestStatus, differing_keys, digest};
 pub use output::{
-    DirLock, check_output, create_output_dir, create_output_subdir, remove_output, remove_stale_temporaries,
+    DirLock, check_output, create_output_dir, create_output_subdir, remove_output, remove_stale_temporaries, shorten,
 };
 pub use replace::{is_temporary, replace_file};
-pub use scratch::{ScratchDir, Sentinel, output_within};
+pub use scratch::{ScratchDir, Sentinel, SmallDisk, output_within};
 
 /// The commit the workspace's code was built from, as results name it:
 /// `commit <hash>` (7 hex digits), with `-dirty` when a tracked code file

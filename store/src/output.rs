@@ -303,6 +303,30 @@ pub(crate) fn open_no_follow(path: &Path, options: &mut fs::OpenOptions) -> std:
     Ok(file)
 }
 
+/// The longest input an error message echoes ([`shorten`]).
+pub const ECHO_LIMIT: usize = 200;
+
+/// `text` as an error message echoes it: whole up to [`ECHO_LIMIT`]
+/// bytes, else its start (cut at a character boundary) and how long it
+/// was, so that a 1 MB cell or a 200 KB line never floods a terminal.
+///
+/// ```
+/// assert_eq!(store::shorten("x1"), "x1");
+/// let long = "9".repeat(1_000_000);
+/// let s = store::shorten(&long);
+/// assert!(s.len() < 300 && s.ends_with("(1000000 bytes in all)"), "{s}");
+/// ```
+pub fn shorten(text: &str) -> std::borrow::Cow<'_, str> {
+    if text.len() <= ECHO_LIMIT {
+        return std::borrow::Cow::Borrowed(text);
+    }
+    let mut cut = ECHO_LIMIT;
+    while !text.is_char_boundary(cut) {
+        cut -= 1;
+    }
+    std::borrow::Cow::Owned(format!("{}... ({} bytes in all)", &text[..cut], text.len()))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

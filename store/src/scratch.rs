@@ -162,6 +162,13 @@ impl Sentinel {
         out
     }
 
+    /// Panics, naming `what` and every change, unless the tree is as it
+    /// was in `before` (for tests).
+    pub fn assert_unchanged(&self, before: &std::collections::BTreeMap<String, Entry>, what: impl std::fmt::Display) {
+        let changes = self.changes(before);
+        assert!(changes.is_empty(), "{what}: outside the output directory, {changes:?}");
+    }
+
     /// What differs between `before` and the tree now, one line per entry
     /// (empty when nothing changed).
     pub fn changes(&self, before: &std::collections::BTreeMap<String, Entry>) -> Vec<String> {
@@ -233,4 +240,38 @@ pub fn output_within(
     let stdout = reader.join().unwrap_or_default();
     let stderr = err_reader.join().unwrap_or_default();
     Ok((std::process::Output { status, stdout, stderr }, in_time))
+}
+
+/// A small file system of `bytes` bytes mounted (tmpfs) on a scratch
+/// directory, for tests of a full disk; unmounted when dropped. `None`
+/// where it cannot be mounted (not root, or no `mount`): such a test is
+/// skipped there.
+#[derive(Debug)]
+pub struct SmallDisk {
+    dir: ScratchDir,
+}
+
+impl SmallDisk {
+    /// Mounts a tmpfs of `bytes` bytes, if this process may.
+    pub fn mount(tag: &str, bytes: u64) -> Option<Self> {
+        let dir = ScratchDir::new(tag).ok()?;
+        let mounted = std::process::Command::new("mount")
+            .args(["-t", "tmpfs", "-o", &format!("size={bytes}"), "tmpfs"])
+            .arg(dir.path())
+            .stderr(std::process::Stdio::null())
+            .status()
+            .is_ok_and(|s| s.success());
+        mounted.then_some(Self { dir })
+    }
+
+    /// The mounted directory.
+    pub fn path(&self) -> &Path {
+        self.dir.path()
+    }
+}
+
+impl Drop for SmallDisk {
+    fn drop(&mut self) {
+        let _ = std::process::Command::new("umount").arg(self.dir.path()).status();
+    }
 }

@@ -41,11 +41,9 @@ fn main() -> anyhow::Result<()> {
 }
 
 /// The defaults with the fields of the JSON object in `path` replaced
-/// ([`CartPoleSettings::from_changes`]).
+/// ([`CartPoleSettings::from_changes_file`]).
 fn settings_from(path: &str) -> anyhow::Result<CartPoleSettings> {
-    let text = std::fs::read_to_string(path).with_context(|| format!("reading {path}"))?;
-    let changes: serde_json::Value = serde_json::from_str(&text).with_context(|| format!("{path}: not JSON"))?;
-    CartPoleSettings::from_changes(&changes).with_context(|| path.to_string())
+    Ok(CartPoleSettings::from_changes_file(std::path::Path::new(path))?)
 }
 
 fn one(settings: &CartPoleSettings, seed: u64) -> anyhow::Result<()> {

@@ -190,10 +190,16 @@ impl Error {
 
     /// An [`Error::Parse`] of `path`, at `line` if known.
     pub fn parse(path: impl Into<PathBuf>, line: Option<usize>, message: impl std::fmt::Display) -> Self {
+        // a parser's message quotes the input: a 200 KB line is cut
         Self::Parse {
             path: path.into(),
             line,
-            message: message.to_string(),
+            message: message
+                .to_string()
+                .lines()
+                .map(store::shorten)
+                .collect::<Vec<_>>()
+                .join("\n"),
         }
     }
 
@@ -255,26 +261,30 @@ macro_rules! ensure_config {
 }
 pub(crate) use ensure_config;
 
-/// Checks that each setting `(key, value)` is finite and positive; the
+/// Checks that each setting `(key, value)` is positive and at most
+/// [`MAX_MAGNITUDE`](crate::format::MAX_MAGNITUDE); the
 /// [`Error::Config`] names the first that is not, as `prefix` then its key.
 pub(crate) fn ensure_positive(prefix: &str, settings: &[(&str, f64)]) -> Result<()> {
     ensure_each(prefix, settings, "positive", |v| v > 0.0)
 }
 
-/// Checks that each setting `(key, value)` is finite and nonnegative; the
+/// Checks that each setting `(key, value)` is nonnegative and at most
+/// [`MAX_MAGNITUDE`](crate::format::MAX_MAGNITUDE); the
 /// [`Error::Config`] names the first that is not, as `prefix` then its key.
 pub(crate) fn ensure_nonnegative(prefix: &str, settings: &[(&str, f64)]) -> Result<()> {
     ensure_each(prefix, settings, "nonnegative", |v| v >= 0.0)
 }
 
-/// Checks that each setting is finite and `holds`, which is what `sign`
-/// says in the error.
+/// Checks that each setting `holds` (what `sign` says in the error) and is
+/// at most [`MAX_MAGNITUDE`](crate::format::MAX_MAGNITUDE) (so
+/// finite, and a criterion built from it stays finite).
 fn ensure_each(prefix: &str, settings: &[(&str, f64)], sign: &str, holds: impl Fn(f64) -> bool) -> Result<()> {
+    let max = crate::format::MAX_MAGNITUDE;
     for &(key, v) in settings {
         ensure_config!(
             format!("{prefix}{key}"),
-            v.is_finite() && holds(v),
-            "{prefix}{key} must be finite and {sign}, got {v}"
+            v <= max && holds(v),
+            "{prefix}{key} must be {sign} and at most {max:e}, got {v}"
         );
     }
     Ok(())

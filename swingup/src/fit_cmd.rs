@@ -8,6 +8,8 @@
 //!             [--out PRED.csv] [--json] [--kernel K] [--degree D] [--bandwidth H]
 //!             [--tune-evals N] [--level L]
 //! ```
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub use lwr::csv_fit::{
     DegreeArg, FitArgs, FitError, FitReport, InputScale, KernelArg, Table, TargetError, TestReport, fit_report,

@@ -2,6 +2,13 @@
 
 use serde::Deserialize as _;
 
+/// The largest value of any scalar weight, scale, bound or physical
+/// setting, lambda included (`config::limits`): a weight $10^{15}$ times
+/// another's leaves the smaller term below f64's 16 digits (the criterion
+/// is the large term alone), and weights of $10^{308}$ overflow it to
+/// infinity.
+pub const MAX_MAGNITUDE: f64 = 1e15;
+
 /// A number with about four significant digits, `—` if not finite.
 pub fn num(x: f64) -> String {
     if !x.is_finite() {
@@ -24,4 +31,27 @@ pub fn exact_array<'de, D: serde::Deserializer<'de>, const N: usize>(d: D) -> Re
     let v = Vec::<f64>::deserialize(d)?;
     <[f64; N]>::try_from(v.as_slice())
         .map_err(|_| serde::de::Error::invalid_length(v.len(), &format!("an array of exactly {N} numbers").as_str()))
+}
+
+/// An `f64` that JSON holds as `null` when it was not finite (serde_json
+/// writes NaN and infinities as `null`): read back as NaN, so that a
+/// record with a NaN field (the random trial's replan times) reads back.
+pub fn null_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<f64, D::Error> {
+    Ok(Option::<f64>::deserialize(d)?.unwrap_or(f64::NAN))
+}
+
+/// [`null_as_nan`] for each number of a list.
+pub fn nulls_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<f64>, D::Error> {
+    Ok(Vec::<Option<f64>>::deserialize(d)?
+        .into_iter()
+        .map(|x| x.unwrap_or(f64::NAN))
+        .collect())
+}
+
+/// [`null_as_nan`] for each number of a list of 4-vectors (states).
+pub fn state_nulls_as_nan<'de, D: serde::Deserializer<'de>>(d: D) -> Result<Vec<[f64; 4]>, D::Error> {
+    Ok(Vec::<[Option<f64>; 4]>::deserialize(d)?
+        .into_iter()
+        .map(|s| s.map(|x| x.unwrap_or(f64::NAN)))
+        .collect())
 }

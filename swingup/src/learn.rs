@@ -38,6 +38,8 @@
 //! within 8 trials in 8 of 20 seeds (median trial 5.5; `swingup
 //! experiments learning`), while the semiparametric model succeeds within
 //! 3 trials in each of seeds 1 to 10 (at trial 2 in 9). `--model lwr` runs the paper's.
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::sync::Arc;
 use std::time::{Duration, Instant};

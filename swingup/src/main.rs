@@ -2,6 +2,8 @@
 //! (Atkeson, "Nonparametric Model-Based Reinforcement Learning", section 4).
 //!
 //! `swingup` with no arguments runs `swingup learn` with the defaults.
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::path::{Path, PathBuf};
 
@@ -189,7 +191,9 @@ struct LearnArgs {
     /// The task: the pendulum swing-up from a demonstration (the paper's),
     /// or PILCO's cart-pole swing-up learned from scratch with the LWR and
     /// model-predictive control (`swingup::cartpole`; it takes `--seed`,
-    /// `--max-trials` and `--out`, and writes `cartpole.json`).
+    /// `--max-trials`, `--out`, `--resume`, `--force` and
+    /// `--cartpole-settings`, saves each trial as `trial_NN.json` as it
+    /// ends, and writes `cartpole.json` at the end).
     #[arg(long, value_enum, default_value = "pendulum")]
     task: Task,
     /// TOML configuration file (see `swingup config`); command-line options override it.
@@ -209,6 +213,12 @@ struct LearnArgs {
     /// nothing else in the directory is touched.
     #[arg(long, conflicts_with = "resume")]
     force: bool,
+    /// With `--task cartpole`: a JSON object of changes to the cart-pole's
+    /// default settings (`{"episode": 1.5, "model": {"tune_evals": 10}}`;
+    /// see `swingup::cartpole::CartPoleSettings`); a resumed run keeps the
+    /// settings it was made with.
+    #[arg(long, value_name = "FILE.json", conflicts_with = "resume")]
+    cartpole_settings: Option<PathBuf>,
 }
 
 #[derive(Debug, Clone, clap::Args)]
@@ -429,7 +439,8 @@ fn config_file(args: &LearnArgs) -> anyhow::Result<Option<Config>> {
 /// A configuration file, parsed (missing keys keep their defaults).
 fn read_config(path: &Path) -> anyhow::Result<Config> {
     let text = std::fs::read_to_string(path).with_context(|| format!("reading {}", path.display()))?;
-    toml::from_str(&text).with_context(|| format!("parsing {}", path.display()))
+    // the parser's message quotes the line: cut when long (Error::parse)
+    Ok(toml::from_str(&text).map_err(|e| swingup::Error::parse(path, None, e))?)
 }
 
 /// The command-line options over `cfg` (a `--config` file replaces it first).
@@ -493,9 +504,12 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
             && args.planner.is_none()
             && args.basis.is_none()
             && args.lambda.is_none(),
-        "--task cartpole takes --seed, --max-trials, --out, --resume and --force only (its settings are PILCO's, see swingup::cartpole)"
+        "--task cartpole takes --seed, --max-trials, --out, --resume, --force and --cartpole-settings only (its settings are PILCO's, see swingup::cartpole)"
     );
-    let mut settings = swingup::cartpole::CartPoleSettings::default();
+    let mut settings = match &args.cartpole_settings {
+        Some(path) => swingup::cartpole::CartPoleSettings::from_changes_file(path)?,
+        None => swingup::cartpole::CartPoleSettings::default(),
+    };
     if let Some(n) = args.max_trials {
         settings.max_trials = n;
     }
@@ -637,6 +651,10 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     if args.task == Task::Cartpole {
         return learn_cartpole(args);
     }
+    anyhow::ensure!(
+        args.cartpole_settings.is_none(),
+        "--cartpole-settings is for --task cartpole (the pendulum's settings come from --config)"
+    );
     let file = config_file(args)?;
     // a fresh run's settings are checked before any directory is touched
     let fresh = if args.resume {

@@ -151,6 +151,13 @@ fn resume_config_starts_from_the_saved_settings() {
     };
     saved.planner.lambda = 100.0;
     std::fs::write(dir.path().join("config.toml"), toml::to_string(&saved).expect("toml")).expect("write");
+    // without the manifest recording the settings the run was made with,
+    // an edited config.toml could not be caught: refused (issue 51)
+    let e = rundir::resume_config(dir.path(), |_| {})
+        .expect_err("no manifest")
+        .to_string();
+    assert!(e.contains("manifest.json is missing"), "{e}");
+    rundir::create_manifest(dir.path(), "pendulum", &saved).expect("manifest");
     let cfg = rundir::resume_config(dir.path(), |c| c.max_trials = 3).expect("cap may change");
     assert_eq!((cfg.seed, cfg.max_trials, cfg.planner.lambda), (3, 3, 100.0));
     let e = rundir::resume_config(dir.path(), |c| {

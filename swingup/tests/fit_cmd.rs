@@ -27,7 +27,7 @@ fn swingup_fit_prints_the_tools_summary() {
     assert_eq!(String::from_utf8_lossy(&out.stdout), report.to_string());
     let stderr = String::from_utf8_lossy(&out.stderr);
     assert!(
-        stderr.contains("tuning the metric: up to 20 leave-one-out evaluations over 200 rows ..."),
+        stderr.contains("tuning the metric: up to 20 leave-one-out evaluations over 200 of 200 rows, each about"),
         "{stderr}"
     );
 }

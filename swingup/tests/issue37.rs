@@ -321,8 +321,9 @@ fn case_2_a_full_disk_stops_the_program_naming_the_file() {
 }
 
 /// Case 8, in part (the marker quoted in prose is not fixed here):
-/// `--update-readme` no longer destroys a `README.tmp` beside the README,
-/// keeps a symbolic link (replacing its target) and keeps the file's mode.
+/// `--update-readme` no longer destroys a `README.tmp` beside the README
+/// and keeps the file's mode; a symbolic link is refused and kept, its
+/// target unchanged (issue 51: no output is written through a link).
 #[cfg(unix)]
 #[test]
 fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
@@ -334,8 +335,15 @@ fn case_8_partly_updating_the_readme_keeps_its_neighbours_link_and_mode() {
     let readme = dir.path().join("README.md");
     std::os::unix::fs::symlink("real.md", &readme).expect("symlink");
     std::fs::write(dir.path().join("README.tmp"), "mine").expect("write");
-    swingup::output::run_report::update_between(&readme, "<!-- t:start -->", "<!-- t:end -->", "new\n")
-        .expect("update");
+    let e = swingup::output::run_report::update_between(&readme, "<!-- t:start -->", "<!-- t:end -->", "new\n")
+        .expect_err("a link")
+        .to_string();
+    assert!(e.contains("symbolic link"), "{e}");
+    assert_eq!(
+        std::fs::read_to_string(&real).expect("target"),
+        "intro\n<!-- t:start -->\nold\n<!-- t:end -->\n"
+    );
+    swingup::output::run_report::update_between(&real, "<!-- t:start -->", "<!-- t:end -->", "new\n").expect("update");
     assert_eq!(
         std::fs::read_to_string(dir.path().join("README.tmp")).expect("kept"),
         "mine"

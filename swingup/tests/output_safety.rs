@@ -76,12 +76,7 @@ fn links_among_a_runs_files_are_refused_and_force_deletes_them_never_their_targe
         // the link itself was deleted, and the run wrote a regular file
         let m = std::fs::symlink_metadata(dir.path().join(name)).expect("written");
         assert!(m.is_file(), "{name} is not a regular file");
-        assert_eq!(
-            sentinel.changes(&before),
-            Vec::<String>::new(),
-            "{name} -> {}",
-            target.display()
-        );
+        sentinel.assert_unchanged(&before, format_args!("{name} -> {}", target.display()));
     }
 }
 
@@ -114,7 +109,7 @@ fn a_grids_planted_links_are_refused_and_force_deletes_them() {
         let o = swingup(&[&args[..], &["--force"]].concat());
         assert!(o.status.success(), "{name}: {}", stderr(&o));
         assert!(std::fs::symlink_metadata(&link).expect("written").is_file());
-        assert_eq!(sentinel.changes(&before), Vec::<String>::new(), "{name}");
+        sentinel.assert_unchanged(&before, format_args!("{name}"));
     }
 }
 
@@ -166,7 +161,7 @@ fn huge_numbers_in_budgets_and_weights_are_refused_by_key_before_anything_is_wri
         ("mpc", "budget_ms", "1e12"),
         ("planner", "lambda", "1e308"),
         ("planner", "control_weight", "1e200"),
-        ("planner", "state_weights", "[1e300, 1, 1]"),
+        ("planner", "state_weights", "[1e300, 1, 1, 1]"),
         ("planner", "lambda_growth", "1e30"),
         ("model", "bandwidth", "1e300"),
     ] {
@@ -215,7 +210,7 @@ fn config_goes_to_a_file_whole_never_through_a_link_and_a_full_stdout_fails() {
     let o = swingup(&["config", "--out", path_str(&link)]);
     assert!(!o.status.success());
     assert!(stderr(&o).contains("symbolic link"), "{}", stderr(&o));
-    assert_eq!(sentinel.changes(&before), Vec::<String>::new());
+    sentinel.assert_unchanged(&before, "the run");
     if let Ok(full) = std::fs::OpenOptions::new().write(true).open("/dev/full") {
         let o = Command::new(env!("CARGO_BIN_EXE_swingup"))
             .arg("config")
@@ -226,5 +221,207 @@ fn config_goes_to_a_file_whole_never_through_a_link_and_a_full_stdout_fails() {
         assert_no_panic(&o);
         assert_eq!(o.status.code(), Some(1), "config > /dev/full exited 0");
         assert!(stderr(&o).contains("standard output"), "{}", stderr(&o));
+    }
+}
+
+/// The cart-pole's quick settings (`CartPoleSettings::quick`, every trial
+/// run), as a `--cartpole-settings` file.
+const QUICK_CARTPOLE: &str = r#"{"episode": 1.5, "success_hold": 0.5, "window": 8, "state_coeffs": 8,
+  "control_coeffs": 6, "replan_iterations": 2, "cold_iterations": 3, "model": {"tune_evals": 10},
+  "stop_at_success": false}"#;
+
+/// Each `trial_NN.json` of `dir` as (trial, success, states, forces), in order.
+fn cartpole_trials(dir: &Path) -> Vec<(u64, bool, String, String)> {
+    (1..)
+        .map(|i| dir.join(format!("trial_{i:02}.json")))
+        .take_while(|p| p.exists())
+        .map(|p| {
+            let v: serde_json::Value =
+                serde_json::from_str(&std::fs::read_to_string(&p).expect("trial")).expect("json");
+            (
+                v["trial"].as_u64().expect("trial"),
+                v["success"].as_bool().expect("success"),
+                v["states"].to_string(),
+                v["forces"].to_string(),
+            )
+        })
+        .collect()
+}
+
+/// A cart-pole run killed (SIGKILL) at moments across its life keeps every
+/// trial it finished, and `--resume` ends it with the trials of the
+/// uninterrupted run; nothing but its own files is left in the directory.
+#[cfg(unix)]
+#[test]
+fn the_cartpole_killed_at_any_moment_resumes_to_the_uninterrupted_run() {
+    let dir = scratch("cartpole-kill");
+    let settings = dir.path().join("quick.json");
+    std::fs::write(&settings, QUICK_CARTPOLE).expect("settings");
+    let args = |out: &Path| {
+        vec![
+            "learn".to_string(),
+            "--task".into(),
+            "cartpole".into(),
+            "--max-trials".into(),
+            "3".into(),
+            "--seed".into(),
+            "5".into(),
+            "--cartpole-settings".into(),
+            path_str(&settings).into(),
+            "--out".into(),
+            path_str(out).into(),
+        ]
+    };
+    let reference = dir.path().join("reference");
+    let started = std::time::Instant::now();
+    let o = swingup(&args(&reference).iter().map(String::as_str).collect::<Vec<_>>());
+    assert!(o.status.success(), "{}", stderr(&o));
+    let took = started.elapsed();
+    let want = cartpole_trials(&reference);
+    assert_eq!(want.len(), 4, "a random trial and 3 MPC trials");
+    assert!(
+        String::from_utf8_lossy(&o.stdout).contains("trial  4: mpc"),
+        "a progress line per trial"
+    );
+    for (k, fraction) in [0.05, 0.3, 0.5, 0.7, 0.9].into_iter().enumerate() {
+        let out = dir.path().join(format!("killed-{k}"));
+        let mut child = Command::new(env!("CARGO_BIN_EXE_swingup"))
+            .args(args(&out))
+            .stdout(std::process::Stdio::null())
+            .stderr(std::process::Stdio::null())
+            .spawn()
+            .expect("spawn");
+        std::thread::sleep(took.mul_f64(fraction));
+        let _ = child.kill();
+        let _ = child.wait();
+        // every trial saved so far is one of the uninterrupted run's
+        let kept = cartpole_trials(&out);
+        assert_eq!(kept[..], want[..kept.len()], "after {fraction} of the run");
+        if !out.join("manifest.json").exists() {
+            // killed before the run recorded its settings: nothing saved,
+            // the resume says so, and a fresh run is the way on
+            assert!(kept.is_empty());
+            let o = swingup(&["learn", "--task", "cartpole", "--resume", "--out", path_str(&out)]);
+            assert!(stderr(&o).contains("has no"), "{}", stderr(&o));
+            let o = swingup(
+                &[
+                    &args(&out).iter().map(String::as_str).collect::<Vec<_>>()[..],
+                    &["--force"],
+                ]
+                .concat(),
+            );
+            assert!(o.status.success(), "{}", stderr(&o));
+            assert_eq!(cartpole_trials(&out), want);
+            continue;
+        }
+        let o = swingup(&["learn", "--task", "cartpole", "--resume", "--out", path_str(&out)]);
+        assert!(o.status.success(), "after {fraction} of the run: {}", stderr(&o));
+        assert_eq!(cartpole_trials(&out), want, "resumed after {fraction} of the run");
+        assert!(out.join("cartpole.json").is_file());
+        let names: Vec<String> = std::fs::read_dir(&out)
+            .expect("list")
+            .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+            .collect();
+        assert!(!names.iter().any(|n| store::is_temporary(n)), "{names:?}");
+    }
+    // a resume with another seed is refused, naming it
+    let o = swingup(&[
+        "learn",
+        "--task",
+        "cartpole",
+        "--resume",
+        "--seed",
+        "6",
+        "--out",
+        path_str(&reference),
+    ]);
+    assert!(!o.status.success());
+    assert!(stderr(&o).contains("seed 5, not 6"), "{}", stderr(&o));
+}
+
+/// Issue 51: a 200 KB line of a configuration file is not echoed whole.
+#[test]
+fn a_huge_configuration_line_is_echoed_cut() {
+    let dir = scratch("swingup-huge-line");
+    let config = dir.path().join("config.toml");
+    std::fs::write(&config, format!("seed = \"{}\n", "9".repeat(200_000))).expect("config");
+    let o = swingup(&[
+        "learn",
+        "--config",
+        path_str(&config),
+        "--out",
+        path_str(&dir.path().join("run")),
+    ]);
+    assert_no_panic(&o);
+    assert!(!o.status.success());
+    assert!(stderr(&o).len() < 2000, "{} bytes of stderr", stderr(&o).len());
+    assert!(stderr(&o).contains("config.toml"), "{}", stderr(&o));
+}
+
+/// A full disk (a small tmpfs as `--out`, as root): the run stops at the
+/// first file it cannot save, naming it, with no temporary file left and
+/// no panic; the trials saved before it are whole.
+#[test]
+fn a_full_disk_stops_the_run_naming_the_file() {
+    let Some(disk) = store::SmallDisk::mount("swingup-full-disk", 96 * 1024) else {
+        return; // not root here: no tmpfs to fill
+    };
+    let o = swingup(&[
+        "learn",
+        "--model",
+        "true",
+        "--max-trials",
+        "3",
+        "--out",
+        path_str(disk.path()),
+    ]);
+    assert_no_panic(&o);
+    assert!(!o.status.success());
+    assert!(
+        stderr(&o).contains(&disk.path().display().to_string()),
+        "{}",
+        stderr(&o)
+    );
+    let names: Vec<String> = std::fs::read_dir(disk.path())
+        .expect("list")
+        .map(|e| e.expect("entry").file_name().to_string_lossy().into_owned())
+        .collect();
+    assert!(!names.iter().any(|n| store::is_temporary(n)), "{names:?}");
+    for n in names.iter().filter(|n| n.starts_with("trial_") && n.ends_with(".json")) {
+        let text = std::fs::read_to_string(disk.path().join(n)).expect("trial");
+        serde_json::from_str::<serde_json::Value>(&text).unwrap_or_else(|e| panic!("{n} is not whole: {e}"));
+    }
+}
+
+/// A closed standard output (`| head -0`) ends `config` and `fit` with
+/// status 1 and a message, without a panic (`learn` and `experiments`:
+/// `issue37.rs`, case 6); every subcommand's status is decided in `main`.
+#[cfg(unix)]
+#[test]
+fn a_closed_stdout_fails_every_subcommand_after_its_work() {
+    let dir = scratch("swingup-closed");
+    let train = dir.path().join("train.csv");
+    let mut text = String::from("a,y\n");
+    for i in 0..40 {
+        let a = f64::from(i) / 40.0;
+        text.push_str(&format!("{a},{}\n", (3.0 * a).sin()));
+    }
+    std::fs::write(&train, text).expect("train");
+    for args in [
+        vec!["config"],
+        vec!["fit", "--train", path_str(&train), "--target", "y", "--tune-evals", "0"],
+    ] {
+        // a pipe whose reader is gone before the program starts
+        let (reader, writer) = std::io::pipe().expect("pipe");
+        drop(reader);
+        let o = Command::new(env!("CARGO_BIN_EXE_swingup"))
+            .args(&args)
+            .stdout(writer)
+            .stderr(std::process::Stdio::piped())
+            .output()
+            .expect("run");
+        assert_no_panic(&o);
+        assert_eq!(o.status.code(), Some(1), "{args:?}: {}", stderr(&o));
+        assert!(stderr(&o).contains("standard output"), "{args:?}: {}", stderr(&o));
     }
 }

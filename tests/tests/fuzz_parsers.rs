@@ -40,6 +40,7 @@ mod iterations {
     pub(crate) const TORN_TAIL: usize = 5_000;
     pub(crate) const RUNS_JSON: usize = 20_000;
     pub(crate) const NIST: usize = 20_000;
+    pub(crate) const CARTPOLE_TRIAL: usize = 3_000;
 }
 
 // ---------------------------------------------------------------------------
@@ -522,6 +523,24 @@ fn check_records(text: &str) -> bool {
     let saved = serde_json::to_string(&file).expect("serialises");
     let back = bench::record::RecordFile::parse(&saved, path).unwrap_or_else(|e| panic!("written back: {e}"));
     assert_eq!(serde_json::to_string(&back).expect("serialises"), saved, "written back");
+    // issue 51: a run of its first record, by the same code, merges into
+    // it (never a panic): every key kept, the first run's replaced
+    if let Some(first) = file.runs.first() {
+        let new = bench::record::RecordFile {
+            runs: vec![first.clone()],
+            ..file.clone()
+        };
+        let keys = |f: &bench::record::RecordFile| {
+            f.runs
+                .iter()
+                .map(bench::record::RunRecord::key)
+                .collect::<std::collections::BTreeSet<_>>()
+        };
+        match bench::runner::merge_runs(Some(file.clone()), new, path, false) {
+            Ok(merged) => assert_eq!(keys(&merged.file), keys(&file)),
+            Err(e) => assert!(file.made_by.is_none() && e.to_string().contains("would mix"), "{e}"),
+        }
+    }
     true
 }
 
@@ -684,5 +703,87 @@ fn a_negative_max_command_is_refused() {
             .replace("max_command = 12.0", &format!("max_command = {value}"));
         let cfg: Config = toml::from_str(&text).expect("parses");
         assert!(cfg.validate().is_err(), "max_command = {value} passes the checks");
+    }
+}
+
+// ---------------------------------------------------------------------------
+// The cart-pole's trial files (issue 51: saved as each trial ends, read
+// back by `learn --task cartpole --resume`)
+
+/// The quick cart-pole settings the seeds were made with.
+fn quick_cartpole() -> swingup::cartpole::CartPoleSettings {
+    swingup::cartpole::CartPoleSettings {
+        max_trials: 1,
+        stop_at_success: false,
+        ..swingup::cartpole::CartPoleSettings::quick()
+    }
+}
+
+/// The two trials of a quick run (seed 3): the random one and an MPC one,
+/// as `trial_NN.json` holds them.
+fn cartpole_trials() -> &'static [swingup::cartpole::CartPoleTrial] {
+    static TRIALS: OnceLock<Vec<swingup::cartpole::CartPoleTrial>> = OnceLock::new();
+    TRIALS.get_or_init(|| {
+        swingup::cartpole::run(&quick_cartpole(), 3)
+            .expect("a quick run")
+            .trials
+    })
+}
+
+fn cartpole_seeds() -> &'static [Vec<u8>] {
+    static SEEDS: OnceLock<Vec<Vec<u8>>> = OnceLock::new();
+    SEEDS.get_or_init(|| {
+        cartpole_trials()
+            .iter()
+            .map(|t| serde_json::to_vec_pretty(t).expect("serialises"))
+            .collect()
+    })
+}
+
+/// The property: a trial file read back never panics, and one that parses
+/// either replays as the run's trial of its number (after the run's
+/// trials before it) or is refused naming that trial; the unedited seeds
+/// replay. Whether the bytes were a trial.
+fn check_cartpole_trial(bytes: &[u8]) -> bool {
+    let Ok(trial) = serde_json::from_slice::<swingup::cartpole::CartPoleTrial>(bytes) else {
+        return false;
+    };
+    let saved = cartpole_trials();
+    let unedited = saved
+        .iter()
+        .any(|t| serde_json::to_vec_pretty(t).expect("serialises") == bytes);
+    let n = trial.trial;
+    let mut previous: Vec<_> = saved
+        .iter()
+        .take(n.saturating_sub(1).min(saved.len()))
+        .cloned()
+        .collect();
+    previous.push(trial);
+    match swingup::cartpole::replay_trials(&quick_cartpole(), 3, &previous) {
+        Ok(transitions) => assert_eq!(transitions, previous.len() * 15),
+        Err(e) => {
+            assert!(!unedited, "an unedited trial does not replay: {e}");
+            let e = e.to_string();
+            assert!(
+                e.contains("does not replay") || e.contains("saved trials, more than"),
+                "{e}"
+            );
+        }
+    }
+    true
+}
+
+#[test]
+fn fuzz_cartpole_trial_json() {
+    let seeds = cartpole_seeds();
+    let tokens: Vec<&[u8]> = JSON_TOKENS.iter().map(|t| t.as_bytes()).collect();
+    let tally = Tally::default();
+    check!()
+        .with_type::<Input>()
+        .with_iterations(iterations::CARTPOLE_TRIAL)
+        .for_each(|input| tally.count(check_cartpole_trial(&input.bytes(seeds, &tokens))));
+    tally.assert_accepted("trial files", 0.1);
+    for seed in seeds {
+        assert!(check_cartpole_trial(seed));
     }
 }

@@ -6,6 +6,8 @@
 //! ```text
 //! cargo run -p lwr --features cli --bin lwr-fit -- --train train.csv --target y
 //! ```
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use std::process::ExitCode;
 

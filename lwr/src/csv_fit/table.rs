@@ -219,8 +219,8 @@ impl Table {
                         values.push(v);
                         None
                     }
-                    Ok(_) => Some(format!("'{cell}' is not a finite number")),
-                    Err(_) => Some(format!("cannot read '{cell}' as a number")),
+                    Ok(_) => Some(format!("'{}' is not a finite number", store::shorten(cell))),
+                    Err(_) => Some(format!("cannot read '{}' as a number", store::shorten(cell))),
                 };
                 if let Some(reason) = reason {
                     return Err(FitError::BadCell {
@@ -228,7 +228,7 @@ impl Table {
                         line,
                         row,
                         column: j + 1,
-                        name: names[j].clone(),
+                        name: store::shorten(&names[j]).into_owned(),
                         reason,
                     });
                 }

@@ -224,6 +224,19 @@ impl CartPoleSettings {
         Ok(())
     }
 
+    /// [`from_changes`](Self::from_changes) with the JSON object in the
+    /// file `path`.
+    ///
+    /// # Errors
+    /// The file cannot be read or is not JSON (naming it), or as
+    /// [`from_changes`](Self::from_changes), with the file named.
+    pub fn from_changes_file(path: &std::path::Path) -> crate::Result<Self> {
+        let text = std::fs::read_to_string(path).map_err(|e| crate::Error::io("reading", path, e))?;
+        let changes: serde_json::Value =
+            serde_json::from_str(&text).map_err(|e| crate::Error::parse(path, Some(e.line()), e))?;
+        Self::from_changes(&changes).map_err(|e| e.context(path.display().to_string()))
+    }
+
     /// The defaults with the fields of the JSON object `changes` replaced,
     /// nested objects merged field by field (`{"refit_every": 0}`,
     /// `{"model": {"control_affine": false}}`), then checked
@@ -281,7 +294,8 @@ impl CartPoleSettings {
     }
 }
 
-/// What one trial saw.
+/// What one trial saw. Numbers that are not finite (the random trial's
+/// replan times) are written as JSON `null` and read back as NaN.
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
 pub struct CartPoleTrial {
     /// 1 for the random trial, then 2, 3, ...
@@ -292,31 +306,41 @@ pub struct CartPoleTrial {
     pub success: bool,
     /// PILCO's saturating cost summed over the episode's states (after
     /// each control period).
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub pilco_cost: f64,
     /// The tip's distance from the target at the end \[m\].
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub final_distance: f64,
     /// Seconds of system data after this trial, all trials so far.
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub data_seconds: f64,
     /// Median wall time of a replan \[ms\] ([`quantile`], NaN for the random trial).
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub replan_median_ms: f64,
     /// 99th percentile of the replan wall time \[ms\].
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub replan_p99_ms: f64,
     /// Mean Gauss-Newton iterations per replan.
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub mean_iterations: f64,
     /// Replans whose solve failed (the previous plan kept).
     pub kept_previous: usize,
     /// Wall time of the model's refits and metric tunings, before the
     /// trial and within it (`refit_every`) \[s\]; not part of the replan
     /// times (on a robot they would run beside the controller).
+    #[serde(deserialize_with = "crate::format::null_as_nan")]
     pub tune_seconds: f64,
     /// Refits of the model within the trial (`refit_every`).
     #[serde(default)]
     pub refits: usize,
     /// Wall time of each replan \[ms\], in order (empty for the random trial).
+    #[serde(deserialize_with = "crate::format::nulls_as_nan")]
     pub replan_ms: Vec<f64>,
     /// The true states, one per control period, the initial one first.
+    #[serde(deserialize_with = "crate::format::state_nulls_as_nan")]
     pub states: Vec<[f64; 4]>,
     /// The forces applied (clipped).
+    #[serde(deserialize_with = "crate::format::nulls_as_nan")]
     pub forces: Vec<f64>,
 }
 
@@ -333,6 +357,55 @@ pub struct CartPoleRun {
     pub success_trial: Option<usize>,
     /// Seconds of system data up to and including that trial.
     pub seconds_to_success: Option<f64>,
+}
+
+/// A run's state after its saved trials: the plant, the generator and
+/// the noise as the next trial starts with them, and the data so far.
+struct Replayed {
+    plant: CartPolePlant,
+    rng: ChaCha8Rng,
+    noise: Option<Normal<f64>>,
+    data: Vec<Transition>,
+}
+
+/// The state of a run of `settings` and `seed` after the saved trials
+/// `previous` ([`replay`] each).
+fn replay_all(settings: &CartPoleSettings, seed: u64, previous: &[CartPoleTrial]) -> crate::Result<Replayed> {
+    settings.validate()?;
+    let plant = CartPolePlant::new(settings.plant.clone())?;
+    let mut rng = ChaCha8Rng::seed_from_u64(seed);
+    let noise = if settings.plant.sensor_noise > 0.0 {
+        Some(Normal::new(0.0, settings.plant.sensor_noise).map_err(|e| crate::Error::data(format!("noise: {e}")))?)
+    } else {
+        None
+    };
+    crate::error::ensure_data!(
+        previous.len() <= settings.max_trials + 1,
+        "{} saved trials, more than the run's {} (one random, then max_trials)",
+        previous.len(),
+        settings.max_trials + 1
+    );
+    let mut data = Vec::new();
+    for (k, saved) in previous.iter().enumerate() {
+        replay(saved, k + 1, settings, &plant, &mut rng, &noise, &mut data)?;
+    }
+    Ok(Replayed {
+        plant,
+        rng,
+        noise,
+        data,
+    })
+}
+
+/// Checks that `previous` are the first trials of a run of `settings` and
+/// `seed`, as [`run_resumable`] does before it goes on (their draws and
+/// states replayed), without running any new trial; returns the number of
+/// transitions they hold.
+///
+/// # Errors
+/// Invalid settings, or a trial that does not replay (named).
+pub fn replay_trials(settings: &CartPoleSettings, seed: u64, previous: &[CartPoleTrial]) -> crate::Result<usize> {
+    Ok(replay_all(settings, seed, previous)?.data.len())
 }
 
 /// Replays the saved trial `saved` (number `number`): draws what the run
@@ -550,31 +623,20 @@ pub fn run_resumable(
     previous: Vec<CartPoleTrial>,
     on_trial: &mut dyn FnMut(&CartPoleTrial) -> crate::Result<()>,
 ) -> crate::Result<CartPoleRun> {
-    settings.validate()?;
-    let plant = CartPolePlant::new(settings.plant.clone())?;
-    let mut rng = ChaCha8Rng::seed_from_u64(seed);
-    let noise = if settings.plant.sensor_noise > 0.0 {
-        Some(Normal::new(0.0, settings.plant.sensor_noise).map_err(|e| crate::Error::data(format!("noise: {e}")))?)
-    } else {
-        None
-    };
+    let Replayed {
+        plant,
+        mut rng,
+        noise,
+        mut data,
+    } = replay_all(settings, seed, &previous)?;
     let steps = settings.steps();
     let dt = settings.plant.dt;
     let max_force = settings.plant.max_force;
     let mut trials = Vec::new();
-    let mut data: Vec<Transition> = Vec::new();
     let mut model: Option<CartPoleModel> = None;
     let task = SwingupTask::new(settings.plant.pole_length, max_force, &settings.weights)?;
     let window = Window::new(settings.window, dt, settings.state_coeffs, settings.control_coeffs)?;
     let replayed = previous.len();
-    crate::error::ensure_data!(
-        replayed <= settings.max_trials + 1,
-        "{replayed} saved trials, more than the run's {} (one random, then max_trials)",
-        settings.max_trials + 1
-    );
-    for (k, saved) in previous.iter().enumerate() {
-        replay(saved, k + 1, settings, &plant, &mut rng, &noise, &mut data)?;
-    }
     trials.extend(previous);
     let finished = trials.last().is_some_and(|t| t.success) && settings.stop_at_success;
     let first_new = if finished {
@@ -755,6 +817,49 @@ mod tests {
         }
         // the same seed, the same run
         assert_eq!(run(&settings, 7).expect("run").trials[2].forces, r.trials[2].forces);
+    }
+
+    /// A run resumed after any number of saved trials (read back from
+    /// JSON, as from an interrupted run's files) ends with the trials of the
+    /// uninterrupted run (wall times aside); a saved trial of another seed
+    /// or an edited one is refused, naming the trial.
+    #[test]
+    fn a_resumed_run_ends_as_the_uninterrupted_one() {
+        let settings = CartPoleSettings {
+            max_trials: 2,
+            stop_at_success: false,
+            refit_every: 5,
+            ..CartPoleSettings::quick()
+        };
+        let whole = run(&settings, 11).expect("run");
+        let key = |t: &CartPoleTrial| (t.trial, t.success, t.states.clone(), t.forces.clone(), t.refits);
+        for k in 0..=whole.trials.len() {
+            let saved: Vec<CartPoleTrial> = whole.trials[..k]
+                .iter()
+                .map(|t| serde_json::from_str(&serde_json::to_string(t).expect("json")).expect("parse"))
+                .collect();
+            let mut new = Vec::new();
+            let resumed = run_resumable(&settings, 11, saved, &mut |t| {
+                new.push(t.trial);
+                Ok(())
+            })
+            .expect("resumed");
+            assert_eq!(
+                resumed.trials.iter().map(key).collect::<Vec<_>>(),
+                whole.trials.iter().map(key).collect::<Vec<_>>(),
+                "resumed after {k} trials"
+            );
+            assert_eq!(new, (k + 1..=whole.trials.len()).collect::<Vec<_>>());
+        }
+        let e = run_resumable(&settings, 12, whole.trials[..1].to_vec(), &mut |_| Ok(())).expect_err("other seed");
+        assert!(e.to_string().contains("saved trial 1 does not replay"), "{e}");
+        let mut edited = whole.trials[..2].to_vec();
+        edited[1].forces[3] += 1e-9;
+        let e = run_resumable(&settings, 11, edited, &mut |_| Ok(())).expect_err("edited");
+        assert!(
+            e.to_string().contains("saved trial 2 does not replay: its state 4"),
+            "{e}"
+        );
     }
 
     /// Within an MPC trial the model is refitted every `refit_every`

@@ -36,10 +36,12 @@
 //! data) or GP-MPC (9 s, Kamthe and Deisenroth, AISTATS 2018) figures; we
 //! define one ([`task`]): the tip within 0.1 m of the target over the
 //! episode's last second.
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod learn;
 pub mod model;
 pub mod plant;
 pub mod task;
 
-pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, run, run_resumable};
+pub use learn::{CartPoleRun, CartPoleSettings, CartPoleTrial, replay_trials, run, run_resumable};

@@ -31,11 +31,7 @@ pub mod limits {
     /// Samples linearised by the MPC's replans over a run (each one a
     /// model query with its Jacobian, microseconds to tens of them).
     pub const REPLAN_SAMPLES: f64 = 1e9;
-    /// The largest value of any scalar weight, scale, bound or physical
-    /// setting, lambda included: a weight $10^{15}$ times another's leaves
-    /// the smaller term below f64's 16 digits (the criterion is the large
-    /// term alone), and weights of $10^{308}$ overflow it to infinity.
-    pub const MAX_MAGNITUDE: f64 = 1e15;
+    pub use crate::format::MAX_MAGNITUDE;
     /// The longest MPC time budget per replan (`mpc.budget_ms`): a year,
     /// in milliseconds, far inside what a `Duration` holds.
     pub const MAX_BUDGET_MS: f64 = 365.0 * 24.0 * 3600.0 * 1e3;

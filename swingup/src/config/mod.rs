@@ -2,6 +2,8 @@
 //! planner ([`PlannerConfig`]), the learned model ([`ModelConfig`]), with
 //! their defaults and the checks of every key's range
 //! ([`Config::validate`]). `swingup config` prints the defaults as TOML.
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 use lwr::{Degree, Kernel};
 use serde::{Deserialize, Serialize};

@@ -432,7 +432,20 @@ pub fn run_experiments(
     runs.extend(previous);
     runs.sort_by(|a, b| (&a.experiment, &a.variant, a.seed).cmp(&(&b.experiment, &b.variant, b.seed)));
     let variants = summarise(&runs);
-    let claims = claims(which, settings, &runs, &variants);
+    let mut claims = claims(which, settings, &runs, &variants);
+    // the grid's runs without a record (a shard, --variants, a grid still
+    // running): named, and no claim judged on the part alone
+    let have: std::collections::BTreeSet<_> = runs.iter().map(|r| key(&r.experiment, &r.variant, r.seed)).collect();
+    let missing: Vec<String> = self::jobs(which, settings)
+        .iter()
+        .filter(|j| !have.contains(&key(j.experiment, &j.variant, j.seed)))
+        .map(|j| format!("{} {} seed {}", j.experiment, j.variant, j.seed))
+        .collect();
+    if !missing.is_empty() {
+        for c in &mut claims {
+            c.reproduced = format!("incomplete ({} runs missing; was: {})", missing.len(), c.reproduced);
+        }
+    }
     Ok(ExperimentsReport {
         settings: settings.clone(),
         experiments: which.to_vec(),
@@ -443,6 +456,7 @@ pub fn run_experiments(
         threads,
         ran: Some(ran),
         task_times,
+        missing,
     })
 }
 

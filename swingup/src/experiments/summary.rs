@@ -157,6 +157,11 @@ pub struct ExperimentsReport {
     /// [`ExperimentsReport::task_times_or_legacy`]).
     #[serde(default)]
     pub task_times: Vec<TaskTime>,
+    /// The grid's runs that have no record (`experiment variant seed`
+    /// each): a report of a partial grid names them, and its claims say
+    /// `incomplete` instead of a verdict.
+    #[serde(default)]
+    pub missing: Vec<String>,
 }
 
 /// The wall time of the invocation that made (some of) one task's runs.

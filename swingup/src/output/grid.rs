@@ -284,6 +284,8 @@ pub fn open_grid(
     let digest = settings.digest();
     let mut log = None;
     let mut previous: Vec<RunSummary> = Vec::new();
+    // where each of `previous` was read: its runs file and record number
+    let mut sources: Vec<(PathBuf, usize)> = Vec::new();
     for part in &parts {
         match read_part_settings(&part.settings)? {
             Some((saved, _)) => check_part(&part.settings, &saved, settings)?,
@@ -315,8 +317,28 @@ pub fn open_grid(
             );
             let same =
                 |r: &RunSummary| (&r.experiment, &r.variant, r.seed) == (&run.experiment, &run.variant, run.seed);
-            if !previous.iter().any(same) {
-                previous.push(run);
+            // one run recorded twice (a shard beside an unsharded grid, a
+            // copied file): the same record is kept once, two different
+            // ones are refused, naming both
+            match previous.iter().position(same) {
+                None => {
+                    previous.push(run);
+                    sources.push((part.runs.clone(), i + 1));
+                }
+                Some(k) => {
+                    crate::error::ensure_refused!(
+                        previous[k] == run,
+                        "{} record {} and {} record {} are two different records of one run ({} {} seed {}); \
+                     remove the one that is not wanted",
+                        sources[k].0.display(),
+                        sources[k].1,
+                        part.runs.display(),
+                        i + 1,
+                        run.experiment,
+                        run.variant,
+                        run.seed
+                    );
+                }
             }
         }
     }

@@ -148,6 +148,21 @@ pub fn markdown(report: &ExperimentsReport) -> String {
         }
         _ => md.push_str(&format!("{}\n\n", provenance(report))),
     }
+    if !report.missing.is_empty() {
+        const SHOWN: usize = 50;
+        md.push_str(&format!(
+            "**Incomplete:** {} of the grid's runs have no record, so no claim is judged: {}{}.\n\n",
+            report.missing.len(),
+            report
+                .missing
+                .iter()
+                .take(SHOWN)
+                .cloned()
+                .collect::<Vec<_>>()
+                .join(", "),
+            if report.missing.len() > SHOWN { ", ..." } else { "" }
+        ));
+    }
     md.push_str(&claims_table(&report.claims));
     let figures = experiment_figure_stems(report);
     if !figures.is_empty() {
@@ -432,6 +447,7 @@ mod tests {
             threads: 2,
             ran: Some(2),
             task_times: vec![],
+            missing: vec![],
         };
         let one = provenance(&report(runs.clone()));
         assert!(one.starts_with("2 runs, all made at commit test"), "{one}");
@@ -501,6 +517,7 @@ mod tests {
                 seconds: 50.0,
                 threads: 2,
             }],
+            missing: vec![],
         };
         let cart_runs: Vec<&RunSummary> = report.runs.iter().filter(|r| is_cartpole(r)).collect();
         let by_trial = successes_by_trial(&cart_runs, 16);
@@ -573,6 +590,7 @@ mod tests {
             threads: 2,
             ran: Some(2),
             task_times: vec![],
+            missing: vec![],
         };
         let mut runs = pendulum.clone();
         runs.push(summary("mpc", CARTPOLE_VARIANT, 1, Some(3), 0.0));
@@ -632,6 +650,7 @@ mod tests {
             threads: 2,
             ran: Some(ran),
             task_times: vec![],
+            missing: vec![],
         };
         let measured = report(runs.clone(), 5576.0, 2);
         // the same runs read back in the other order

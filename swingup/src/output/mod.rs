@@ -1,6 +1,8 @@
 //! What a run leaves on disk: the run directory's rules (locks, no
 //! overwriting), the grid's files, the run report and the figures
 //! ([`plot`], as SVG and PNG).
+// issue 51: no panic on user input in the programs' paths
+#![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
 pub mod diagnostics_report;
 pub mod grid;

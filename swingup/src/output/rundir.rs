@@ -58,9 +58,10 @@ pub fn run_files(dir: &Path) -> Vec<PathBuf> {
 
 /// The numbered run directories `root/swingup-NNN` (`NNN` from 001):
 /// with `latest`, the highest-numbered one that exists (the run `learn
-/// --resume` continues when no `--out` is given); otherwise the one after
-/// it (`root/swingup-001` when there is none), so that the newest run is
-/// always the highest-numbered, whatever gaps older ones left.
+/// --resume` continues when no `--out` is given); otherwise the first free
+/// one after it (`root/swingup-001` when there is none), created here so
+/// that two runs started at once never share a directory, and the newest
+/// run is always the highest-numbered, whatever gaps older ones left.
 ///
 /// # Errors
 /// `latest` with no run in `root`, or `root` that exists but cannot be
@@ -91,7 +92,17 @@ pub fn numbered_run_dir(root: &Path, latest: bool) -> crate::Result<PathBuf> {
             ))
         })
     } else {
-        Ok(dir(highest.map_or(1, |n| n.saturating_add(1))))
+        // claimed by creating it: two runs started at once never share one
+        // (the second finds it made and takes the next number)
+        store::create_output_dir(root)?;
+        let mut n = highest.map_or(1, |n| n.saturating_add(1));
+        loop {
+            match std::fs::create_dir(dir(n)) {
+                Ok(()) => return Ok(dir(n)),
+                Err(e) if e.kind() == std::io::ErrorKind::AlreadyExists && n < u64::MAX => n += 1,
+                Err(e) => return Err(crate::Error::io("creating", dir(n), e)),
+            }
+        }
     }
 }
 
@@ -241,7 +252,18 @@ pub fn resume_config(dir: &Path, overrides: impl FnOnce(&mut Config)) -> crate::
     // the settings recorded when the run was made: a config.toml edited
     // since would report its trials under settings they were not made with
     let manifest_path = dir.join(MANIFEST_FILE);
-    if let Some(m) = store::Manifest::read(&manifest_path)? {
+    // without the manifest, an edited config.toml could not be told from
+    // the one the trials were made with: no resume
+    let manifest = store::Manifest::read(&manifest_path)?;
+    ensure_refused!(
+        manifest.is_some(),
+        "cannot resume {}: {} is missing, so {} cannot be checked against the settings its trials were made \
+         with; restore it, or start a fresh run in another --out",
+        dir.display(),
+        manifest_path.display(),
+        path.display()
+    );
+    if let Some(m) = manifest {
         ensure_refused!(
             m.program == LEARN_PROGRAM && m.task == "pendulum",
             "cannot resume {} as a pendulum run: {} records a {} run of {}; choose another --out",
@@ -287,11 +309,16 @@ mod tests {
     fn numbered_runs_resume_the_highest_and_skip_past_gaps() {
         let scratch = store::ScratchDir::new("swingup-numbered").expect("scratch dir");
         let root = scratch.path().join("runs");
-        assert_eq!(numbered_run_dir(&root, false).expect("fresh"), root.join("swingup-001"));
         let e = numbered_run_dir(&root, true)
             .expect_err("nothing to resume")
             .to_string();
         assert!(e.contains("no run") && e.contains("--out"), "{e}");
+        // a fresh run claims its directory: the next one, started at once,
+        // gets the next number (issue 51: two runs collided on one)
+        assert_eq!(numbered_run_dir(&root, false).expect("fresh"), root.join("swingup-001"));
+        assert!(root.join("swingup-001").is_dir());
+        assert_eq!(numbered_run_dir(&root, false).expect("fresh"), root.join("swingup-002"));
+        std::fs::remove_dir(root.join("swingup-002")).expect("rmdir");
         for n in ["swingup-001", "swingup-003", "swingup-x", "other-009"] {
             std::fs::create_dir_all(root.join(n)).expect("mkdir");
         }

@@ -375,6 +375,7 @@ mod tests {
             threads: 1,
             ran: Some(0),
             task_times: vec![],
+            missing: vec![],
         }
     }
 
