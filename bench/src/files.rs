@@ -14,7 +14,7 @@ use crate::error::Result;
 /// (`store::create_output_dir`).
 ///
 /// # Errors
-/// [`BenchError::Store`] naming the file or directory.
+/// [`BenchError::Store`](crate::BenchError::Store) naming the file or directory.
 pub fn write(path: &Path, text: &str) -> Result<()> {
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         store::create_output_dir(dir)?;

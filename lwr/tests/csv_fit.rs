@@ -712,6 +712,16 @@ fn the_predictions_never_go_through_a_link_or_over_a_device() {
         }
     }
     sentinel.assert_unchanged(&before, "the run");
+    // a FIFO at --out is refused before any work, without blocking on it
+    let fifo = dir.path("pred.fifo");
+    if std::process::Command::new("mkfifo")
+        .arg(&fifo)
+        .status()
+        .is_ok_and(|s| s.success())
+    {
+        let err = fit_report(&args_for(fifo.clone(), true)).expect_err("a FIFO");
+        assert!(error_chain(&err).contains("FIFO"), "{}", error_chain(&err));
+    }
     // the mode of a replaced file is kept
     let out = dir.path("mode.csv");
     fs::write(&out, "old\n").expect("write");

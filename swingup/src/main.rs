@@ -685,6 +685,16 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
     };
     let previous = if args.resume {
         let trials = run_report::read_trials(out)?;
+        // a cap below the trials made would report them under a cap they broke
+        anyhow::ensure!(
+            cfg.max_trials >= trials.len(),
+            "{} holds {} finished trials; --max-trials {} would report them under a smaller cap; resume with \
+             --max-trials {} or more (or without it)",
+            out.display(),
+            trials.len(),
+            cfg.max_trials,
+            trials.len()
+        );
         say!(
             "resuming {}: {} finished trial(s) read back",
             out.display(),
@@ -708,6 +718,14 @@ fn learn(args: &LearnArgs) -> anyhow::Result<()> {
         cfg.seed
     );
     say!("writing to {}", out.display());
+    let loo_pairs = cfg.workload().loo_pairs;
+    if loo_pairs > swingup::config::limits::LOO_PAIRS {
+        note!(
+            "warning: the model's leave-one-out passes may visit up to {loo_pairs:.1e} point pairs over this run \
+             (hours at 1e7 to 1e8 a second); [model] tune_points = 2000 makes each tuning evaluation cheaper, \
+             tune_evals or max_trials make fewer"
+        );
+    }
     let start = std::time::Instant::now();
     let record = run(&cfg, previous, &mut SaveAndShow { out })?;
     run_report::write_run(out, &record).with_context(|| format!("writing the report into {}", out.display()))?;

@@ -225,8 +225,22 @@ fn case_7_a_resume_never_rewrites_config_and_refuses_an_edited_one() {
     ok(&swingup(&["learn", "--model", "true", "--max-trials", "2"], dir.path()));
     let config = dir.path().join("config.toml");
     let saved = std::fs::read(&config).expect("config");
-    ok(&swingup(&["learn", "--resume", "--max-trials", "1"], dir.path()));
+    let made = (1..=2)
+        .filter(|i| dir.path().join(format!("trial_{i:02}.json")).exists())
+        .count();
+    ok(&swingup(
+        &["learn", "--resume", "--max-trials", &made.to_string()],
+        dir.path(),
+    ));
     assert_eq!(std::fs::read(&config).expect("config"), saved, "rewritten by --resume");
+    // issue 51: a cap below the trials made is refused (the report said
+    // max_trials = 1 over more trials)
+    if made > 1 {
+        refused(
+            &swingup(&["learn", "--resume", "--max-trials", "1"], dir.path()),
+            &["finished trials", "--max-trials 2 or more"],
+        );
+    }
     // lambda edited by hand: the trials were made with the other one
     let text = String::from_utf8(saved).expect("utf8");
     let edited = text.replacen("lambda = ", "lambda = 1.0 # ", 1);

@@ -113,6 +113,26 @@ fn a_grids_planted_links_are_refused_and_force_deletes_them() {
     }
 }
 
+/// A directory under a grid's runs file's name is named as one (it was
+/// said to "hold finished runs"), with and without `--force`.
+#[test]
+fn a_directory_named_like_a_runs_file_is_named_as_a_directory() {
+    let dir = scratch("swingup-runs-dir");
+    std::fs::create_dir(dir.path().join("runs.jsonl")).expect("mkdir");
+    for force in [false, true] {
+        let mut args = vec!["experiments", "lambda", "--quick", "--out", path_str(dir.path())];
+        if force {
+            args.push("--force");
+        }
+        let o = swingup(&args);
+        assert_no_panic(&o);
+        assert!(!o.status.success());
+        assert!(stderr(&o).contains("is a directory"), "{}", stderr(&o));
+        assert!(!stderr(&o).contains("holds finished runs"), "{}", stderr(&o));
+        assert!(dir.path().join("runs.jsonl").is_dir());
+    }
+}
+
 #[cfg(unix)]
 #[test]
 fn a_dangling_out_link_and_a_fifo_are_named_and_nothing_blocks() {

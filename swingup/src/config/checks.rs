@@ -32,6 +32,11 @@ pub mod limits {
     /// model query with its Jacobian, microseconds to tens of them).
     pub const REPLAN_SAMPLES: f64 = 1e9;
     pub use crate::format::MAX_MAGNITUDE;
+    /// Point pairs of the model's leave-one-out passes over a run
+    /// ([`Workload::loo_pairs`](super::Workload::loo_pairs)) past which
+    /// `learn` warns at its start: at the $10^7$ to $10^8$ pairs a second
+    /// of a local linear fit, an hour or more.
+    pub const LOO_PAIRS: f64 = 1e11;
     /// The longest MPC time budget per replan (`mpc.budget_ms`): a year,
     /// in milliseconds, far inside what a `Duration` holds.
     pub const MAX_BUDGET_MS: f64 = 365.0 * 24.0 * 3600.0 * 1e3;
@@ -48,6 +53,13 @@ pub struct Workload {
     pub plant_steps: f64,
     /// Samples linearised by model-predictive replanning (0 open loop).
     pub replan_samples: f64,
+    /// An upper bound of the point pairs the model's leave-one-out passes
+    /// visit over the run (every point's neighbourhood taken as all the
+    /// data): after trial $t$ with $n_t$ points, `model.tune_evals`
+    /// evaluations over $\min(p, n_t)$ points ($p$ = `model.tune_points`,
+    /// 0: all) and two passes over all of them, each point against all
+    /// $n_t$; 0 for models without leave-one-out.
+    pub loo_pairs: f64,
 }
 
 impl Config {
@@ -64,7 +76,24 @@ impl Config {
                 trials * samples / self.mpc.every.max(1) as f64 * self.mpc.window as f64 * self.mpc.iterations as f64
             }
         };
+        let m = &self.model;
+        let loo_pairs = if matches!(m.kind, ModelKind::Lwr | ModelKind::LwrParametric) {
+            (1..=self.max_trials)
+                .map(|t| {
+                    let n = samples * t as f64;
+                    let points = if m.tune_points == 0 {
+                        n
+                    } else {
+                        n.min(m.tune_points as f64)
+                    };
+                    (m.tune_evals as f64 * points + 2.0 * n) * n
+                })
+                .sum()
+        } else {
+            0.0
+        };
         Workload {
+            loo_pairs,
             data_points: samples * trials,
             bytes: samples * trials * limits::BYTES_PER_SAMPLE,
             plant_steps: samples * (trials * self.robot.substeps as f64 + self.human.substeps as f64),

@@ -500,6 +500,15 @@ pub struct ModelConfig {
     pub slope_ridge: f64,
     /// Evaluations of the cross-validated metric tuning per trial (0: no tuning).
     pub tune_evals: usize,
+    /// Compare metrics during the tuning by the leave-one-out errors of
+    /// about this many data points only ([`lwr::TuneSettings::search_points`]:
+    /// each evaluation $n /$ `tune_points` times cheaper; the tuned metric's
+    /// error is still measured over all points); 0 (the default): every
+    /// point. A run whose leave-one-out work is estimated past
+    /// [`limits::LOO_PAIRS`] is warned at
+    /// its start, naming this key.
+    #[serde(default)]
+    pub tune_points: usize,
     /// Ridge on the LWR's intercept: the weight of the prior that the
     /// residual of the global linear fit is 0 (see
     /// [`LwrRegression`](crate::models::LwrRegression)); in units of kernel weight, i.e. data points.
@@ -544,6 +553,7 @@ impl Default for ModelConfig {
             ridge: 1e-6,
             slope_ridge: 0.0,
             tune_evals: 40,
+            tune_points: 0,
             prior_weight: 1.0,
             kernel: Kernel::Tricube,
             prior: LwrPrior::Linear,
@@ -585,6 +595,36 @@ impl Config {
 
 #[cfg(test)]
 mod tests {
+    /// The leave-one-out estimate: the defaults far inside the warning's
+    /// limit, a run at the documented size limits far past it, and
+    /// `model.tune_points` cutting the tuning's share; no model without
+    /// leave-one-out counts.
+    #[test]
+    fn the_leave_one_out_work_is_estimated() {
+        let d = Config::default().workload();
+        assert!(
+            d.loo_pairs > 0.0 && d.loo_pairs < limits::LOO_PAIRS / 10.0,
+            "{}",
+            d.loo_pairs
+        );
+        let mut big = Config {
+            horizon: 2000,
+            max_trials: 100,
+            ..Config::default()
+        };
+        let full = big.workload().loo_pairs;
+        assert!(full > limits::LOO_PAIRS, "{full}");
+        big.model.tune_points = 2000;
+        let capped = big.workload().loo_pairs;
+        assert!(capped < full / 10.0, "{capped} vs {full}");
+        // n = 2180 samples after trial 1: 40 evaluations over 2000 points and two full passes
+        big.max_trials = 1;
+        let n = 2180.0;
+        assert_eq!(big.workload().loo_pairs, (40.0 * 2000.0 + 2.0 * n) * n);
+        big.model.kind = ModelKind::Parametric;
+        assert_eq!(big.workload().loo_pairs, 0.0);
+    }
+
     use super::*;
 
     /// Bad values are refused with the field's name.

@@ -81,6 +81,7 @@ pub fn learn_model(
     let (settings, loo_nmse) = if m.tune_evals > 0 {
         let tuned = lwr.tune(&TuneSettings {
             max_evals: m.tune_evals,
+            search_points: m.tune_points,
             ..TuneSettings::default()
         })?;
         (tuned.settings, tuned.objective)
