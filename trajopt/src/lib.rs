@@ -6,6 +6,7 @@ pub mod check;
 pub mod derivative_free;
 pub mod eq3;
 pub mod error;
+pub mod fit;
 pub mod gauss_newton;
 pub mod least_squares;
 pub mod linalg;
@@ -52,6 +53,7 @@ pub use derivative_free::{
 };
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
+pub use fit::{LeastSquares, LeastSquaresFit, dense_pattern};
 pub use gauss_newton::{
     DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonRun, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
     MIN_PARALLEL_PARAMS, StepModel,

@@ -411,10 +411,7 @@ impl LeastSquaresProblem for MghProblem {
 
     /// Every entry: the Jacobians are small and mostly dense.
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
-        let (m, n) = (self.m, self.n);
-        let row_ptr = (0..=m).map(|i| i * n).collect();
-        let col_idx = (0..m).flat_map(|_| 0..n).collect();
-        SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, col_idx)
+        crate::fit::dense_pattern(self.m, self.n)
     }
 
     fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> Result<()> {

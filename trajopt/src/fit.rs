@@ -1,0 +1,895 @@
+//! The front door for a user's own nonlinear least-squares problem: a
+//! residual closure and a start, the Jacobian optional.
+//!
+//! $$\min_x F(x) = \lVert r(x) \rVert^2, \qquad r : \mathbb R^n \to \mathbb R^m$$
+//!
+//! [`LeastSquares`] wraps the closure $r$ (and, if given, the dense
+//! Jacobian $J = \partial r / \partial x$) as a [`LeastSquaresProblem`] of
+//! dense pattern and solves it with damped Gauss-Newton (Levenberg-Marquardt,
+//! [`GaussNewton`]), the Jacobian differenced (central by default, scipy's
+//! steps) when it is not given. (For a large sparse problem, implement
+//! [`LeastSquaresProblem`] and use the
+//! [derivative-free mode](crate::derivative_free), which differences
+//! groups of columns at once.) The result,
+//! [`LeastSquaresFit`], holds the point, the residuals and the Jacobian
+//! there, and gives the estimate's covariance
+//! $\hat\sigma^2 (J^\top J)^{-1}$, $\hat\sigma^2 = F / (m - n)$, and its
+//! standard errors, as NIST's certified values and scipy's `curve_fit`
+//! define them.
+//!
+//! | setting | default | meaning |
+//! |---|---|---|
+//! | [`jacobian`](LeastSquares::jacobian) | none: differenced | $J$, $m \times n$ row-major |
+//! | [`difference`](LeastSquares::difference) | [`Difference::Central`] | the differences without a Jacobian |
+//! | [`settings`](LeastSquares::settings) | [`GaussNewtonSettings::default`] | iterations and tolerances |
+//! | [`loss`](LeastSquares::loss) | [`Loss::Linear`], scale 1 | a robust loss and its residual scale |
+//! | [`bounds`](LeastSquares::bounds) | none | box bounds $l \le x \le u$ |
+//!
+//! # Example
+//!
+//! NIST's Misra1a, $y = b_1 (1 - e^{-b_2 x})$, from its first start:
+//!
+//! ```
+//! let x = [77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8, 477.3, 536.8, 593.1, 689.1, 760.0];
+//! let y = [10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76, 55.05, 61.01, 66.40, 75.47, 81.78];
+//! let fit = trajopt::LeastSquares::new(x.len(), |b: &[f64], r: &mut [f64]| {
+//!     for i in 0..x.len() {
+//!         r[i] = y[i] - b[0] * (1.0 - (-b[1] * x[i]).exp());
+//!     }
+//! })
+//! .solve(&[500.0, 1e-4])?;
+//! let se = fit.standard_errors()?;
+//! assert!(fit.status.is_converged());
+//! assert!((fit.x[0] / 2.3894212918e2 - 1.0).abs() < 1e-6); // NIST's certified b1
+//! assert!((se[0] / 2.7070075241 - 1.0).abs() < 1e-3); // and its standard error
+//! # Ok::<(), trajopt::TrajoptError>(())
+//! ```
+
+use std::time::Duration;
+
+use faer::sparse::SymbolicSparseRowMat;
+
+use crate::derivative_free::Difference;
+use crate::error::{Result, TrajoptError};
+use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
+use crate::least_squares::{LeastSquaresProblem, LinearBounds};
+
+/// A closure writing $m$ values for a point (residuals, or a Jacobian's
+/// $m n$ entries row-major).
+type Closure<'a> = Box<dyn Fn(&[f64], &mut [f64]) + 'a>;
+
+/// The pattern of a dense $m \times n$ Jacobian, row-major: every entry
+/// (for [`LeastSquaresProblem::jacobian_pattern`] of a small dense problem).
+pub fn dense_pattern(m: usize, n: usize) -> SymbolicSparseRowMat<usize> {
+    let row_ptr = (0..=m).map(|i| i * n).collect();
+    let col_idx = (0..m).flat_map(|_| 0..n).collect();
+    SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, col_idx)
+}
+
+/// A robust loss $\rho$ applied to each squared residual, with scipy's
+/// names and definitions: with $z = (r / C)^2$ ($C$ the scale,
+/// [`LeastSquares::loss`]) the cost is $\sum_i C^2 \rho(z_i)$.
+///
+/// | loss | $\rho(z)$ |
+/// |---|---|
+/// | `Linear` | $z$ (plain least squares) |
+/// | `SoftL1` | $2(\sqrt{1 + z} - 1)$ |
+/// | `Huber` | $z$ for $z \le 1$, $2\sqrt z - 1$ beyond |
+/// | `Cauchy` | $\ln(1 + z)$ |
+/// | `Arctan` | $\arctan z$ |
+///
+/// The solvers minimise it as the plain sum of squares of the
+/// transformed residuals $\tilde r_i = \operatorname{sign}(r_i) C
+/// \sqrt{\rho(z_i)}$ (so $\sum \tilde r_i^2$ is the robust cost and its
+/// stationary points are the robust cost's), with the Jacobian's rows
+/// scaled by $d\tilde r_i / dr_i = \rho'(z_i) |r_i| / (C \sqrt{\rho(z_i)})$.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[non_exhaustive]
+pub enum Loss {
+    /// $\rho(z) = z$.
+    #[default]
+    Linear,
+    /// $\rho(z) = 2(\sqrt{1 + z} - 1)$.
+    SoftL1,
+    /// $\rho(z) = z$ for $z \le 1$, $2\sqrt z - 1$ beyond.
+    Huber,
+    /// $\rho(z) = \ln(1 + z)$.
+    Cauchy,
+    /// $\rho(z) = \arctan z$.
+    Arctan,
+}
+
+impl Loss {
+    /// $\rho(z)$ and $\rho'(z)$.
+    pub fn rho(self, z: f64) -> (f64, f64) {
+        match self {
+            Self::Linear => (z, 1.0),
+            Self::SoftL1 => {
+                // 2 (s - 1) as 2 z / (s + 1): no cancellation for small z
+                let s = (1.0 + z).sqrt();
+                (2.0 * z / (s + 1.0), 1.0 / s)
+            }
+            Self::Huber if z <= 1.0 => (z, 1.0),
+            Self::Huber => {
+                let s = z.sqrt();
+                (2.0 * s - 1.0, 1.0 / s)
+            }
+            Self::Cauchy => (z.ln_1p(), 1.0 / (1.0 + z)),
+            Self::Arctan => (z.atan(), 1.0 / (1.0 + z * z)),
+        }
+    }
+
+    /// The transformed residual $\tilde r$ of `r` at scale `c`, and
+    /// $d\tilde r / dr$.
+    fn transform(self, r: f64, c: f64) -> (f64, f64) {
+        if self == Self::Linear {
+            return (r, 1.0);
+        }
+        let z = (r / c).powi(2);
+        let (rho, drho) = self.rho(z);
+        let root = rho.max(0.0).sqrt();
+        let slope = if root > 0.0 { drho * r.abs() / (c * root) } else { 1.0 };
+        (r.signum() * c * root, slope)
+    }
+}
+
+/// A nonlinear least-squares problem given by closures, and how to solve
+/// it (see the [module docs](self)).
+pub struct LeastSquares<'a> {
+    m: usize,
+    residuals: Closure<'a>,
+    jacobian: Option<Closure<'a>>,
+    difference: Difference,
+    settings: GaussNewtonSettings,
+    loss: Loss,
+    scale: f64,
+    bounds: Option<(Vec<f64>, Vec<f64>)>,
+}
+
+impl std::fmt::Debug for LeastSquares<'_> {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("LeastSquares")
+            .field("m", &self.m)
+            .field("jacobian", &self.jacobian.is_some())
+            .field("difference", &self.difference)
+            .field("settings", &self.settings)
+            .field("loss", &self.loss)
+            .field("scale", &self.scale)
+            .field("bounds", &self.bounds)
+            .finish()
+    }
+}
+
+impl<'a> LeastSquares<'a> {
+    /// The problem of the `m` residuals that `residuals(x, r)` writes into
+    /// `r` (of length `m`) at the point `x`; its size $n$ is the start's.
+    pub fn new(m: usize, residuals: impl Fn(&[f64], &mut [f64]) + 'a) -> Self {
+        Self {
+            m,
+            residuals: Box::new(residuals),
+            jacobian: None,
+            difference: Difference::Central,
+            settings: GaussNewtonSettings::default(),
+            loss: Loss::Linear,
+            scale: 1.0,
+            bounds: None,
+        }
+    }
+
+    /// The Jacobian: `jacobian(x, j)` writes $\partial r_i / \partial x_k$
+    /// into `j[i * n + k]` ($m \times n$, row-major). Without it the
+    /// Jacobian is differenced.
+    pub fn jacobian(mut self, jacobian: impl Fn(&[f64], &mut [f64]) + 'a) -> Self {
+        self.jacobian = Some(Box::new(jacobian));
+        self
+    }
+
+    /// The differences used without a Jacobian (central by default: two
+    /// residual evaluations per parameter, errors $O(h^2)$).
+    pub fn difference(mut self, difference: Difference) -> Self {
+        self.difference = difference;
+        self
+    }
+
+    /// The iteration's settings ([`GaussNewtonSettings`]).
+    pub fn settings(mut self, settings: GaussNewtonSettings) -> Self {
+        self.settings = settings;
+        self
+    }
+
+    /// A robust loss ([`Loss`]) with the residual scale $C$ at which it
+    /// departs from the squared loss (scipy's `f_scale`).
+    pub fn loss(mut self, loss: Loss, scale: f64) -> Self {
+        self.loss = loss;
+        self.scale = scale;
+        self
+    }
+
+    /// Box bounds $l_k \le x_k \le u_k$ (infinite for none), kept by each
+    /// step of the iteration (a small QP per step: [`LinearBounds`] with
+    /// the identity's rows; needs the `bounds` feature, on by default);
+    /// the start must lie within them.
+    pub fn bounds(mut self, lower: &[f64], upper: &[f64]) -> Self {
+        self.bounds = Some((lower.to_vec(), upper.to_vec()));
+        self
+    }
+
+    /// Checks the sizes, the loss scale and the bounds against `x0`;
+    /// returns the bounds as [`LinearBounds`] (a row per bounded
+    /// coordinate).
+    fn check(&self, x0: &[f64]) -> Result<Option<LinearBounds>> {
+        let (m, n) = (self.m, x0.len());
+        let invalid = |name, reason: String| Err(TrajoptError::InvalidParameter { name, reason });
+        if m == 0 || n == 0 {
+            return invalid(
+                "problem size",
+                format!("need at least one residual and one parameter, got m = {m}, n = {n}"),
+            );
+        }
+        if !(self.scale > 0.0 && self.scale.is_finite()) {
+            return invalid("loss scale", format!("must be finite and positive, got {}", self.scale));
+        }
+        let Some((lower, upper)) = &self.bounds else {
+            return Ok(None);
+        };
+        if lower.len() != n || upper.len() != n {
+            return Err(TrajoptError::DimensionMismatch {
+                what: "bounds",
+                expected: n,
+                actual: if lower.len() == n { upper.len() } else { lower.len() },
+            });
+        }
+        for k in 0..n {
+            if lower[k].is_nan() || upper[k].is_nan() || lower[k] >= upper[k] {
+                return invalid(
+                    "bounds",
+                    format!("need lower < upper, got [{}, {}] for x[{k}]", lower[k], upper[k]),
+                );
+            }
+            if !(lower[k] <= x0[k] && x0[k] <= upper[k]) {
+                return invalid(
+                    "start",
+                    format!("x0[{k}] = {} is outside its bounds [{}, {}]", x0[k], lower[k], upper[k]),
+                );
+            }
+        }
+        let rows: Vec<usize> = (0..n)
+            .filter(|&k| lower[k].is_finite() || upper[k].is_finite())
+            .collect();
+        let triplets: Vec<faer::sparse::Triplet<usize, usize, f64>> = rows
+            .iter()
+            .enumerate()
+            .map(|(i, &k)| faer::sparse::Triplet::new(i, k, 1.0))
+            .collect();
+        let a = faer::sparse::SparseRowMat::try_new_from_triplets(rows.len(), n, &triplets).map_err(|e| {
+            TrajoptError::InvalidParameter {
+                name: "bounds",
+                reason: format!("{e:?}"),
+            }
+        })?;
+        let bounds = LinearBounds {
+            a,
+            lower: rows.iter().map(|&k| lower[k]).collect(),
+            upper: rows.iter().map(|&k| upper[k]).collect(),
+        };
+        bounds.validate()?;
+        Ok(Some(bounds))
+    }
+
+    /// Solves from `x0`.
+    ///
+    /// # Errors
+    /// No residuals or no parameters, a scale that is not positive, bounds
+    /// of the wrong size or empty, a start outside them, invalid settings,
+    /// or residuals that are not finite at `x0` (a failure later is a
+    /// status, not an error).
+    pub fn solve(&self, x0: &[f64]) -> Result<LeastSquaresFit> {
+        let bounds = self.check(x0)?;
+        let (m, n) = (self.m, x0.len());
+        let problem = Closures {
+            spec: self,
+            n,
+            bounds,
+            differencing_evals: std::cell::Cell::new(0),
+        };
+        let r = GaussNewton::new(self.settings.clone())?.solve(&problem, x0)?;
+        let (x, initial_cost, status, iterations, solve_time) =
+            (r.x, r.initial_cost, r.status, r.iterations, r.solve_time);
+        let (evals, jacobian_evals) = match &self.jacobian {
+            Some(_) => (r.evals, r.jacobian_evals),
+            None => (r.evals + problem.differencing_evals.get(), 0),
+        };
+        let mut residuals = vec![0.0; m];
+        (self.residuals)(&x, &mut residuals);
+        let (cost, weights): (f64, Vec<f64>) = {
+            let t: Vec<(f64, f64)> = residuals.iter().map(|&r| self.loss.transform(r, self.scale)).collect();
+            (
+                t.iter().map(|(rt, _)| rt * rt).sum(),
+                t.iter().map(|&(_, w)| w).collect(),
+            )
+        };
+        let jacobian = problem.outer_jacobian(&x);
+        Ok(LeastSquaresFit {
+            x,
+            cost,
+            initial_cost,
+            status,
+            iterations,
+            evals,
+            jacobian_evals,
+            solve_time,
+            residuals,
+            jacobian,
+            weights,
+        })
+    }
+}
+
+/// [`LeastSquares`] as a [`LeastSquaresProblem`] of `n` parameters, its
+/// residuals transformed by its loss.
+struct Closures<'s, 'a> {
+    spec: &'s LeastSquares<'a>,
+    n: usize,
+    bounds: Option<LinearBounds>,
+    /// Residual evaluations made by the differences.
+    differencing_evals: std::cell::Cell<usize>,
+}
+
+impl Closures<'_, '_> {
+    /// $J = \partial r / \partial x$ at `x`: the user's, or differences
+    /// of the residuals (central: steps $h_k = \epsilon^{1/3} \max(1,
+    /// |x_k|)$, two evaluations per parameter; forward: $h_k =
+    /// \epsilon^{1/2} \max(1, |x_k|)$, one, and one at `x`), scipy's steps.
+    fn outer_jacobian(&self, x: &[f64]) -> Vec<f64> {
+        let (m, n) = (self.spec.m, self.n);
+        let mut j = vec![0.0; m * n];
+        if let Some(jac) = &self.spec.jacobian {
+            jac(x, &mut j);
+            return j;
+        }
+        let central = self.spec.difference == Difference::Central;
+        let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
+        if !central {
+            (self.spec.residuals)(x, &mut minus);
+        }
+        let mut p = x.to_vec();
+        for k in 0..n {
+            let scale = x[k].abs().max(1.0);
+            let h = if central {
+                f64::EPSILON.cbrt()
+            } else {
+                f64::EPSILON.sqrt()
+            } * scale;
+            p[k] = x[k] + h;
+            (self.spec.residuals)(&p, &mut plus);
+            if central {
+                p[k] = x[k] - h;
+                (self.spec.residuals)(&p, &mut minus);
+            }
+            p[k] = x[k];
+            let width = if central { 2.0 * h } else { h };
+            for i in 0..m {
+                j[i * n + k] = (plus[i] - minus[i]) / width;
+            }
+        }
+        let calls = if central { 2 * n } else { n + 1 };
+        self.differencing_evals.set(self.differencing_evals.get() + calls);
+        j
+    }
+}
+
+impl LeastSquaresProblem for Closures<'_, '_> {
+    fn n_params(&self) -> usize {
+        self.n
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.spec.m
+    }
+
+    fn residuals(&self, x: &[f64], r: &mut [f64]) -> Result<()> {
+        (self.spec.residuals)(x, r);
+        for ri in r.iter_mut() {
+            *ri = self.spec.loss.transform(*ri, self.spec.scale).0;
+        }
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        dense_pattern(self.spec.m, self.n)
+    }
+
+    /// The user's Jacobian or the residuals' differences, its rows scaled
+    /// by the loss's $d\tilde r_i / dr_i$ (the differences are of the
+    /// smooth raw residuals, never of the transformed ones).
+    fn jacobian_values(&self, x: &[f64], values: &mut [f64]) -> Result<()> {
+        let (m, n) = (self.spec.m, self.n);
+        let j = self.outer_jacobian(x);
+        let mut r = vec![0.0; m];
+        if self.spec.loss != Loss::Linear {
+            (self.spec.residuals)(x, &mut r);
+        }
+        for i in 0..m {
+            let w = self.spec.loss.transform(r[i], self.spec.scale).1;
+            for k in 0..n {
+                values[i * n + k] = w * j[i * n + k];
+            }
+        }
+        Ok(())
+    }
+
+    fn bounds(&self) -> Option<&LinearBounds> {
+        self.bounds.as_ref()
+    }
+}
+
+/// What [`LeastSquares::solve`] returns.
+#[derive(Debug, Clone)]
+pub struct LeastSquaresFit {
+    /// The best point found.
+    pub x: Vec<f64>,
+    /// $F = \lVert r \rVert^2$ at `x`, or $\sum_i C^2 \rho(z_i)$ with a
+    /// robust [`Loss`] (scipy's `cost` is half of it).
+    pub cost: f64,
+    /// $F$ at the start.
+    pub initial_cost: f64,
+    /// Why the iteration stopped ([`GaussNewtonStatus::is_converged`]).
+    pub status: GaussNewtonStatus,
+    /// Iterations.
+    pub iterations: usize,
+    /// Residual evaluations (the differences' included).
+    pub evals: usize,
+    /// Calls of the user's Jacobian (0 when differenced).
+    pub jacobian_evals: usize,
+    /// Wall time of the solve.
+    pub solve_time: Duration,
+    /// $r$ at `x`.
+    pub residuals: Vec<f64>,
+    /// $J = \partial r / \partial x$ at `x`, $m \times n$ row-major (the
+    /// user's, or central differences).
+    pub jacobian: Vec<f64>,
+    /// $d\tilde r_i / dr_i$ of the loss at `x` (all 1 for the squared loss).
+    weights: Vec<f64>,
+}
+
+impl LeastSquaresFit {
+    /// The covariance of the estimate, $\hat\sigma^2 (J^\top J)^{-1}$ with
+    /// $\hat\sigma^2 = F / (m - n)$, $n \times n$ row-major (NIST's and
+    /// scipy `curve_fit`'s definition); with a robust [`Loss`], $J$'s rows
+    /// are scaled by $d\tilde r_i / dr_i$ (the weights of the last
+    /// reweighted step). $J^\top J$ is factored with its columns scaled to
+    /// unit norm, so that parameters of very different magnitudes lose no
+    /// accuracy.
+    ///
+    /// # Errors
+    /// No more residuals than parameters ($m \le n$), or $J$ of deficient
+    /// rank at `x` ([`TrajoptError::InvalidParameter`] saying which).
+    pub fn covariance(&self) -> Result<Vec<f64>> {
+        let (m, n) = (self.residuals.len(), self.x.len());
+        if m <= n {
+            return Err(TrajoptError::InvalidParameter {
+                name: "covariance",
+                reason: format!("needs more residuals than parameters, got m = {m}, n = {n}"),
+            });
+        }
+        let j: Vec<f64> = (0..m * n).map(|e| self.weights[e / n] * self.jacobian[e]).collect();
+        let norms: Vec<f64> = (0..n)
+            .map(|k| (0..m).map(|i| j[i * n + k].powi(2)).sum::<f64>().sqrt())
+            .collect();
+        let deficient = || TrajoptError::InvalidParameter {
+            name: "covariance",
+            reason: "the Jacobian at the solution does not have full column rank".into(),
+        };
+        if norms.iter().any(|&s| !(s > 0.0 && s.is_finite())) {
+            return Err(deficient());
+        }
+        // D J^T J D with D = diag(1 / |J_k|)
+        let mut a = vec![0.0; n * n];
+        for p in 0..n {
+            for q in 0..=p {
+                let v = (0..m).map(|i| j[i * n + p] * j[i * n + q]).sum::<f64>() / (norms[p] * norms[q]);
+                a[p * n + q] = v;
+                a[q * n + p] = v;
+            }
+        }
+        solve::dense::cholesky(&mut a, n).ok_or_else(deficient)?;
+        let sigma2 = self.cost / (m - n) as f64;
+        let mut cov = vec![0.0; n * n];
+        let mut e = vec![0.0; n];
+        for q in 0..n {
+            e.fill(0.0);
+            e[q] = 1.0;
+            solve::dense::cholesky_solve(&a, n, &mut e);
+            for p in 0..n {
+                cov[p * n + q] = sigma2 * e[p] / (norms[p] * norms[q]);
+            }
+        }
+        Ok(cov)
+    }
+
+    /// The standard errors of the estimate: the square roots of the
+    /// [`covariance`](Self::covariance)'s diagonal.
+    ///
+    /// # Errors
+    /// As [`covariance`](Self::covariance).
+    pub fn standard_errors(&self) -> Result<Vec<f64>> {
+        let n = self.x.len();
+        let cov = self.covariance()?;
+        Ok((0..n).map(|k| cov[k * n + k].sqrt()).collect())
+    }
+}
+
+#[cfg(test)]
+// indices over the parallel arrays of the data read as the model's formula
+#[allow(clippy::needless_range_loop)]
+mod tests {
+    use super::*;
+
+    /// NIST StRD Misra1a: data and certified values (bench/data/nist/Misra1a.dat).
+    const X: [f64; 14] = [
+        77.6, 114.9, 141.1, 190.8, 239.9, 289.0, 332.8, 378.4, 434.8, 477.3, 536.8, 593.1, 689.1, 760.0,
+    ];
+    const Y: [f64; 14] = [
+        10.07, 14.73, 17.94, 23.93, 29.61, 35.18, 40.02, 44.82, 50.76, 55.05, 61.01, 66.40, 75.47, 81.78,
+    ];
+    const B: [f64; 2] = [2.3894212918e2, 5.5015643181e-4];
+    const SE: [f64; 2] = [2.7070075241, 7.2668688436e-6];
+    const RSS: f64 = 1.2455138894e-1;
+
+    /// Log relative error: the digits of `got` that agree with `want`.
+    fn lre(got: f64, want: f64) -> f64 {
+        -((got - want).abs() / want.abs()).log10()
+    }
+
+    fn misra1a<'a>() -> LeastSquares<'a> {
+        LeastSquares::new(X.len(), |b: &[f64], r: &mut [f64]| {
+            for i in 0..X.len() {
+                r[i] = Y[i] - b[0] * (1.0 - (-b[1] * X[i]).exp());
+            }
+        })
+    }
+
+    /// Both NIST starts, with and without the Jacobian, and with forward
+    /// differences: LRE >= 6 on the parameters and the residual sum of
+    /// squares, standard errors within 1 % of the certified ones.
+    #[test]
+    fn misra1a_reaches_nists_certified_values() {
+        let jacobian = |b: &[f64], j: &mut [f64]| {
+            for i in 0..X.len() {
+                let e = (-b[1] * X[i]).exp();
+                j[2 * i] = -(1.0 - e);
+                j[2 * i + 1] = -b[0] * X[i] * e;
+            }
+        };
+        for start in [[500.0, 1e-4], [250.0, 5e-4]] {
+            for (label, problem) in [
+                ("central", misra1a()),
+                ("forward", misra1a().difference(Difference::Forward)),
+                ("jacobian", misra1a().jacobian(jacobian)),
+            ] {
+                let fit = problem.solve(&start).expect("solves");
+                assert!(fit.status.is_converged(), "{label} {start:?}: {:?}", fit.status);
+                for k in 0..2 {
+                    assert!(lre(fit.x[k], B[k]) >= 6.0, "{label} {start:?} b{}: {}", k + 1, fit.x[k]);
+                }
+                assert!(lre(fit.cost, RSS) >= 6.0, "{label} {start:?}: RSS {}", fit.cost);
+                let se = fit.standard_errors().expect("standard errors");
+                for k in 0..2 {
+                    assert!(
+                        (se[k] / SE[k] - 1.0).abs() < 0.01,
+                        "{label} {start:?} se{}: {}",
+                        k + 1,
+                        se[k]
+                    );
+                }
+                assert_eq!(fit.jacobian_evals > 0, label == "jacobian");
+            }
+        }
+    }
+
+    /// A linear problem: the covariance equals $\sigma^2 (A^\top A)^{-1}$
+    /// computed by hand, and the fit is the normal equations' solution.
+    #[test]
+    fn the_covariance_of_a_line_fit_is_the_closed_form() {
+        let t = [0.0, 1.0, 2.0, 3.0, 4.0];
+        let y = [1.1, 2.9, 5.2, 6.8, 9.1];
+        let fit = LeastSquares::new(5, |p: &[f64], r: &mut [f64]| {
+            for i in 0..5 {
+                r[i] = p[0] + p[1] * t[i] - y[i];
+            }
+        })
+        .solve(&[0.0, 0.0])
+        .expect("solves");
+        // closed form: sums for A = [1 t]
+        let (s, st, stt) = (5.0, 10.0, 30.0);
+        let sy: f64 = y.iter().sum();
+        let sty: f64 = t.iter().zip(&y).map(|(a, b)| a * b).sum();
+        let det = s * stt - st * st;
+        let slope = (s * sty - st * sy) / det;
+        let intercept = (sy - slope * st) / s;
+        assert!(
+            (fit.x[0] - intercept).abs() < 1e-9 && (fit.x[1] - slope).abs() < 1e-9,
+            "{:?}",
+            fit.x
+        );
+        let rss: f64 = (0..5).map(|i| (intercept + slope * t[i] - y[i]).powi(2)).sum();
+        let sigma2 = rss / 3.0;
+        let want = [
+            sigma2 * stt / det,
+            -sigma2 * st / det,
+            -sigma2 * st / det,
+            sigma2 * s / det,
+        ];
+        let cov = fit.covariance().expect("covariance");
+        for k in 0..4 {
+            assert!(
+                (cov[k] - want[k]).abs() < 1e-9 * want[k].abs().max(1e-3),
+                "{cov:?} vs {want:?}"
+            );
+        }
+    }
+
+    /// Bad sizes are errors; a rank-deficient Jacobian has no covariance.
+    #[test]
+    fn bad_sizes_and_rank_deficiency_are_errors() {
+        let none = LeastSquares::new(0, |_: &[f64], _: &mut [f64]| {});
+        assert!(none.solve(&[1.0]).is_err());
+        assert!(misra1a().solve(&[]).is_err());
+        // x1 and x2 enter only as their sum
+        let fit = LeastSquares::new(3, |p: &[f64], r: &mut [f64]| {
+            for (i, ri) in r.iter_mut().enumerate() {
+                *ri = p[0] + p[1] - i as f64;
+            }
+        })
+        .solve(&[0.0, 0.0])
+        .expect("solves");
+        let e = fit.covariance().expect_err("deficient").to_string();
+        assert!(e.contains("full column rank"), "{e}");
+    }
+
+    /// Each loss's $\rho'$ equals central differences of $\rho$, and the
+    /// transformed residual squares to the scaled loss with the slope its
+    /// differences give.
+    #[test]
+    fn losses_match_their_derivatives_and_transforms() {
+        let losses = [Loss::Linear, Loss::SoftL1, Loss::Huber, Loss::Cauchy, Loss::Arctan];
+        for loss in losses {
+            for z in [0.0f64, 1e-3, 0.3, 0.999, 1.001, 2.0, 50.0] {
+                let h = 1e-6 * z.max(1e-3);
+                let (rho, drho) = loss.rho(z);
+                if z > h {
+                    let d = (loss.rho(z + h).0 - loss.rho(z - h).0) / (2.0 * h);
+                    assert!(
+                        (d - drho).abs() < 1e-6 * drho.abs().max(1.0),
+                        "{loss:?} z {z}: {d} vs {drho}"
+                    );
+                }
+                assert!(rho >= 0.0 && rho <= z + 1e-15, "{loss:?} z {z}: rho {rho}");
+            }
+            for (r, c) in [(0.0f64, 1.0f64), (0.3, 1.0), (-2.5, 1.0), (4.0, 0.5), (-1e-9, 2.0)] {
+                let (rt, slope) = loss.transform(r, c);
+                let rho = loss.rho((r / c) * (r / c)).0;
+                assert!(
+                    (rt * rt - c * c * rho).abs() < 1e-12 * (1.0 + rt * rt),
+                    "{loss:?} r {r}"
+                );
+                let h = 1e-6;
+                let d = (loss.transform(r + h, c).0 - loss.transform(r - h, c).0) / (2.0 * h);
+                assert!((d - slope).abs() < 1e-5, "{loss:?} r {r} c {c}: {d} vs {slope}");
+            }
+        }
+    }
+
+    /// A line with two gross outliers: every robust loss lands on a
+    /// stationary point of its own cost (its gradient, differenced
+    /// independently, vanishes), below the cost of the plain fit's point,
+    /// and nearer the true line than the plain fit; Huber with a scale
+    /// past every residual is the plain fit.
+    #[test]
+    fn robust_losses_fit_through_outliers() {
+        let t: Vec<f64> = (0..20).map(f64::from).collect();
+        let mut y: Vec<f64> = t.iter().map(|t| 1.0 + 0.5 * t + 0.01 * (t * 7.3).sin()).collect();
+        y[4] += 30.0;
+        y[15] -= 25.0;
+        let line = |loss: Loss, c: f64, start: &[f64]| {
+            let (t, y) = (t.clone(), y.clone());
+            LeastSquares::new(20, move |p: &[f64], r: &mut [f64]| {
+                for i in 0..20 {
+                    r[i] = p[0] + p[1] * t[i] - y[i];
+                }
+            })
+            .loss(loss, c)
+            .solve(start)
+            .expect("solves")
+        };
+        let robust_cost = |loss: Loss, c: f64, p: &[f64]| -> f64 {
+            (0..20)
+                .map(|i| c * c * loss.rho(((p[0] + p[1] * t[i] - y[i]) / c).powi(2)).0)
+                .sum()
+        };
+        let plain = line(Loss::Linear, 1.0, &[0.0, 0.0]);
+        // each robust fit from the plain one's answer (arctan saturates: far
+        // from the data every residual's pull vanishes)
+        for loss in [Loss::SoftL1, Loss::Huber, Loss::Cauchy, Loss::Arctan] {
+            let fit = line(loss, 1.0, &plain.x);
+            assert!(fit.status.is_converged(), "{loss:?}: {:?}", fit.status);
+            assert!((fit.cost - robust_cost(loss, 1.0, &fit.x)).abs() < 1e-9 * fit.cost.max(1.0));
+            for k in 0..2 {
+                let h = 1e-6;
+                let (mut a, mut b) = (fit.x.clone(), fit.x.clone());
+                a[k] += h;
+                b[k] -= h;
+                let g = (robust_cost(loss, 1.0, &a) - robust_cost(loss, 1.0, &b)) / (2.0 * h);
+                assert!(g.abs() < 1e-6 * fit.cost.max(1.0), "{loss:?}: gradient {g} in x{k}");
+            }
+            assert!(fit.cost < robust_cost(loss, 1.0, &plain.x), "{loss:?}");
+            assert!(
+                (fit.x[1] - 0.5).abs() < (plain.x[1] - 0.5).abs(),
+                "{loss:?}: {:?} vs {:?}",
+                fit.x,
+                plain.x
+            );
+            // the redescending losses ignore the outliers; the others keep
+            // a bounded pull from each (soft-L1 and Huber grow like |r|)
+            let tol = if matches!(loss, Loss::Cauchy | Loss::Arctan) {
+                0.01
+            } else {
+                0.05
+            };
+            assert!(
+                (fit.x[1] - 0.5).abs() < tol,
+                "{loss:?}: {:?} (plain {:?})",
+                fit.x,
+                plain.x
+            );
+        }
+        let wide = line(Loss::Huber, 1e3, &[0.0, 0.0]);
+        assert!((wide.x[0] - plain.x[0]).abs() < 1e-8 && (wide.x[1] - plain.x[1]).abs() < 1e-8);
+    }
+
+    /// Bounds holding the optimum leave it (NIST's values); a bound that
+    /// cuts it off is active at the answer, and the free parameter is the
+    /// one-parameter fit's with the other held at its bound; one-sided
+    /// bounds, the user's Jacobian and a robust loss go through the same
+    /// change of variables.
+    #[cfg(feature = "bounds")]
+    #[test]
+    fn box_bounds_keep_the_answer_inside_them() {
+        let inside = misra1a()
+            .bounds(&[200.0, 0.0], &[300.0, 1e-3])
+            .solve(&[250.0, 5e-4])
+            .expect("solves");
+        assert!(
+            lre(inside.x[0], B[0]) >= 6.0 && lre(inside.x[1], B[1]) >= 6.0,
+            "{:?}",
+            inside.x
+        );
+        for (lower, upper, k, bound) in [
+            ([f64::NEG_INFINITY, f64::NEG_INFINITY], [230.0, f64::INFINITY], 0, 230.0),
+            ([f64::NEG_INFINITY, 6e-4], [f64::INFINITY, f64::INFINITY], 1, 6e-4),
+            ([100.0, 1e-5], [230.0, 1e-3], 0, 230.0),
+        ] {
+            let mut start = [220.0, 7e-4];
+            start[k] = if k == 0 { 220.0 } else { 7e-4 };
+            let fit = misra1a().bounds(&lower, &upper).solve(&start).expect("solves");
+            assert!(
+                (fit.x[k] / bound - 1.0).abs() < 1e-6,
+                "{lower:?} {upper:?}: {:?}",
+                fit.x
+            );
+            for j in 0..2 {
+                assert!(lower[j] <= fit.x[j] && fit.x[j] <= upper[j], "{:?}", fit.x);
+            }
+            // the other parameter: the fit with this one held at its bound
+            let free = 1 - k;
+            let held = LeastSquares::new(X.len(), |p: &[f64], r: &mut [f64]| {
+                let b = if k == 0 { [bound, p[0]] } else { [p[0], bound] };
+                for i in 0..X.len() {
+                    r[i] = Y[i] - b[0] * (1.0 - (-b[1] * X[i]).exp());
+                }
+            })
+            .solve(&[start[free]])
+            .expect("solves");
+            assert!(
+                lre(fit.x[free], held.x[0]) >= 5.0,
+                "{lower:?} {upper:?}: {:?} ({:?}, cost {}) vs {:?} ({:?}, cost {})",
+                fit.x,
+                fit.status,
+                fit.cost,
+                held.x,
+                held.status,
+                held.cost
+            );
+        }
+        let jacobian = |b: &[f64], j: &mut [f64]| {
+            for i in 0..X.len() {
+                let e = (-b[1] * X[i]).exp();
+                j[2 * i] = -(1.0 - e);
+                j[2 * i + 1] = -b[0] * X[i] * e;
+            }
+        };
+        let by_hand = misra1a()
+            .jacobian(jacobian)
+            .loss(Loss::SoftL1, 0.1)
+            .bounds(&[200.0, 0.0], &[300.0, 1e-3])
+            .solve(&[250.0, 5e-4])
+            .expect("solves");
+        let differenced = misra1a()
+            .loss(Loss::SoftL1, 0.1)
+            .bounds(&[200.0, 0.0], &[300.0, 1e-3])
+            .solve(&[250.0, 5e-4])
+            .expect("solves");
+        assert!(
+            by_hand.status.is_converged() && differenced.status.is_converged(),
+            "{:?} {:?} / {:?} {:?}",
+            by_hand.status,
+            by_hand.x,
+            differenced.status,
+            differenced.x
+        );
+        for k in 0..2 {
+            assert!(
+                lre(by_hand.x[k], differenced.x[k]) >= 5.0,
+                "{:?} vs {:?}",
+                by_hand.x,
+                differenced.x
+            );
+        }
+        let e = misra1a()
+            .bounds(&[0.0, 0.0], &[100.0, 1.0])
+            .solve(&[500.0, 1e-4])
+            .expect_err("outside");
+        assert!(e.to_string().contains("x0[0] = 500 is outside its bounds"), "{e}");
+        let e = misra1a()
+            .bounds(&[0.0], &[1.0])
+            .solve(&[500.0, 1e-4])
+            .expect_err("sizes");
+        assert!(e.to_string().contains("bounds"), "{e}");
+        assert!(misra1a().loss(Loss::Huber, 0.0).solve(&[500.0, 1e-4]).is_err());
+    }
+
+    proptest::proptest! {
+        #![proptest_config(proptest::prelude::ProptestConfig::with_cases(32))]
+
+        /// On random linear problems $r = A x - b$ ($m > n$) the front
+        /// door, without a Jacobian, reaches the normal equations' solution
+        /// solved independently (a Cholesky of $A^\top A$).
+        #[test]
+        fn the_front_door_reaches_the_linear_solution(
+            n in 1usize..5,
+            extra in 1usize..6,
+            seed in proptest::prelude::any::<u64>(),
+        ) {
+            let m = n + extra;
+            let mut state = seed | 1;
+            let mut next = || {
+                state ^= state << 13;
+                state ^= state >> 7;
+                state ^= state << 17;
+                (state % 2001) as f64 / 1000.0 - 1.0
+            };
+            let a: Vec<f64> = (0..m * n).map(|e| next() + if e % (n + 1) == 0 { 2.0 } else { 0.0 }).collect();
+            let b: Vec<f64> = (0..m).map(|_| next()).collect();
+            let mut ata = vec![0.0; n * n];
+            let mut atb = vec![0.0; n];
+            for p in 0..n {
+                for q in 0..n {
+                    ata[p * n + q] = (0..m).map(|i| a[i * n + p] * a[i * n + q]).sum();
+                }
+                atb[p] = (0..m).map(|i| a[i * n + p] * b[i]).sum();
+            }
+            proptest::prop_assume!(solve::dense::cholesky(&mut ata, n).is_some_and(|(lo, hi)| lo > 1e-3 * hi));
+            solve::dense::cholesky_solve(&ata, n, &mut atb);
+            let fit = LeastSquares::new(m, |x: &[f64], r: &mut [f64]| {
+                for i in 0..m {
+                    r[i] = (0..n).map(|k| a[i * n + k] * x[k]).sum::<f64>() - b[i];
+                }
+            })
+            .solve(&vec![0.0; n])
+            .expect("solves");
+            for k in 0..n {
+                proptest::prop_assert!((fit.x[k] - atb[k]).abs() < 1e-7 * (1.0 + atb[k].abs()), "{:?} vs {:?}", fit.x, atb);
+            }
+        }
+    }
+}
