@@ -16,6 +16,10 @@ def ensure_venv(script):
     py = VENV / "bin" / "python"
     if pathlib.Path(sys.prefix).resolve() == VENV.resolve():
         return
+    # NPRL_ANY_PYTHON=1: run in the current Python, which has the packages
+    # the script needs (a lighter venv than the full reference one)
+    if os.environ.get("NPRL_ANY_PYTHON") == "1":
+        return
     if not py.exists():
         subprocess.run([sys.executable, "-m", "venv", str(VENV)], check=True)
         subprocess.run([str(py), "-m", "pip", "install", "-q", "-r", str(ROOT / "scripts" / "requirements.txt")], check=True)

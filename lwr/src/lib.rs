@@ -15,6 +15,7 @@ mod metric;
 mod model;
 #[cfg(feature = "nalgebra")]
 mod nalgebra_interop;
+pub mod regressor;
 mod scaled;
 mod settings;
 #[cfg(feature = "proptest")]
@@ -37,5 +38,6 @@ pub use database::{Database, Neighbor};
 pub use error::{LwrError, Result};
 pub use loo::LooResult;
 pub use model::{FitStatus, LwrModel, Prediction, t_quantile};
+pub use regressor::FitSettings;
 pub use settings::{Degree, Kernel, LwrSettings};
 pub use tune::{TuneResult, TuneRun, TuneSettings, TuneStatus, TuneStep};

@@ -1,0 +1,63 @@
+//! `LwrModel::fit` on a data set from `scripts/lwr_diabetes.py`, for the
+//! side-by-side comparison with scikit-learn's `KNeighborsRegressor` (k by
+//! `GridSearchCV`) and statsmodels' `KernelReg`: the library's front door
+//! exactly as a user calls it (`lwr::regressor`).
+//!
+//! `cargo run --release -p nprl-drivers --bin lwr_fit_timing -- DATA.json`
+//!
+//! `DATA.json` holds `train_x` ($n \times d$), `train_y` ($n$), `test_x`,
+//! `test_y`. Prints one JSON object on one line: the seconds of `fit`
+//! (scales from the data, the metric tuned by leave-one-out) and of
+//! `predict_many` over the test rows, the test RMSE, and the share of test
+//! targets inside their 95 % prediction intervals.
+
+use std::time::Instant;
+
+use lwr::LwrModel;
+use serde::Deserialize;
+
+#[derive(Deserialize)]
+struct Data {
+    train_x: Vec<Vec<f64>>,
+    train_y: Vec<f64>,
+    test_x: Vec<Vec<f64>>,
+    test_y: Vec<f64>,
+}
+
+fn main() -> Result<(), Box<dyn std::error::Error>> {
+    let path = std::env::args().nth(1).ok_or("usage: lwr_fit_timing DATA.json")?;
+    let data: Data = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+
+    let t = Instant::now();
+    let model = LwrModel::fit(&data.train_x, &data.train_y)?;
+    let fit_s = t.elapsed().as_secs_f64();
+    let t = Instant::now();
+    let predictions = model.predict_many(&data.test_x)?;
+    let predict_s = t.elapsed().as_secs_f64();
+
+    let m = data.test_y.len() as f64;
+    let rmse = (predictions
+        .iter()
+        .zip(&data.test_y)
+        .map(|(p, y)| (p.mean[0] - y).powi(2))
+        .sum::<f64>()
+        / m)
+        .sqrt();
+    let inside = predictions
+        .iter()
+        .zip(&data.test_y)
+        .filter(|(p, y)| p.prediction_interval(0).is_some_and(|(lo, hi)| lo <= **y && **y <= hi))
+        .count();
+    println!(
+        "{}",
+        serde_json::json!({
+            "fit_s": fit_s,
+            "predict_s": predict_s,
+            "rmse": rmse,
+            "coverage": inside as f64 / m,
+            "r2": model.score(&data.test_x, &data.test_y)?,
+            "bandwidth": model.settings().bandwidth,
+        })
+    );
+    Ok(())
+}
