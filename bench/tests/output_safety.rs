@@ -382,3 +382,23 @@ fn a_full_disk_names_the_file_and_leaves_a_repairable_set() {
         assert!(disk.path().join(".nprl-bench.incomplete").exists(), "{names:?}");
     }
 }
+
+/// The help a person reads (issue 50, item 7): no rustdoc link syntax, no
+/// LaTeX, no internal issue numbers; `--version` names the commit.
+#[test]
+fn help_is_plain_text_and_the_version_names_the_commit() {
+    let o = Command::new(env!("CARGO_BIN_EXE_nprl-bench"))
+        .arg("--help")
+        .output()
+        .expect("runs");
+    let help = String::from_utf8_lossy(&o.stdout);
+    for bad in ["[`", "`]", "$", "issue 3", "issue 4", "issue 5", "crate::"] {
+        assert!(!help.contains(bad), "--help holds {bad:?}:\n{help}");
+    }
+    let o = Command::new(env!("CARGO_BIN_EXE_nprl-bench"))
+        .arg("--version")
+        .output()
+        .expect("runs");
+    let v = String::from_utf8_lossy(&o.stdout);
+    assert!(v.contains("commit") && v.starts_with("nprl-bench 0."), "{v}");
+}

@@ -150,12 +150,16 @@ impl FitArgs {
 #[serde(rename_all = "lowercase")]
 pub enum KernelArg {
     /// $e^{-u^2/2}$, truncated at 5 bandwidths.
+    #[value(help = "exp(-u^2 / 2), truncated at 5 bandwidths")]
     Gaussian,
     /// $(1 - u^3)^3$ on $u < 1$.
+    #[value(help = "(1 - u^3)^3 for u < 1")]
     Tricube,
     /// $1 - u^2$ on $u < 1$.
+    #[value(help = "1 - u^2 for u < 1")]
     Epanechnikov,
     /// $(1 - u^2)^2$ on $u < 1$.
+    #[value(help = "(1 - u^2)^2 for u < 1")]
     Bisquare,
 }
 

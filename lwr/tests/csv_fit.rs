@@ -764,3 +764,23 @@ fn a_huge_bad_cell_is_echoed_cut() {
         "{msg}"
     );
 }
+
+/// The help a person reads (issue 50, item 7): no LaTeX or rustdoc link
+/// syntax; `--version` names the commit.
+#[test]
+fn help_is_plain_text_and_the_version_names_the_commit() {
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_lwr-fit"))
+        .arg("--help")
+        .output()
+        .expect("runs");
+    let help = String::from_utf8_lossy(&o.stdout);
+    for bad in ["[`", "`]", "$", "crate::"] {
+        assert!(!help.contains(bad), "--help holds {bad:?}:\n{help}");
+    }
+    let o = std::process::Command::new(env!("CARGO_BIN_EXE_lwr-fit"))
+        .arg("--version")
+        .output()
+        .expect("runs");
+    let v = String::from_utf8_lossy(&o.stdout);
+    assert!(v.contains("commit") && v.starts_with("lwr-fit 0."), "{v}");
+}

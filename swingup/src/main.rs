@@ -71,10 +71,17 @@ struct ConfigArgs {
     out: Option<PathBuf>,
 }
 
+/// `--version`: the package's version and the commit the binary was built
+/// from (`store::code_version`).
+fn version() -> &'static str {
+    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    VERSION.get_or_init(|| format!("{} ({})", env!("CARGO_PKG_VERSION"), store::code_version()))
+}
+
 /// Learn a pendulum swing-up from a human demonstration, as in Atkeson's
 /// "Nonparametric Model-Based Reinforcement Learning" (simulated).
 #[derive(Debug, Parser)]
-#[command(version, about, long_about = None)]
+#[command(version = version(), about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,
@@ -233,7 +240,7 @@ struct ExperimentsArgs {
     #[arg(long)]
     seeds: Option<u64>,
     /// Seeds of the paper-basis variants (Powell and Gauss-Newton on 10
-    /// state and 8 control coefficients; issue 33), 0 by default.
+    /// state and 8 control coefficients), 0 by default.
     #[arg(long)]
     paper_basis_seeds: Option<u64>,
     /// Seeds of the derivative-free least-squares variant (overrides the

@@ -445,3 +445,31 @@ fn a_closed_stdout_fails_every_subcommand_after_its_work() {
         assert!(stderr(&o).contains("standard output"), "{args:?}: {}", stderr(&o));
     }
 }
+
+/// The help a person reads (issue 50, item 7): no rustdoc link syntax, no
+/// LaTeX, no internal issue numbers, in the program's help and every
+/// subcommand's; `--version` names the commit.
+#[test]
+fn help_is_plain_text_and_the_version_names_the_commit() {
+    for sub in [
+        None,
+        Some("learn"),
+        Some("config"),
+        Some("experiments"),
+        Some("fit"),
+        Some("sensitivity"),
+        Some("basin"),
+    ] {
+        let mut args: Vec<&str> = sub.into_iter().collect();
+        args.push("--help");
+        let o = swingup(&args);
+        assert!(o.status.success(), "{args:?}");
+        let help = String::from_utf8_lossy(&o.stdout);
+        for bad in ["[`", "`]", "$", "issue 3", "issue 4", "issue 5", "crate::"] {
+            assert!(!help.contains(bad), "{args:?} --help holds {bad:?}:\n{help}");
+        }
+    }
+    let o = swingup(&["--version"]);
+    let v = String::from_utf8_lossy(&o.stdout);
+    assert!(v.contains("commit") && v.starts_with("swingup 0."), "{v}");
+}

@@ -110,6 +110,9 @@ pub enum Controller {
     /// The paper's: the plan's commands with the hand servoed to the planned
     /// hand path, the pendulum open loop (or the time-varying LQR of
     /// [`Config::feedback`]).
+    #[value(
+        help = "The paper's: the plan's commands, the hand servoed to the planned hand path, the pendulum open loop (or the time-varying LQR of `feedback`)"
+    )]
     OpenLoop,
     /// Model-predictive control, beyond the paper: the trial starts with
     /// the planner's plan, then Eq. 3 is replanned by Gauss-Newton from the
@@ -119,6 +122,9 @@ pub enum Controller {
     /// the model at once when it learns online (the LWR). The LQR catch
     /// near upright stays. After the swing-up window the reference is
     /// upright at rest, and replanning goes on until the catch.
+    #[value(
+        help = "Model-predictive control, beyond the paper: Eq. 3 replanned by Gauss-Newton from the measured state every `mpc.every` steps over a window of `mpc.window` steps, warm-started from the previous plan; the LQR catch near upright stays"
+    )]
     Mpc,
 }
 
@@ -190,6 +196,9 @@ pub enum CatchKind {
     /// Where the LQR's cost to go $e^\top P e$ is below a level calibrated
     /// so that at least 99 % of the states below it are balanced
     /// ([`crate::plant::basin`]).
+    #[value(
+        help = "Where the LQR's cost to go is below a level calibrated so that at least 99 % of the states below it are balanced (`swingup basin`)"
+    )]
     Basin,
 }
 
@@ -206,6 +215,9 @@ pub enum Start {
     /// $\pm$ `exploration`, the hand servoed to its home); the task cost
     /// tracks upright at rest over the whole window with $u^d = 0$; and
     /// each plan starts from the previous trial's observed trajectory.
+    #[value(
+        help = "Without a demonstration (a baseline, beyond the paper): trial 1 sends random smooth commands within +- `exploration`; the task cost tracks upright at rest; each plan starts from the previous trial"
+    )]
     Scratch,
 }
 
@@ -264,6 +276,9 @@ pub enum Differences {
     /// Per step: forward differences of the model in each of its inputs,
     /// every step at once ($n + m + 1$ model evaluations per step, about 6
     /// criterion evaluations per Jacobian; `trajopt::derivative_free::Differenced`).
+    #[value(
+        help = "Per step: forward differences of the model in each input, every step at once (n + m + 1 model evaluations per step)"
+    )]
     #[default]
     Elements,
     /// Per coefficient group: Curtis-Powell-Reid groups of the criterion's
@@ -277,9 +292,11 @@ pub enum Differences {
 #[serde(rename_all = "kebab-case")]
 pub enum DifferenceKind {
     /// $(f(z + h) - f(z)) / h$: first-order accurate, the fewest evaluations.
+    #[value(help = "(f(z + h) - f(z)) / h: first-order accurate, the fewest evaluations")]
     #[default]
     Forward,
     /// $(f(z + h) - f(z - h)) / 2h$: second-order accurate, about twice the evaluations.
+    #[value(help = "(f(z + h) - f(z - h)) / 2h: second-order accurate, about twice the evaluations")]
     Central,
 }
 
@@ -322,6 +339,9 @@ pub enum LwrPrior {
     /// A global control-affine fit on the angle's sine and cosine and the
     /// other inputs ([`ControlAffineRegression`](crate::models::ControlAffineRegression)):
     /// extrapolates how the command's effect depends on the state.
+    #[value(
+        help = "A global control-affine fit on the angle's sine and cosine and the other inputs: extrapolates how the command's effect depends on the state"
+    )]
     ControlAffine,
 }
 
