@@ -14,19 +14,10 @@
 use std::time::Instant;
 
 use lwr::LwrModel;
-use serde::Deserialize;
-
-#[derive(Deserialize)]
-struct Data {
-    train_x: Vec<Vec<f64>>,
-    train_y: Vec<f64>,
-    test_x: Vec<Vec<f64>>,
-    test_y: Vec<f64>,
-}
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).ok_or("usage: lwr_fit_timing DATA.json")?;
-    let data: Data = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+    let data = nprl_drivers::RegressionData::read(&path)?;
 
     let t = Instant::now();
     let model = LwrModel::fit(&data.train_x, &data.train_y)?;

@@ -17,15 +17,6 @@
 use std::time::Instant;
 
 use lwr::{Kernel, LwrModel, LwrSettings, TuneSettings};
-use serde::Deserialize;
-
-#[derive(Deserialize)]
-struct Data {
-    train_x: Vec<Vec<f64>>,
-    train_y: Vec<f64>,
-    test_x: Vec<Vec<f64>>,
-    test_y: Vec<f64>,
-}
 
 fn variance(v: &[f64]) -> f64 {
     let n = v.len() as f64;
@@ -35,7 +26,7 @@ fn variance(v: &[f64]) -> f64 {
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).ok_or("usage: compare_timing DATA.json")?;
-    let data: Data = serde_json::from_str(&std::fs::read_to_string(&path)?)?;
+    let data = nprl_drivers::RegressionData::read(&path)?;
     let d = data.train_x.first().map(Vec::len).ok_or("no training rows")?;
     let n = data.train_x.len();
     let spreads: Vec<f64> = (0..d)
