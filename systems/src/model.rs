@@ -248,27 +248,81 @@ pub fn central_differences<D: Dynamics + ?Sized>(
     fx: &mut [f64],
     fu: &mut [f64],
 ) -> ModelResult<()> {
-    let (n, m) = (x.len(), u.len());
-    let mut z: Vec<f64> = x.iter().chain(u).copied().collect();
-    let (mut plus, mut minus) = (vec![0.0; n], vec![0.0; n]);
+    differences(
+        x.len(),
+        x,
+        Some(u),
+        &mut |x, u, out| model.step(x, u.unwrap_or(&[]), out),
+        fx,
+        fu,
+    )
+}
+
+/// A function of $(x, u)$ ($u$ absent at a terminal stage) writing its
+/// values into the last argument.
+type Evaluation<'a> = dyn FnMut(&[f64], Option<&[f64]>, &mut [f64]) -> ModelResult<()> + 'a;
+
+/// Central differences of a function $g(x, u) \in \mathbb R^p$ over $z =
+/// (x, u)$ ($x$ alone when `u` is `None`), with $h = \epsilon^{1/3}
+/// \max(1, \lvert z_j \rvert)$; writes $\partial g / \partial x$ ($p
+/// \times n$) into `gx` and $\partial g / \partial u$ ($p \times m$) into
+/// `gu`, row-major.
+fn differences(
+    p: usize,
+    x: &[f64],
+    u: Option<&[f64]>,
+    g: &mut Evaluation<'_>,
+    gx: &mut [f64],
+    gu: &mut [f64],
+) -> ModelResult<()> {
+    let n = x.len();
+    let m = u.map_or(0, <[f64]>::len);
+    let mut z: Vec<f64> = x.iter().chain(u.unwrap_or(&[])).copied().collect();
+    let (mut plus, mut minus) = (vec![0.0; p], vec![0.0; p]);
     for j in 0..n + m {
         let z0 = z[j];
         let h = f64::EPSILON.cbrt() * z0.abs().max(1.0);
         z[j] = z0 + h;
-        model.step(&z[..n], &z[n..], &mut plus)?;
+        g(&z[..n], u.map(|_| &z[n..]), &mut plus)?;
         z[j] = z0 - h;
-        model.step(&z[..n], &z[n..], &mut minus)?;
+        g(&z[..n], u.map(|_| &z[n..]), &mut minus)?;
         z[j] = z0;
-        for i in 0..n {
+        for i in 0..p {
             let d = (plus[i] - minus[i]) / (2.0 * h);
             if j < n {
-                fx[i * n + j] = d;
+                gx[i * n + j] = d;
             } else {
-                fu[i * m + (j - n)] = d;
+                gu[i * m + (j - n)] = d;
             }
         }
     }
     Ok(())
+}
+
+/// Central differences of [`StageCost::residuals`] at stage `k`, as
+/// [`central_differences`] for a model: $\partial r_k / \partial x$
+/// (`n_residuals` $\times n$) into `jx` and, unless at the terminal stage
+/// (`u` is `None`), $\partial r_k / \partial u$ into `ju`, row-major. The
+/// default of [`StageCost::jacobians`].
+///
+/// # Errors
+/// A failed residual evaluation.
+pub fn stage_central_differences<C: StageCost + ?Sized>(
+    cost: &C,
+    k: usize,
+    x: &[f64],
+    u: Option<&[f64]>,
+    jx: &mut [f64],
+    ju: &mut [f64],
+) -> ModelResult<()> {
+    differences(
+        cost.n_residuals(),
+        x,
+        u,
+        &mut |x, u, r| cost.residuals(k, x, u, r),
+        jx,
+        ju,
+    )
 }
 
 /// A stage cost in residual form, $c_k(x, u) = \lVert r_k(x, u) \rVert^2$,
@@ -288,11 +342,16 @@ pub trait StageCost {
 
     /// Writes $\partial r_k / \partial x$ (`n_residuals` $\times n$) and
     /// $\partial r_k / \partial u$ (`n_residuals` $\times m$), row-major;
-    /// at the terminal stage `ju` is ignored.
+    /// at the terminal stage `ju` is ignored. The default differences
+    /// [`residuals`](Self::residuals) ([`stage_central_differences`],
+    /// $2(n + m)$ evaluations): a cost that leaves it out still works with
+    /// every solver, and one that writes it is faster and exact.
     ///
     /// # Errors
     /// Whatever the cost reports.
-    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()>;
+    fn jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
+        stage_central_differences(self, k, x, u, jx, ju)
+    }
 
     /// Which entries of the residual Jacobians can be nonzero at any stage
     /// (row-major, as in [`jacobians`](Self::jacobians)); the default says
@@ -424,6 +483,70 @@ impl InnerPendulum for crate::SwingUpModel {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// A stage cost with its Jacobians written out, and the same cost
+    /// without them ([`StageCost::jacobians`]'s default differences).
+    struct Written;
+    struct ResidualsOnly;
+
+    fn r(x: &[f64], u: Option<&[f64]>, out: &mut [f64]) {
+        out[0] = x[0] * x[0] - u.map_or(0.0, |u| 3.0 * u[0]);
+        out[1] = x[1].sin() * x[0];
+        out[2] = u.map_or(x[1], |u| u[0].exp() - x[1]);
+    }
+
+    impl StageCost for Written {
+        fn n_residuals(&self) -> usize {
+            3
+        }
+        fn residuals(&self, _: usize, x: &[f64], u: Option<&[f64]>, out: &mut [f64]) -> ModelResult<()> {
+            r(x, u, out);
+            Ok(())
+        }
+        fn jacobians(&self, _: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> ModelResult<()> {
+            jx.copy_from_slice(&[
+                2.0 * x[0],
+                0.0,
+                x[1].sin(),
+                x[1].cos() * x[0],
+                0.0,
+                if u.is_some() { -1.0 } else { 1.0 },
+            ]);
+            if let Some(u) = u {
+                ju.copy_from_slice(&[-3.0, 0.0, u[0].exp()]);
+            }
+            Ok(())
+        }
+    }
+
+    impl StageCost for ResidualsOnly {
+        fn n_residuals(&self) -> usize {
+            3
+        }
+        fn residuals(&self, _: usize, x: &[f64], u: Option<&[f64]>, out: &mut [f64]) -> ModelResult<()> {
+            r(x, u, out);
+            Ok(())
+        }
+    }
+
+    proptest::proptest! {
+        /// A cost without Jacobians gets its residuals' central
+        /// differences: the written Jacobians to 1e-8, at running and
+        /// terminal stages (where `ju` is left alone).
+        #[test]
+        fn a_stage_cost_without_jacobians_is_differenced(
+            x0 in -2.0f64..2.0, x1 in -2.0f64..2.0, u0 in -1.0f64..1.0, terminal in proptest::prelude::any::<bool>(),
+        ) {
+            let (x, u) = ([x0, x1], [u0]);
+            let u = (!terminal).then_some(&u[..]);
+            let (mut jx, mut ju, mut dx, mut du) = ([0.0; 6], [7.0; 3], [0.0; 6], [7.0; 3]);
+            Written.jacobians(0, &x, u, &mut jx, &mut ju).expect("written");
+            ResidualsOnly.jacobians(0, &x, u, &mut dx, &mut du).expect("differenced");
+            for (a, b) in jx.iter().zip(&dx).chain(ju.iter().zip(&du)) {
+                proptest::prop_assert!((a - b).abs() < 1e-8 * (1.0 + a.abs()), "{jx:?} {ju:?} vs {dx:?} {du:?}");
+            }
+        }
+    }
     use crate::{Acrobot, CartPole, Mechanics, Pendulum};
 
     fn check_differences<D: Dynamics>(model: D, x: &[f64], u: &[f64]) {
