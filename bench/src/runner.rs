@@ -128,6 +128,15 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     let started = std::time::Instant::now();
     let mut whole_set = true;
     let ours = if settings.reuse {
+        if store::check_output(&runs_path)?.is_none() {
+            return Err(BenchError::InvalidSetting {
+                name: "reuse",
+                reason: format!(
+                    "{} holds no runs.json to reuse; run without --reuse",
+                    settings.out.display()
+                ),
+            });
+        }
         RecordFile::load(&runs_path)?
     } else {
         let runs = run_all(settings)?;

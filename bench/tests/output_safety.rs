@@ -271,7 +271,12 @@ fn a_kill_at_any_moment_leaves_the_old_set_or_a_marker_that_the_next_run_repairs
         let _ = child.kill(); // SIGKILL
         let _ = child.wait();
         let marker = out.path().join(".nprl-bench.incomplete");
-        if marker.exists() {
+        if marker.exists() && !out.path().join("runs.json").exists() {
+            // stopped before the first runs.json: nothing to reuse, said so
+            let o = bench(&[&QUICK[..], &["--reuse"]].concat(), out.path());
+            assert!(!o.status.success());
+            assert!(stderr(&o).contains("no runs.json to reuse"), "{}", stderr(&o));
+        } else if marker.exists() {
             // the next run names the interruption and rewrites every file
             let o = bench(&[&QUICK[..], &["--reuse"]].concat(), out.path());
             assert!(o.status.success(), "{}", stderr(&o));

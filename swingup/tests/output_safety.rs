@@ -244,10 +244,11 @@ fn config_goes_to_a_file_whole_never_through_a_link_and_a_full_stdout_fails() {
     }
 }
 
-/// The cart-pole's quick settings (`CartPoleSettings::quick`, every trial
-/// run), as a `--cartpole-settings` file.
-const QUICK_CARTPOLE: &str = r#"{"episode": 1.5, "success_hold": 0.5, "window": 8, "state_coeffs": 8,
-  "control_coeffs": 6, "replan_iterations": 2, "cold_iterations": 3, "model": {"tune_evals": 10},
+/// Small cart-pole settings (every trial run; about a second for six
+/// trials in the test build, so that kills land inside trials), as a
+/// `--cartpole-settings` file.
+const QUICK_CARTPOLE: &str = r#"{"episode": 4.0, "success_hold": 0.5, "window": 15, "state_coeffs": 10,
+  "control_coeffs": 8, "replan_iterations": 5, "cold_iterations": 5, "model": {"tune_evals": 40},
   "stop_at_success": false}"#;
 
 /// Each `trial_NN.json` of `dir` as (trial, success, states, forces), in order.
@@ -283,7 +284,7 @@ fn the_cartpole_killed_at_any_moment_resumes_to_the_uninterrupted_run() {
             "--task".into(),
             "cartpole".into(),
             "--max-trials".into(),
-            "3".into(),
+            "5".into(),
             "--seed".into(),
             "5".into(),
             "--cartpole-settings".into(),
@@ -298,9 +299,9 @@ fn the_cartpole_killed_at_any_moment_resumes_to_the_uninterrupted_run() {
     assert!(o.status.success(), "{}", stderr(&o));
     let took = started.elapsed();
     let want = cartpole_trials(&reference);
-    assert_eq!(want.len(), 4, "a random trial and 3 MPC trials");
+    assert_eq!(want.len(), 6, "a random trial and 5 MPC trials");
     assert!(
-        String::from_utf8_lossy(&o.stdout).contains("trial  4: mpc"),
+        String::from_utf8_lossy(&o.stdout).contains("trial  6: mpc"),
         "a progress line per trial"
     );
     for (k, fraction) in [0.05, 0.3, 0.5, 0.7, 0.9].into_iter().enumerate() {
