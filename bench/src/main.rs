@@ -12,17 +12,10 @@ use bench::runner::{RunnerSettings, execute};
 use bench::solvers::Solver;
 use clap::Parser;
 
-/// `--version`: the package's version and the commit the binary was built
-/// from (`store::code_version`).
-fn version() -> &'static str {
-    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    VERSION.get_or_init(|| format!("{} ({})", env!("CARGO_PKG_VERSION"), store::code_version()))
-}
-
 /// Runs solvers on a problem set; writes per-problem tables, performance
 /// and data profiles (JSON, CSV, SVG, PNG), the goals and the summary.
 #[derive(Debug, Parser)]
-#[command(name = "nprl-bench", version = version())]
+#[command(name = "nprl-bench", version = store::program_version(env!("CARGO_PKG_VERSION")))]
 struct Cli {
     /// Problem set: mgh (the Moré-Garbow-Hillstrom problems), nist (the
     /// NIST StRD nonlinear regression problems) or trajectory (the

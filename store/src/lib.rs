@@ -72,6 +72,14 @@ pub fn code_version() -> &'static str {
     env!("NPRL_CODE_VERSION")
 }
 
+/// A program's `--version` line: its package's version `package` (its
+/// `CARGO_PKG_VERSION`) and the commit it was built from, `0.1.0 (commit
+/// abc1234)`. Made once per process (a program has one version).
+pub fn program_version(package: &str) -> &'static str {
+    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
+    VERSION.get_or_init(|| format!("{package} ({})", code_version()))
+}
+
 /// [`code_version`] split into the commit's hash (`None` when unknown) and
 /// whether the code was dirty.
 pub fn parse_code_version(version: &str) -> (Option<&str>, bool) {

@@ -71,17 +71,10 @@ struct ConfigArgs {
     out: Option<PathBuf>,
 }
 
-/// `--version`: the package's version and the commit the binary was built
-/// from (`store::code_version`).
-fn version() -> &'static str {
-    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    VERSION.get_or_init(|| format!("{} ({})", env!("CARGO_PKG_VERSION"), store::code_version()))
-}
-
 /// Learn a pendulum swing-up from a human demonstration, as in Atkeson's
 /// "Nonparametric Model-Based Reinforcement Learning" (simulated).
 #[derive(Debug, Parser)]
-#[command(version = version(), about, long_about = None)]
+#[command(version = store::program_version(env!("CARGO_PKG_VERSION")), about, long_about = None)]
 struct Cli {
     #[command(subcommand)]
     command: Option<Command>,

@@ -14,18 +14,11 @@ use std::process::ExitCode;
 use clap::Parser;
 use lwr::csv_fit::{FitArgs, error_chain, fit_command};
 
-/// `--version`: the package's version and the commit the binary was built
-/// from (`store::code_version`).
-fn version() -> &'static str {
-    static VERSION: std::sync::OnceLock<String> = std::sync::OnceLock::new();
-    VERSION.get_or_init(|| format!("{} ({})", env!("CARGO_PKG_VERSION"), store::code_version()))
-}
-
 /// Fit a locally weighted regression model to a CSV file: tune its metric
 /// by leave-one-out cross-validation, report the tuned scale of each input
 /// and, with a test file, the test error and predictions.
 #[derive(Debug, Parser)]
-#[command(name = "lwr-fit", version = version())]
+#[command(name = "lwr-fit", version = store::program_version(env!("CARGO_PKG_VERSION")))]
 struct Cli {
     #[command(flatten)]
     fit: FitArgs,
