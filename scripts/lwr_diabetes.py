@@ -4,7 +4,7 @@ scikit-learn's KNeighborsRegressor (k by 5-fold GridSearchCV) and, with
 --kernelreg, statsmodels' KernelReg (local linear, bandwidths by cv_ls), in
 one run, on one 80/20 split.
 
-    python3 scripts/lwr_diabetes.py [--seed S] [--kernelreg]
+    python3 scripts/lwr_diabetes.py [--seed S] [--kernelreg] [--tune-evals N] [--tune-points P]
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
 on first use; NPRL_ANY_PYTHON=1 runs in the current Python instead (it needs
@@ -42,10 +42,12 @@ def rmse(pred, y):
     return float(np.sqrt(np.mean((np.asarray(pred) - np.asarray(y)) ** 2)))
 
 
-def run_lwr(xtr, ytr, xte, yte):
+def run_lwr(xtr, ytr, xte, yte, tune_evals=None, tune_points=None):
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
         json.dump({"train_x": xtr.tolist(), "train_y": ytr.tolist(), "test_x": xte.tolist(), "test_y": yte.tolist()}, f)
     cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_fit_timing", "--", f.name]
+    if tune_evals is not None:
+        cmd += [str(tune_evals), str(tune_points or 0)]
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     pathlib.Path(f.name).unlink()
     return json.loads(out.strip().splitlines()[-1])
@@ -80,12 +82,15 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--kernelreg", action="store_true")
+    parser.add_argument("--tune-evals", type=int, help="lwr's tuning evaluations (default: LwrModel::fit's)")
+    parser.add_argument("--tune-points", type=int, default=0, help="lwr's points per evaluation (0: all)")
     args = parser.parse_args()
     x, y = load_diabetes(return_X_y=True)
     xtr, xte, ytr, yte = train_test_split(x, y, test_size=0.2, random_state=args.seed)
     subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_fit_timing"],
                    cwd=ROOT, check=True)
-    rows = [("lwr (LwrModel::fit)", run_lwr(xtr, ytr, xte, yte)), ("KNN, k by GridSearchCV", run_knn(xtr, ytr, xte, yte))]
+    label = "lwr (LwrModel::fit)" if args.tune_evals is None else f"lwr ({args.tune_evals} evaluations, {args.tune_points or 'all'} points)"
+    rows = [(label, run_lwr(xtr, ytr, xte, yte, args.tune_evals, args.tune_points)), ("KNN, k by GridSearchCV", run_knn(xtr, ytr, xte, yte))]
     if args.kernelreg:
         rows.append(("KernelReg ll, cv_ls", run_kernelreg(xtr, ytr, xte, yte)))
     commit = subprocess.run(["git", "rev-parse", "--short=7", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()

@@ -12,55 +12,11 @@ use clap::{Parser, Subcommand};
 use swingup::config::{BasisKind, Config, Controller, LwrPrior, ModelKind, Solver};
 use swingup::experiments::{Experiment, ExperimentSettings};
 use swingup::learn::run;
+use swingup::output::console::stdout_failed;
 use swingup::output::grid::{GridEvent, GridMode, GridOptions};
 use swingup::output::run_report;
 use swingup::record::TrialRecord;
-
-/// Set once stdout is found closed or full (a pipe whose reader is gone,
-/// as in `swingup ... | head -1`, or `> /dev/full`): output is dropped from
-/// then on, the work goes on and is saved, and the program then ends with
-/// a message and status 1 ([`main`]).
-static STDOUT_CLOSED: std::sync::atomic::AtomicBool = std::sync::atomic::AtomicBool::new(false);
-
-/// Writes a line to stdout; a closed or full stdout never stops the work
-/// (nor panics, as `println!` would): the line is dropped, said once on
-/// stderr, and the program's status is 1 at the end.
-fn say_line(args: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    use std::sync::atomic::Ordering;
-    if STDOUT_CLOSED.load(Ordering::Relaxed) {
-        return;
-    }
-    let mut out = std::io::stdout().lock();
-    if out
-        .write_fmt(args)
-        .and_then(|()| out.write_all(b"\n"))
-        .and_then(|()| out.flush())
-        .is_err()
-        && !STDOUT_CLOSED.swap(true, Ordering::Relaxed)
-    {
-        note_line(format_args!(
-            "note: stdout is closed or full; the program goes on and saves its results without showing them"
-        ));
-    }
-}
-
-/// Writes a line to stderr, ignoring a closed stderr.
-fn note_line(args: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    let mut err = std::io::stderr().lock();
-    let _ = err.write_fmt(args).and_then(|()| err.write_all(b"\n"));
-}
-
-/// `println!` that never panics ([`say_line`]).
-macro_rules! say {
-    ($($arg:tt)*) => { say_line(format_args!($($arg)*)) };
-}
-
-/// `eprintln!` that never panics ([`note_line`]).
-macro_rules! note {
-    ($($arg:tt)*) => { note_line(format_args!($($arg)*)) };
-}
+use swingup::{note, say};
 
 /// Where `swingup config` writes.
 #[derive(Debug, clap::Args)]
@@ -298,7 +254,7 @@ fn main() -> std::process::ExitCode {
         }
     };
     match run_command() {
-        Ok(()) if STDOUT_CLOSED.load(std::sync::atomic::Ordering::Relaxed) => {
+        Ok(()) if stdout_failed() => {
             note!(
                 "error: standard output was closed or full, so some of the output above is missing (the files were saved)"
             );
@@ -521,19 +477,18 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     };
     let _lock = rundir::lock_dir(out, rundir::LOCK_FILE)?;
     let file = out.join("cartpole.json");
-    let (settings, seed, previous) = if args.resume {
-        cartpole_resume(out, args)?
+    let (rundir::CartPoleRunSettings { settings, seed }, previous) = if args.resume {
+        rundir::cartpole_resume(out, args.seed, args.max_trials)?
     } else {
-        let seed = args.seed.unwrap_or(1);
+        let run = rundir::CartPoleRunSettings {
+            settings,
+            seed: args.seed.unwrap_or(1),
+        };
         // a directory holding a run (of either task) is refused unless
         // --force, which deletes that run's files only; the run records its task
         rundir::prepare_fresh(out, args.force)?;
-        rundir::create_manifest(
-            out,
-            "cartpole",
-            &serde_json::json!({ "settings": &settings, "seed": seed }),
-        )?;
-        (settings, seed, Vec::new())
+        rundir::create_manifest(out, "cartpole", &run)?;
+        (run, Vec::new())
     };
     say!(
         "cartpole (PILCO's): one random trial, then MPC with the LWR; up to {} MPC trials of {} s; seed {seed}; writing to {}",
@@ -547,28 +502,8 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     let start = std::time::Instant::now();
     let record = swingup::cartpole::run_resumable(&settings, seed, previous, &mut |t| {
         // saved before it is shown: a closed stdout never loses a trial
-        let name = run_report::trial_json_name(t.trial);
-        run_report::write_atomic(
-            &out.join(&name),
-            &serde_json::to_string_pretty(t).map_err(swingup::Error::from)?,
-        )?;
-        say!(
-            "trial {:>2}: {:<6} {}, tip {:.2} m from the target at the end, PILCO cost {:.1}, {:.0} s of data{}",
-            t.trial,
-            t.controller,
-            if t.success { "SUCCESS" } else { "failed" },
-            t.final_distance,
-            t.pilco_cost,
-            t.data_seconds,
-            if t.replan_ms.is_empty() {
-                String::new()
-            } else {
-                format!(
-                    "; replans {:.1} ms median, {:.1} ms p99",
-                    t.replan_median_ms, t.replan_p99_ms
-                )
-            }
-        );
+        run_report::write_cartpole_trial(out, t)?;
+        say!("{}", run_report::cartpole_trial_line(t));
         Ok(())
     })?;
     write_atomic(&file, &serde_json::to_string_pretty(&record)?)?;
@@ -578,73 +513,6 @@ fn learn_cartpole(args: &LearnArgs) -> anyhow::Result<()> {
     }
     say!("wrote {} ({:.1} s)", file.display(), start.elapsed().as_secs_f64());
     Ok(())
-}
-
-/// The settings, seed and saved trials of the cart-pole run in `out`, for
-/// `--resume`: the settings and seed its manifest records (a `--seed` or
-/// `--max-trials` other than those is refused), and its `trial_NN.json`
-/// files from 1 on.
-fn cartpole_resume(
-    out: &Path,
-    args: &LearnArgs,
-) -> anyhow::Result<(
-    swingup::cartpole::CartPoleSettings,
-    u64,
-    Vec<swingup::cartpole::CartPoleTrial>,
-)> {
-    use swingup::output::rundir;
-    let manifest_path = out.join(rundir::MANIFEST_FILE);
-    let Some(m) = store::Manifest::read(&manifest_path)? else {
-        anyhow::bail!(
-            "cannot resume {}: it has no {} recording the run's settings and seed (start a fresh run instead)",
-            out.display(),
-            manifest_path.display()
-        );
-    };
-    anyhow::ensure!(
-        m.program == rundir::LEARN_PROGRAM && m.task == "cartpole",
-        "cannot resume {} as a cartpole run: {} records a {} run of {}; choose another --out",
-        out.display(),
-        manifest_path.display(),
-        m.task,
-        m.program
-    );
-    #[derive(serde::Deserialize)]
-    struct Recorded {
-        settings: swingup::cartpole::CartPoleSettings,
-        seed: u64,
-    }
-    let recorded: Recorded = serde_json::from_value(m.settings)
-        .with_context(|| format!("{}: not a cart-pole run's settings", manifest_path.display()))?;
-    if let Some(seed) = args.seed {
-        anyhow::ensure!(
-            seed == recorded.seed,
-            "{} was made with seed {}, not {seed}; resume without --seed, or start a fresh run in another --out",
-            out.display(),
-            recorded.seed
-        );
-    }
-    if let Some(n) = args.max_trials {
-        anyhow::ensure!(
-            n == recorded.settings.max_trials,
-            "{} was made with --max-trials {}, not {n}; resume without --max-trials, or start a fresh run in another --out",
-            out.display(),
-            recorded.settings.max_trials
-        );
-    }
-    recorded.settings.validate()?;
-    let mut trials = Vec::new();
-    for index in 1.. {
-        let path = out.join(run_report::trial_json_name(index));
-        if store::check_output(&path)?.is_none() {
-            break;
-        }
-        let text = std::fs::read_to_string(&path).with_context(|| format!("reading {}", path.display()))?;
-        let trial: swingup::cartpole::CartPoleTrial =
-            serde_json::from_str(&text).with_context(|| format!("{}: not a cart-pole trial", path.display()))?;
-        trials.push(trial);
-    }
-    Ok((recorded.settings, recorded.seed, trials))
 }
 
 fn learn(args: &LearnArgs) -> anyhow::Result<()> {

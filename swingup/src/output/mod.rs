@@ -4,6 +4,7 @@
 // issue 51: no panic on user input in the programs' paths
 #![cfg_attr(not(test), deny(clippy::unwrap_used, clippy::expect_used, clippy::panic))]
 
+pub mod console;
 pub mod diagnostics_report;
 pub mod grid;
 pub mod grid_report;

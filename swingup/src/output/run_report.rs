@@ -20,6 +20,7 @@ use std::fs;
 use std::io;
 use std::path::Path;
 
+use crate::cartpole::CartPoleTrial;
 use crate::error::ResultExt as _;
 
 use crate::format::num;
@@ -62,6 +63,41 @@ pub fn write_run(dir: &Path, run: &RunRecord) -> crate::Result<()> {
     plot::diagnostics(run)?.write(dir, "diagnostics")?;
     write_atomic(&dir.join("report.md"), &markdown(run))?;
     Ok(())
+}
+
+/// Writes a finished cart-pole trial into `dir` as `trial_NN.json` (replaced
+/// whole, [`write_atomic`]), which `learn --task cartpole --resume` reads
+/// back ([`crate::output::rundir::cartpole_resume`]).
+///
+/// # Errors
+/// The file cannot be written; the error names it.
+pub fn write_cartpole_trial(dir: &Path, trial: &CartPoleTrial) -> crate::Result<()> {
+    write_atomic(
+        &dir.join(trial_json_name(trial.trial)),
+        &serde_json::to_string_pretty(trial)?,
+    )
+}
+
+/// A cart-pole trial's progress line: controller, success, the tip's last
+/// distance, PILCO's cost, the data so far and, for MPC, the replan times.
+pub fn cartpole_trial_line(t: &CartPoleTrial) -> String {
+    let replans = if t.replan_ms.is_empty() {
+        String::new()
+    } else {
+        format!(
+            "; replans {:.1} ms median, {:.1} ms p99",
+            t.replan_median_ms, t.replan_p99_ms
+        )
+    };
+    format!(
+        "trial {:>2}: {:<6} {}, tip {:.2} m from the target at the end, PILCO cost {:.1}, {:.0} s of data{replans}",
+        t.trial,
+        t.controller,
+        if t.success { "SUCCESS" } else { "failed" },
+        t.final_distance,
+        t.pilco_cost,
+        t.data_seconds,
+    )
 }
 
 /// Writes one trial into `dir` (created if needed): `trial_NN.json`, the

@@ -20,6 +20,7 @@
 
 use std::path::{Path, PathBuf};
 
+use crate::cartpole::{CartPoleSettings, CartPoleTrial};
 use crate::config::Config;
 use crate::error::ensure_refused;
 
@@ -199,6 +200,86 @@ pub fn create_manifest(dir: &Path, task: &str, settings: &impl serde::Serialize)
         &path,
     )?;
     Ok(m.write(&path)?)
+}
+
+/// What a cart-pole run's manifest records ([`create_manifest`] with the
+/// task `cartpole`): the settings and the seed of every draw, which a
+/// resume ([`cartpole_resume`]) continues with.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CartPoleRunSettings {
+    /// The run's settings.
+    pub settings: CartPoleSettings,
+    /// The seed of every random draw.
+    pub seed: u64,
+}
+
+/// The settings, seed and saved trials of the cart-pole run in `dir`, for
+/// `learn --task cartpole --resume`: the settings and seed its manifest
+/// records (a `seed` or `max_trials` given other than those is refused),
+/// and its `trial_NN.json` files from 1 on.
+///
+/// # Errors
+/// No manifest, a manifest of another task or program, settings or a
+/// seed that differ from it (each a refusal naming the way on), or a
+/// trial file that cannot be read (naming it).
+pub fn cartpole_resume(
+    dir: &Path,
+    seed: Option<u64>,
+    max_trials: Option<usize>,
+) -> crate::Result<(CartPoleRunSettings, Vec<CartPoleTrial>)> {
+    let manifest_path = dir.join(MANIFEST_FILE);
+    let Some(m) = store::Manifest::read(&manifest_path)? else {
+        return Err(crate::Error::Refused(format!(
+            "cannot resume {}: it has no {} recording the run's settings and seed (start a fresh run instead)",
+            dir.display(),
+            manifest_path.display()
+        )));
+    };
+    ensure_refused!(
+        m.program == LEARN_PROGRAM && m.task == "cartpole",
+        "cannot resume {} as a cartpole run: {} records a {} run of {}; choose another --out",
+        dir.display(),
+        manifest_path.display(),
+        m.task,
+        m.program
+    );
+    let recorded: CartPoleRunSettings = serde_json::from_value(m.settings).map_err(|e| {
+        crate::Error::parse(
+            &manifest_path,
+            None,
+            format_args!("not a cart-pole run's settings: {e}"),
+        )
+    })?;
+    if let Some(seed) = seed {
+        ensure_refused!(
+            seed == recorded.seed,
+            "{} was made with seed {}, not {seed}; resume without --seed, or start a fresh run in another --out",
+            dir.display(),
+            recorded.seed
+        );
+    }
+    if let Some(n) = max_trials {
+        ensure_refused!(
+            n == recorded.settings.max_trials,
+            "{} was made with --max-trials {}, not {n}; resume without --max-trials, or start a fresh run in \
+             another --out",
+            dir.display(),
+            recorded.settings.max_trials
+        );
+    }
+    recorded.settings.validate()?;
+    let mut trials = Vec::new();
+    for index in 1.. {
+        let path = dir.join(crate::output::run_report::trial_json_name(index));
+        if store::check_output(&path)?.is_none() {
+            break;
+        }
+        let text = std::fs::read_to_string(&path).map_err(|e| crate::Error::io("reading", &path, e))?;
+        let trial: CartPoleTrial = serde_json::from_str(&text)
+            .map_err(|e| crate::Error::parse(&path, Some(e.line()), format_args!("not a cart-pole trial: {e}")))?;
+        trials.push(trial);
+    }
+    Ok((recorded, trials))
 }
 
 /// The dotted keys (`planner.lambda`, `seed`) whose values differ between

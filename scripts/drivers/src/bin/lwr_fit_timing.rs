@@ -3,7 +3,8 @@
 //! `GridSearchCV`) and statsmodels' `KernelReg`: the library's front door
 //! exactly as a user calls it (`lwr::regressor`).
 //!
-//! `cargo run --release -p nprl-drivers --bin lwr_fit_timing -- DATA.json`
+//! `cargo run --release -p nprl-drivers --bin lwr_fit_timing -- DATA.json [TUNE_EVALS [TUNE_POINTS]]`
+//! (defaults: `FitSettings::default()`, i.e. `LwrModel::fit`)
 //!
 //! `DATA.json` holds `train_x` ($n \times d$), `train_y` ($n$), `test_x`,
 //! `test_y`. Prints one JSON object on one line: the seconds of `fit`
@@ -13,14 +14,23 @@
 
 use std::time::Instant;
 
-use lwr::LwrModel;
+use lwr::{FitSettings, LwrModel};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let path = std::env::args().nth(1).ok_or("usage: lwr_fit_timing DATA.json")?;
     let data = nprl_drivers::RegressionData::read(&path)?;
 
+    // optional: the tuning's evaluations and points (FitSettings), for the
+    // directions the script's --tune-evals and --tune-points measure
+    let arg = |i: usize| std::env::args().nth(i).map(|a| a.parse::<usize>()).transpose();
+    let settings = FitSettings {
+        tune_evals: arg(2)?.unwrap_or(FitSettings::default().tune_evals),
+        tune_points: arg(3)?.unwrap_or(0),
+        ..FitSettings::default()
+    };
+    let ys: Vec<[f64; 1]> = data.train_y.iter().map(|&y| [y]).collect();
     let t = Instant::now();
-    let model = LwrModel::fit(&data.train_x, &data.train_y)?;
+    let (model, _) = LwrModel::fit_multi(&data.train_x, &ys, &settings)?;
     let fit_s = t.elapsed().as_secs_f64();
     let t = Instant::now();
     let predictions = model.predict_many(&data.test_x)?;
