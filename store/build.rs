@@ -57,6 +57,13 @@ fn main() {
     };
     println!("cargo:rustc-env=NPRL_CODE_VERSION={version}");
 
+    // A packaged crate (crates.io, a vendored copy) has no sibling folders:
+    // watching paths that do not exist would rerun this script on every
+    // build of every crate that depends on it, so it watches only itself.
+    if !ours {
+        println!("cargo:rerun-if-changed=build.rs");
+        return;
+    }
     // rebuilt when the code or the commit changes (a directory is scanned
     // for any modified file)
     for path in [
@@ -75,9 +82,6 @@ fn main() {
         "Cargo.lock",
     ] {
         println!("cargo:rerun-if-changed={}", root.join(path).display());
-    }
-    if !ours {
-        return;
     }
     let dir = |flag: &str| git(&root, &["rev-parse", flag]).map(PathBuf::from);
     if let Some(git_dir) = dir("--absolute-git-dir") {

@@ -2,6 +2,13 @@
 //! `tests/tests/`. This library holds what several of them share.
 #![warn(missing_docs)]
 
+/// The root README, whose "Use a crate in your project" examples run as
+/// doc tests here (`cargo test -p integration-tests --doc`), so that they
+/// compile and hold as written.
+#[cfg(doctest)]
+#[doc = include_str!("../../README.md")]
+pub struct RootReadme;
+
 use std::path::{Path, PathBuf};
 
 use faer::Mat;
