@@ -11,7 +11,7 @@
 //!
 //! let settings = RunnerSettings {
 //!     set: ProblemSet::Mgh,
-//!     solvers: Solver::parse_list("gauss-newton,powell")?,
+//!     solvers: Solver::parse_entries("gauss-newton,powell")?,
 //!     filter: Some("rosenbrock".into()),
 //!     budget: default_budget(),
 //!     repeats: 1,
@@ -34,8 +34,10 @@ pub mod instance;
 pub mod lwr_instance;
 pub mod minima;
 pub mod nist;
+pub mod open;
 pub mod plot;
 pub mod problems;
+pub mod process;
 pub mod profiles;
 pub mod record;
 pub mod report;

@@ -22,11 +22,17 @@ struct Cli {
     /// swing-ups in Eq. 3 and DDP form and the learned-LWR plan).
     #[arg(long, default_value = "mgh")]
     set: String,
-    /// Solvers: `all` or a comma-separated list of gauss-newton, newton,
-    /// adaptive, powell, dfo-ls, argmin-nelder-mead, argmin-lbfgs,
-    /// ddp-ilqr, ddp-full (each runs where it applies).
+    /// Built-in solvers: `all`, `none` or a comma-separated list of
+    /// gauss-newton, newton, adaptive, powell, dfo-ls, argmin-nelder-mead,
+    /// argmin-lbfgs, ddp-ilqr, ddp-full (each runs where it applies).
     #[arg(long, default_value = "all")]
     solvers: String,
+    /// A solver in another program (any language) that speaks the JSON-lines
+    /// protocol of bench/README.md, beside the built-in ones; repeatable.
+    /// The command is split on whitespace, e.g.
+    /// "python3 scripts/bench/client_lm.py".
+    #[arg(long, value_name = "COMMAND")]
+    solver_cmd: Vec<String>,
     /// Only problems whose name contains this (e.g. `penalty2`).
     #[arg(long)]
     filter: Option<String>,
@@ -116,9 +122,23 @@ fn run(cli: Cli) -> bench::Result<()> {
             reason: "the README's summary is the mgh set's".into(),
         });
     }
+    let mut solvers = if cli.solvers.trim() == "none" {
+        Vec::new()
+    } else {
+        Solver::parse_entries(&cli.solvers)?
+    };
+    for command in &cli.solver_cmd {
+        solvers.push(std::sync::Arc::new(bench::process::ProcessSolver::start(command)?));
+    }
+    if solvers.is_empty() {
+        return Err(bench::BenchError::InvalidSetting {
+            name: "solvers",
+            reason: "`--solvers none` needs at least one --solver-cmd".into(),
+        });
+    }
     let settings = RunnerSettings {
         set,
-        solvers: Solver::parse_list(&cli.solvers)?,
+        solvers,
         filter: cli.filter,
         budget: Budget {
             simplex_gradients: cli.budget,
@@ -190,12 +210,12 @@ fn compare(
     let (before, _) = bench::runner::analyse(
         settings.set,
         settings.filter.as_deref(),
-        &settings.solvers,
+        &settings.solver_names(),
         records,
         &settings.out,
         &settings.outside,
     )?;
-    let ours: Vec<String> = settings.solvers.iter().map(|s| s.name().to_string()).collect();
+    let ours = settings.solver_names();
     let changes = bench::compare::changes(&before, now, &ours);
     let now_label = format!("{} (this run)", commit.get(..12).unwrap_or(commit));
     let mut md = bench::compare::markdown(&changes, label, &now_label);

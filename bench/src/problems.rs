@@ -230,6 +230,11 @@ impl<'a> Counted<'a> {
         self.f_evals.get() + self.n as u64 * self.jac_evals.get()
     }
 
+    /// When the run's time is up.
+    pub fn deadline(&self) -> Instant {
+        self.deadline
+    }
+
     /// The budget in evaluation equivalents.
     pub fn max_evals(&self) -> u64 {
         self.max_evals
@@ -308,7 +313,7 @@ impl<'a> Counted<'a> {
     }
 
     /// The dense row-major Jacobian, counted.
-    fn dense_jacobian(&self, x: &[f64]) -> trajopt::Result<Vec<f64>> {
+    pub(crate) fn dense_jacobian(&self, x: &[f64]) -> trajopt::Result<Vec<f64>> {
         let pattern = self.inner.jacobian_pattern();
         let mut values = vec![0.0; pattern.compute_nnz()];
         self.jacobian_values(x, &mut values)?;

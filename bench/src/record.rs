@@ -257,11 +257,18 @@ impl RecordFile {
         Self::parse(&text, path)
     }
 
-    /// Writes the file to `path` as pretty JSON.
+    /// Writes the file to `path` as pretty JSON, after checking every run
+    /// as [`load`](Self::load) would.
     ///
     /// # Errors
-    /// [`BenchError::Io`] naming the file.
+    /// [`BenchError::BadField`] naming the run and field the loader would
+    /// refuse (nothing is written), or [`BenchError::Io`] naming the file.
     pub fn save(&self, path: &Path) -> Result<()> {
+        // a record the loader would refuse is never written: the error
+        // names it, and the file on disk stays as it was
+        for (index, run) in self.runs.iter().enumerate() {
+            run.validate(path, index)?;
+        }
         let text = serde_json::to_string(self).map_err(|e| BenchError::Io {
             path: path.to_path_buf(),
             source: std::io::Error::other(e),

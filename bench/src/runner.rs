@@ -24,6 +24,7 @@
 
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 use std::time::Duration;
 
 use serde_json::json;
@@ -31,6 +32,7 @@ use serde_json::json;
 use crate::analysis::{Analysis, Criterion};
 use crate::error::{BenchError, Result};
 use crate::minima::{self, Reference};
+use crate::open::BenchSolver;
 use crate::plot::ProfileFigure;
 use crate::problems::{Budget, ProblemSet};
 use crate::record::{MadeBy, RecordFile, RunKey, RunRecord};
@@ -42,8 +44,10 @@ use crate::solvers::Solver;
 pub struct RunnerSettings {
     /// The problem set.
     pub set: ProblemSet,
-    /// Our solvers.
-    pub solvers: Vec<Solver>,
+    /// The solvers that run: built-in ([`Solver::parse_entries`]) and any
+    /// [`BenchSolver`] of yours ([`crate::open`]), each with its own
+    /// column, time profile included.
+    pub solvers: Vec<Arc<dyn BenchSolver>>,
     /// Only problems whose name contains this (all when `None`).
     pub filter: Option<String>,
     /// What one run may spend.
@@ -64,11 +68,55 @@ pub struct RunnerSettings {
 }
 
 impl RunnerSettings {
-    /// Checks the numbers.
+    /// Every built-in solver on `set`, into `out` (the reports there too),
+    /// under [`default_budget`], timed once, merging `OUT/outside/*.json`.
+    /// Push your own solvers onto [`solvers`](Self::solvers), or replace
+    /// them.
+    pub fn new(set: ProblemSet, out: impl Into<PathBuf>) -> Self {
+        let out = out.into();
+        Self {
+            set,
+            solvers: Solver::ALL
+                .iter()
+                .map(|s| Arc::new(*s) as Arc<dyn BenchSolver>)
+                .collect(),
+            filter: None,
+            budget: default_budget(),
+            repeats: 1,
+            report_dir: out.clone(),
+            out,
+            outside: Vec::new(),
+            reuse: false,
+            force: false,
+        }
+    }
+
+    /// The solvers' names, in the settings' order.
+    pub fn solver_names(&self) -> Vec<String> {
+        self.solvers.iter().map(|s| s.name().to_string()).collect()
+    }
+
+    /// Checks the numbers, and that no two solvers share a name.
     ///
     /// # Errors
     /// [`BenchError::InvalidSetting`] naming the field.
     pub fn validate(&self) -> Result<()> {
+        let names = self.solver_names();
+        if let Some((k, name)) = names.iter().enumerate().find(|(k, n)| names[..*k].contains(n)) {
+            return Err(BenchError::InvalidSetting {
+                name: "solvers",
+                reason: format!("two solvers are named `{name}` (the second is solver {})", k + 1),
+            });
+        }
+        if let Some(name) = names
+            .iter()
+            .find(|n| n.trim().is_empty() || n.contains(['\n', ',', '|']))
+        {
+            return Err(BenchError::InvalidSetting {
+                name: "solvers",
+                reason: format!("the solver name {name:?} is empty or holds a newline, comma or `|`"),
+            });
+        }
         if self.budget.simplex_gradients == 0 {
             return Err(BenchError::InvalidSetting {
                 name: "budget",
@@ -142,7 +190,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         let runs = run_all(settings)?;
         if runs.is_empty() {
             return Err(BenchError::NoRuns {
-                solvers: settings.solvers.iter().map(|s| s.name()).collect::<Vec<_>>().join(", "),
+                solvers: settings.solver_names().join(", "),
                 set: settings.set.name(),
                 what: settings
                     .filter
@@ -200,9 +248,17 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     // a subset merged into a saved set is judged with the whole set, every
     // solver of it in its column
     let (filter, solvers) = if whole_set {
-        (settings.filter.as_deref(), settings.solvers.clone())
+        (settings.filter.as_deref(), settings.solver_names())
     } else {
-        (None, Solver::ALL.to_vec())
+        let mut names: Vec<String> = Solver::ALL.iter().map(|s| s.name().to_string()).collect();
+        names.extend(
+            settings
+                .solver_names()
+                .into_iter()
+                .filter(|n| !names.contains(n))
+                .collect::<Vec<_>>(),
+        );
+        (None, names)
     };
     let (analysis, sources) = analyse(settings.set, filter, &solvers, ours, &settings.out, &settings.outside)?;
     let (commit, dirty) = store::parse_code_version(&made_by.code_version);
@@ -382,8 +438,9 @@ pub fn merge_runs(saved: Option<RecordFile>, new: RecordFile, path: &Path, force
 /// whose names contain `filter`. On the MGH and NIST sets $f(x_0)$ and
 /// $f$ are recomputed from the instances ([`minima::recompute`]) and the
 /// runs judged at the minimum. Returns the analysis and the records'
-/// sources; writes nothing. `solvers` orders our columns (a solver
-/// without records gets none).
+/// sources; writes nothing. `solvers` names our solvers (the ones with
+/// time profiles) and orders their columns (a solver without records gets
+/// none).
 ///
 /// # Errors
 /// An outside records file that cannot be read or is malformed (naming
@@ -391,7 +448,7 @@ pub fn merge_runs(saved: Option<RecordFile>, new: RecordFile, path: &Path, force
 pub fn analyse(
     set: ProblemSet,
     filter: Option<&str>,
-    solvers: &[Solver],
+    solvers: &[String],
     ours: RecordFile,
     out: &Path,
     outside: &[PathBuf],
@@ -432,8 +489,8 @@ pub fn analyse(
     // a solver that applies to none of the instances gets no column
     let our_names: Vec<String> = solvers
         .iter()
-        .map(|s| s.name().to_string())
-        .filter(|name| all.iter().any(|r| r.solver == *name))
+        .filter(|name| all.iter().any(|r| r.solver == **name))
+        .cloned()
         .collect();
     let mut analysis = Analysis::new(all, &our_names)
         .with_test(set.test())
@@ -622,7 +679,7 @@ fn markdown(
     out: &Path,
     report_dir: &Path,
 ) -> String {
-    let rel = out.strip_prefix(report_dir).unwrap_or(out).display().to_string();
+    let rel = relative_dir(report_dir, out);
     let title = match set {
         ProblemSet::Mgh => "Benchmarks",
         ProblemSet::Trajectory => "Benchmarks: the trajectory set",
@@ -703,6 +760,33 @@ fn markdown(
     s
 }
 
+/// The path from the directory `from` to the directory `to`, for links in
+/// a report written in `from` to figures in `to`: `.` when they are the
+/// same, `a/b` below, `../x` beside. Both are resolved first (links,
+/// `..`); when either cannot be, `to` as given, made absolute.
+fn relative_dir(from: &Path, to: &Path) -> String {
+    let (Ok(from), Ok(to)) = (from.canonicalize(), to.canonicalize()) else {
+        return std::path::absolute(to)
+            .unwrap_or_else(|_| to.to_path_buf())
+            .display()
+            .to_string();
+    };
+    let (a, b): (Vec<_>, Vec<_>) = (from.components().collect(), to.components().collect());
+    let common = a.iter().zip(&b).take_while(|(x, y)| x == y).count();
+    let mut rel = PathBuf::new();
+    for _ in common..a.len() {
+        rel.push("..");
+    }
+    for c in &b[common..] {
+        rel.push(c);
+    }
+    if rel.as_os_str().is_empty() {
+        ".".into()
+    } else {
+        rel.display().to_string()
+    }
+}
+
 /// The default budget: 2000 simplex gradients and 10 s per run.
 pub fn default_budget() -> Budget {
     Budget {
@@ -715,6 +799,35 @@ pub fn default_budget() -> Budget {
 mod tests {
     use super::*;
 
+    /// Figure links in a report resolve from the report's directory,
+    /// wherever the figures are (the same directory gave `/perf_...svg`).
+    #[test]
+    fn figure_links_are_relative_to_the_report() {
+        let scratch = store::ScratchDir::new("bench-rel").expect("scratch dir");
+        let root = scratch.path();
+        for d in ["results/figs", "elsewhere/runs"] {
+            std::fs::create_dir_all(root.join(d)).expect("dirs");
+        }
+        let results = root.join("results");
+        assert_eq!(relative_dir(&results, &results), ".");
+        assert_eq!(relative_dir(&results, &root.join("results/figs")), "figs");
+        assert_eq!(relative_dir(&root.join("results/figs"), &results), "..");
+        assert_eq!(
+            relative_dir(&results, &root.join("elsewhere/runs")),
+            "../elsewhere/runs"
+        );
+        assert_eq!(relative_dir(&root.join("results/./figs/.."), &results), ".");
+        for (from, to) in [
+            ("results", "elsewhere/runs"),
+            ("results/figs", "results"),
+            ("results", "results"),
+        ] {
+            let rel = relative_dir(&root.join(from), &root.join(to));
+            let resolved = root.join(from).join(&rel).canonicalize().expect("resolves");
+            assert_eq!(resolved, root.join(to).canonicalize().expect("exists"));
+        }
+    }
+
     /// Issue 37, case 5: `--filter rosenbrok` (a typo) used to replace the
     /// saved runs and reports with none and exit 0.
     #[test]
@@ -726,7 +839,7 @@ mod tests {
         for set in [ProblemSet::Mgh, ProblemSet::Nist, ProblemSet::Trajectory] {
             let settings = RunnerSettings {
                 set,
-                solvers: vec![Solver::GaussNewton],
+                solvers: vec![Arc::new(Solver::GaussNewton)],
                 filter: Some("rosenbrok".into()),
                 budget: default_budget(),
                 repeats: 1,
@@ -749,7 +862,7 @@ mod tests {
         let dir = scratch.path().to_path_buf();
         let settings = RunnerSettings {
             set: ProblemSet::Trajectory,
-            solvers: Solver::ALL.to_vec(),
+            solvers: Solver::parse_entries("all").expect("all"),
             filter: Some("pendulum-h50-lambda1e2".into()),
             budget: Budget {
                 simplex_gradients: 3,

@@ -1,5 +1,5 @@
 //! The solvers the runner knows ([`Solver`]) and one run of one of them on
-//! one instance ([`Solver::run`]).
+//! one instance ([`BenchSolver::run`]).
 //!
 //! | name | solver | uses |
 //! |---|---|---|
@@ -28,6 +28,7 @@
 //! convergence test from its trace, so how a solver decides to stop changes
 //! its time but not its evaluations to a solution.
 
+use std::sync::Arc;
 use std::time::Instant;
 
 use argmin::core::{CostFunction, Executor, Gradient, TerminationReason, TerminationStatus};
@@ -41,10 +42,12 @@ use trajopt::{
 };
 
 use crate::error::{BenchError, Result};
-use crate::instance::{TRAJECTORY_SET, finite, rollout_cost};
+use crate::instance::TRAJECTORY_SET;
 pub use crate::instance::{cost_at, start_cost};
+pub use crate::open::end_trace;
+use crate::open::{BenchSolver, End, Measured, Outcome, Problem, Stop, measure, record};
 use crate::problems::{Budget, Counted, Instance};
-use crate::record::{RunRecord, thin_trace};
+use crate::record::RunRecord;
 
 /// A solver of the runner; see the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
@@ -145,82 +148,16 @@ impl Solver {
         Ok(out)
     }
 
-    /// Runs the solver on `instance` within `budget`, `repeats` times
-    /// (the counts are the first run's, the time the median).
+    /// The built-in solvers named in `list` (`all`, or names separated by
+    /// commas), as the runner's solver entries.
     ///
     /// # Errors
-    /// [`BenchError::Solver`] if the solver refuses its settings; a run that
-    /// fails or spends its budget is a record with that status.
-    pub fn run(self, instance: &Instance, budget: &Budget, repeats: u32) -> Result<RunRecord> {
-        let mut times = Vec::new();
-        let mut first = None;
-        for _ in 0..repeats.max(1) {
-            let (time, measured) = match self {
-                Self::Ilqr | Self::FullDdp => self.ddp_once(instance)?,
-                _ => self.once(instance, budget)?,
-            };
-            times.push(time);
-            first.get_or_insert(measured);
-        }
-        let m = first.ok_or_else(|| BenchError::InvalidSetting {
-            name: "repeats",
-            reason: "no run".into(),
-        })?;
-        let [f_evals, jac_evals, evals] = m.counts;
-        let (f0, f, objective, trace, x) = match (&instance.rollout, m.end) {
-            (None, End::Trace(trace, x)) => (
-                // from the start itself, not the trace: an f(x0) that
-                // overflows is not in the trace, whose first point is then
-                // a later one
-                start_cost(instance),
-                m.objective,
-                None,
-                thin_trace(&trace),
-                x,
-            ),
-            (Some(forms), end) => {
-                let f0 = finite(rollout_cost(forms, &instance.start)?);
-                let (f, x) = match end {
-                    End::Point(theta) => (rollout_cost(forms, &theta)?, theta),
-                    End::Controls(u) => (
-                        forms
-                            .ddp
-                            .rollout_cost(&u)
-                            .map_err(|e| self.refused(instance, e.to_string()))?,
-                        u.concat(),
-                    ),
-                    End::Trace(_, x) => (f0, x),
-                };
-                let f = finite(f);
-                (f0, f, Some(m.objective), end_trace(f0, f, evals), x)
-            }
-            (None, _) => return Err(self.refused(instance, "the instance has no DDP form".into())),
-        };
-        Ok(RunRecord {
-            solver: self.name().into(),
-            set: instance.set.into(),
-            problem: instance.problem.clone(),
-            n: instance.n(),
-            m: instance.residuals,
-            scale: instance.scale,
-            status: m.status,
-            converged: m.converged,
-            f0,
-            f,
-            f_star: instance.f_star,
-            objective,
-            f_evals,
-            jac_evals,
-            evals,
-            time_s: median_time(times),
-            repeats: repeats.max(1),
-            trace,
-            // the start and the final point, from which the runner
-            // recomputes f0 and f (a rolled-out run: its Eq. 3
-            // coefficients, or DDP's controls, stacked)
-            x0: Some(instance.start.clone()),
-            x: x.iter().all(|v| v.is_finite()).then_some(x),
-        })
+    /// As [`parse_list`](Self::parse_list).
+    pub fn parse_entries(list: &str) -> Result<Vec<Arc<dyn BenchSolver>>> {
+        Ok(Self::parse_list(list)?
+            .into_iter()
+            .map(|s| Arc::new(s) as Arc<dyn BenchSolver>)
+            .collect())
     }
 
     /// The error of a solver refusing its input.
@@ -230,34 +167,6 @@ impl Solver {
             problem: instance.problem.clone(),
             reason,
         }
-    }
-
-    /// One timed solve of the least-squares form under the budget.
-    fn once(self, instance: &Instance, budget: &Budget) -> Result<(f64, Measured)> {
-        let counted = Counted::new(instance, budget);
-        let start = Instant::now();
-        let outcome = self.solve(&counted, instance)?;
-        let time = start.elapsed().as_secs_f64();
-        let (status, converged) = match outcome {
-            _ if counted.spent() => ("budget".to_string(), false),
-            Outcome::Stopped { status, converged } => (status, converged),
-            Outcome::Failed(e) => (format!("error: {e}"), false),
-        };
-        let end = match instance.rollout {
-            Some(_) => End::Point(counted.best_point()),
-            None => End::Trace(counted.trace(), counted.best_point()),
-        };
-        let counts = [counted.f_evals(), counted.jac_evals(), counted.evals()];
-        Ok((
-            time,
-            Measured {
-                status,
-                converged,
-                counts,
-                objective: counted.best(),
-                end,
-            },
-        ))
     }
 
     /// One timed DDP solve of the instance's DDP form.
@@ -305,7 +214,7 @@ impl Solver {
     }
 
     /// One solve; `Err` only for refused settings.
-    fn solve(self, counted: &Counted<'_>, instance: &Instance) -> Result<Outcome> {
+    fn solve_counted(self, counted: &Counted<'_>, instance: &Instance) -> Result<Outcome> {
         let refused = |e: String| self.refused(instance, e);
         let x0 = instance.start.as_slice();
         Ok(match self {
@@ -361,7 +270,7 @@ impl Solver {
                 let run = Executor::new(ArgminView(counted), solver)
                     .configure(|s| s.max_iters(u64::MAX))
                     .run();
-                Outcome::from_argmin(run.map(|r| r.state.termination_status))
+                from_argmin(run.map(|r| r.state.termination_status))
             }
             Self::Lbfgs => {
                 let solver = LBFGS::new(MoreThuenteLineSearch::new(), 7)
@@ -371,9 +280,37 @@ impl Solver {
                 let run = Executor::new(ArgminView(counted), solver)
                     .configure(|s| s.param(x0.to_vec()).max_iters(u64::MAX))
                     .run();
-                Outcome::from_argmin(run.map(|r| r.state.termination_status))
+                from_argmin(run.map(|r| r.state.termination_status))
             }
             Self::Ilqr | Self::FullDdp => return Err(refused("runs on the DDP form only".into())),
+        })
+    }
+}
+
+impl BenchSolver for Solver {
+    fn name(&self) -> &str {
+        Solver::name(*self)
+    }
+
+    fn applies_to(&self, instance: &Instance) -> bool {
+        Solver::applies_to(*self, instance)
+    }
+
+    fn solve(&self, problem: &Problem<'_>) -> std::result::Result<Stop, String> {
+        match self.solve_counted(problem.counted, problem.instance) {
+            Ok(Outcome::Stopped { status, converged }) => Ok(Stop { status, converged }),
+            Ok(Outcome::Failed(message)) => Err(message),
+            Err(e) => Err(e.to_string()),
+        }
+    }
+
+    /// The least-squares solvers on the counted problem; the DDP solvers
+    /// on the instance's DDP form.
+    fn run(&self, instance: &Instance, budget: &Budget, repeats: u32) -> Result<RunRecord> {
+        let solver = *self;
+        record(solver.name(), instance, repeats, || match solver {
+            Self::Ilqr | Self::FullDdp => solver.ddp_once(instance),
+            _ => measure(instance, budget, |counted| solver.solve_counted(counted, instance)),
         })
     }
 }
@@ -390,72 +327,18 @@ fn gauss_newton_settings(step_model: StepModel) -> GaussNewtonSettings {
     }
 }
 
-/// What one solve measured, besides its time.
-struct Measured {
-    status: String,
-    converged: bool,
-    /// Residual (cost) evaluations, Jacobian evaluations, evaluation equivalents.
-    counts: [u64; 3],
-    /// The solver's best objective value.
-    objective: f64,
-    end: End,
-}
-
-/// Where a solve ended, for its figure of merit.
-enum End {
-    /// The trace of the best objective (scored by the objective) and the
-    /// point of the best.
-    Trace(Vec<(u64, f64)>, Vec<f64>),
-    /// The best point of the Eq. 3 form (scored by its rollout).
-    Point(Vec<f64>),
-    /// DDP's controls (scored by their rollout).
-    Controls(Vec<Vec<f64>>),
-}
-
-/// The median of the timings (0 when there are none).
-fn median_time(mut times: Vec<f64>) -> f64 {
-    times.sort_by(f64::total_cmp);
-    times.get(times.len() / 2).copied().unwrap_or(0.0)
-}
-
-/// The trace of a run whose figure of merit is known only at its end
-/// (the trajectory set): the start's value at the first evaluation and,
-/// when lower, the final value at the run's last evaluation, so that a
-/// solved run's evaluations to solve are all it spent.
-pub fn end_trace(f0: f64, f: f64, evals: u64) -> Vec<(u64, f64)> {
-    let mut trace = vec![(1, f0)];
-    if f < f0 {
-        trace.push((evals.max(1), f));
-    }
-    trace
-}
-
-/// How a solve ended.
-enum Outcome {
-    /// The solver stopped by itself with this status.
-    Stopped { status: String, converged: bool },
-    /// The solve returned an error (the budget, or a failed evaluation).
-    Failed(String),
-}
-
-impl Outcome {
-    fn stopped(status: String, converged: bool) -> Self {
-        Self::Stopped { status, converged }
-    }
-
-    /// argmin's termination status, classified by its reason (not by its
-    /// text): converged only when the solver's own test passed.
-    fn from_argmin(run: std::result::Result<TerminationStatus, argmin::core::Error>) -> Self {
-        match run {
-            Ok(status) => {
-                let converged = matches!(
-                    status,
-                    TerminationStatus::Terminated(TerminationReason::SolverConverged)
-                );
-                Self::stopped(status.to_string(), converged)
-            }
-            Err(e) => Self::Failed(e.to_string()),
+/// argmin's termination status, classified by its reason (not by its
+/// text): converged only when the solver's own test passed.
+fn from_argmin(run: std::result::Result<TerminationStatus, argmin::core::Error>) -> Outcome {
+    match run {
+        Ok(status) => {
+            let converged = matches!(
+                status,
+                TerminationStatus::Terminated(TerminationReason::SolverConverged)
+            );
+            Outcome::stopped(status.to_string(), converged)
         }
+        Err(e) => Outcome::Failed(e.to_string()),
     }
 }
 

@@ -137,7 +137,15 @@ fn the_readme_benchmark_block_is_the_summary_of_the_saved_records() {
             .expect("json");
     let stamp: Stamp = serde_json::from_value(saved["stamp"].clone()).expect("a stamp");
     let ours = RecordFile::load(&out.join("runs.json")).expect("runs.json");
-    let (analysis, _) = analyse(ProblemSet::Mgh, None, &Solver::ALL, ours, &out, &[]).expect("analysis");
+    let (analysis, _) = analyse(
+        ProblemSet::Mgh,
+        None,
+        &Solver::ALL.map(|s| s.name().to_string()),
+        ours,
+        &out,
+        &[],
+    )
+    .expect("analysis");
     assert_eq!(
         analysis.runs.iter().flatten().flatten().count(),
         stamp.runs,
