@@ -53,7 +53,7 @@ pub use derivative_free::{
 };
 pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
-pub use fit::{LeastSquares, LeastSquaresFit, dense_pattern};
+pub use fit::{FitStatus, LeastSquares, LeastSquaresFit, Method, dense_pattern};
 pub use gauss_newton::{
     DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonRun, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
     MIN_PARALLEL_PARAMS, StepModel,

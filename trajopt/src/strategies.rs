@@ -60,6 +60,130 @@ pub fn linear_least_squares(max_params: usize) -> impl Strategy<Value = (LinearL
         })
 }
 
+/// A random nonlinear least-squares problem with a known, unique
+/// minimiser: $r(x) = h(Ax) - h(Ax^\star)$, $h(z) = z + \beta \tanh z$
+/// elementwise, $A$ ($m \times n$, $m \ge n$) of full column rank (a
+/// scaled identity on top, random rows below), $\beta \in [0, 3)$. As $h$
+/// is strictly increasing ($h' \ge 1$), $r(x) = 0$ only at $x^\star$:
+/// the global minimum, cost 0, and the Jacobian
+/// $\operatorname{diag}(h'(Ax)) A$ has full column rank everywhere.
+/// Residuals, the exact Jacobian and the pattern come as a
+/// [`LeastSquaresProblem`], and as closures for [`crate::LeastSquares`].
+#[derive(Debug, Clone, PartialEq)]
+pub struct NonlinearLeastSquares {
+    /// $A$, $m \times n$ row-major.
+    pub a: Vec<f64>,
+    /// $m$.
+    pub m: usize,
+    /// $n$.
+    pub n: usize,
+    /// $\beta$, the nonlinearity's weight.
+    pub beta: f64,
+    /// $h(Ax^\star)$.
+    pub target: Vec<f64>,
+}
+
+impl NonlinearLeastSquares {
+    /// The problem of `a` ($m \times n$, row-major) with minimiser `x_star`.
+    pub fn new(a: Vec<f64>, m: usize, n: usize, beta: f64, x_star: &[f64]) -> Self {
+        let mut problem = Self {
+            a,
+            m,
+            n,
+            beta,
+            target: vec![0.0; m],
+        };
+        let mut target = vec![0.0; m];
+        problem.residuals_into(x_star, &mut target);
+        problem.target = target;
+        problem
+    }
+
+    fn h(&self, z: f64) -> (f64, f64) {
+        let t = z.tanh();
+        (z + self.beta * t, 1.0 + self.beta * (1.0 - t * t))
+    }
+
+    fn az(&self, x: &[f64], i: usize) -> f64 {
+        (0..self.n).map(|j| self.a[i * self.n + j] * x[j]).sum()
+    }
+
+    /// $r(x)$ into `r` (length $m$).
+    pub fn residuals_into(&self, x: &[f64], r: &mut [f64]) {
+        for (i, ri) in r.iter_mut().enumerate() {
+            *ri = self.h(self.az(x, i)).0 - self.target[i];
+        }
+    }
+
+    /// $J(x) = \operatorname{diag}(h'(Ax)) A$ into `j` ($m \times n$,
+    /// row-major).
+    pub fn jacobian_into(&self, x: &[f64], j: &mut [f64]) {
+        for i in 0..self.m {
+            let slope = self.h(self.az(x, i)).1;
+            for k in 0..self.n {
+                j[i * self.n + k] = slope * self.a[i * self.n + k];
+            }
+        }
+    }
+}
+
+impl crate::least_squares::LeastSquaresProblem for NonlinearLeastSquares {
+    fn n_params(&self) -> usize {
+        self.n
+    }
+
+    fn n_residuals(&self) -> usize {
+        self.m
+    }
+
+    fn residuals(&self, theta: &[f64], r: &mut [f64]) -> crate::Result<()> {
+        self.residuals_into(theta, r);
+        Ok(())
+    }
+
+    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
+        crate::fit::dense_pattern(self.m, self.n)
+    }
+
+    fn jacobian_values(&self, theta: &[f64], values: &mut [f64]) -> crate::Result<()> {
+        self.jacobian_into(theta, values);
+        Ok(())
+    }
+}
+
+/// A [`NonlinearLeastSquares`] problem of `1..=max_params` parameters
+/// ($n \le m \le 3n$), its minimiser $x^\star$ (entries in $[-2, 2]$) and a
+/// start within 1.5 of it in each coordinate.
+pub fn nonlinear_least_squares(
+    max_params: usize,
+) -> impl Strategy<Value = (NonlinearLeastSquares, Vec<f64>, Vec<f64>)> {
+    (1..=max_params.max(1))
+        .prop_flat_map(|n| {
+            (
+                Just(n),
+                0..(2 * n + 1),
+                vec(-1.0..1.0f64, 2 * n * n),
+                0.5..2.0f64,
+                0.0..3.0f64,
+                vec(-2.0..2.0f64, n),
+                vec(-1.5..1.5f64, n),
+            )
+        })
+        .prop_map(|(n, extra, entries, diag, beta, x_star, offset)| {
+            let m = n + extra;
+            let mut a = vec![0.0; m * n];
+            for i in 0..n {
+                a[i * n + i] = diag;
+            }
+            for (k, v) in a[n * n..].iter_mut().enumerate() {
+                *v = entries[k % entries.len()];
+            }
+            let problem = NonlinearLeastSquares::new(a, m, n, beta, &x_star);
+            let x0 = x_star.iter().zip(&offset).map(|(x, d)| x + d).collect();
+            (problem, x_star, x0)
+        })
+}
+
 /// A convex quadratic $f(x) = (x - x^\star)^\top (L L^\top + I)(x - x^\star)$
 /// in `1..=max_dim` dimensions, as its Hessian factor $L$ and minimiser
 /// $x^\star$ (minimum value 0).
