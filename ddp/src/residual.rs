@@ -4,7 +4,7 @@
 
 use std::cell::RefCell;
 
-use systems::StageCost;
+use systems::{StageCost, residual_count};
 
 use crate::problem::{Cost, CostDerivatives};
 
@@ -40,7 +40,7 @@ impl<C: StageCost> ResidualCost<C> {
     /// Wraps `stage` for state dimension `n`, control dimension `m` and
     /// horizon $N$ (the terminal cost is stage $N$).
     pub fn new(stage: C, n: usize, m: usize, horizon: usize) -> Self {
-        let nr = stage.n_residuals();
+        let nr = stage.n_residuals().max(stage.n_terminal_residuals());
         Self {
             stage,
             n,
@@ -68,8 +68,9 @@ impl<C: StageCost> ResidualCost<C> {
 
     fn value(&self, k: usize, x: &[f64], u: Option<&[f64]>) -> f64 {
         let mut s = self.scratch.borrow_mut();
-        match self.stage.residuals(k, x, u, &mut s.r) {
-            Ok(()) => s.r.iter().map(|v| v * v).sum(),
+        let r = &mut s.r[..residual_count(&self.stage, u.is_none())];
+        match self.stage.residuals(k, x, u, r) {
+            Ok(()) => r.iter().map(|v| v * v).sum(),
             Err(_) => f64::NAN,
         }
     }
@@ -90,8 +91,10 @@ impl<C: StageCost> ResidualCost<C> {
         let (n, m) = (self.n, self.m);
         let mut guard = self.scratch.borrow_mut();
         let s = &mut *guard;
-        let ok = self.stage.residuals(k, x, u, &mut s.r).is_ok()
-            && self.stage.jacobians(k, x, u, &mut s.jx, &mut s.ju).is_ok();
+        // the stage's own count of residuals (the terminal one may differ)
+        let nr = residual_count(&self.stage, u.is_none());
+        let (sr, sjx, sju, sw) = (&mut s.r[..nr], &mut s.jx[..nr * n], &mut s.ju[..nr * m], &mut s.w[..nr]);
+        let ok = self.stage.residuals(k, x, u, sr).is_ok() && self.stage.jacobians(k, x, u, sjx, sju).is_ok();
         if !ok {
             lx.fill(f64::NAN);
             lxx.fill(f64::NAN);
@@ -102,8 +105,8 @@ impl<C: StageCost> ResidualCost<C> {
             }
             return;
         }
-        for (q, &r) in s.r.iter().enumerate() {
-            let jx = &s.jx[q * n..(q + 1) * n];
+        for (q, &r) in sr.iter().enumerate() {
+            let jx = &sjx[q * n..(q + 1) * n];
             for i in 0..n {
                 lx[i] += 2.0 * jx[i] * r;
                 for j in 0..n {
@@ -112,8 +115,8 @@ impl<C: StageCost> ResidualCost<C> {
             }
         }
         if let Some((lu, luu, lux)) = rest.as_mut() {
-            for (q, &r) in s.r.iter().enumerate() {
-                let (jx, ju) = (&s.jx[q * n..(q + 1) * n], &s.ju[q * m..(q + 1) * m]);
+            for (q, &r) in sr.iter().enumerate() {
+                let (jx, ju) = (&sjx[q * n..(q + 1) * n], &sju[q * m..(q + 1) * m]);
                 for a in 0..m {
                     lu[a] += 2.0 * ju[a] * r;
                     for b in 0..m {
@@ -126,13 +129,13 @@ impl<C: StageCost> ResidualCost<C> {
             }
         }
         // + 2 sum_a r_a hess(r_a), over z = (x, u), or x alone at the end
-        for (w, r) in s.w.iter_mut().zip(&s.r) {
+        for (w, r) in sw.iter_mut().zip(sr.iter()) {
             *w = 2.0 * r;
         }
         let z = if u.is_some() { n + m } else { n };
         let hzz = &mut s.hzz[..z * z];
         hzz.fill(0.0);
-        match self.stage.weighted_hessian(k, x, u, &s.w, hzz) {
+        match self.stage.weighted_hessian(k, x, u, sw, hzz) {
             Ok(true) => {}
             Ok(false) => return,
             Err(_) => {

@@ -11,7 +11,7 @@ pub use acrobot::Acrobot;
 pub use cart_pole::{CartPole, Pole};
 pub use model::{
     Dynamics, ModelError, ModelResult, StageCost, StepOnly, central_differences, jacobians_or_differences,
-    stage_central_differences,
+    residual_count, stage_central_differences,
 };
 pub use pendulum::Pendulum;
 pub use registry::{DT, STANDARD_LAMBDAS, SwingUpModel, SwingUpWeights, System, find_instance};

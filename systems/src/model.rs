@@ -299,9 +299,20 @@ fn differences(
     Ok(())
 }
 
+/// The number of residuals of a stage of `cost`: the terminal stage's
+/// ([`StageCost::n_terminal_residuals`]) when `terminal`, else a running
+/// stage's ([`StageCost::n_residuals`]).
+pub fn residual_count<C: StageCost + ?Sized>(cost: &C, terminal: bool) -> usize {
+    if terminal {
+        cost.n_terminal_residuals()
+    } else {
+        cost.n_residuals()
+    }
+}
+
 /// Central differences of [`StageCost::residuals`] at stage `k`, as
 /// [`central_differences`] for a model: $\partial r_k / \partial x$
-/// (`n_residuals` $\times n$) into `jx` and, unless at the terminal stage
+/// (the stage's [`residual_count`] $\times n$) into `jx` and, unless at the terminal stage
 /// (`u` is `None`), $\partial r_k / \partial u$ into `ju`, row-major. The
 /// default of [`StageCost::jacobians`].
 ///
@@ -316,7 +327,7 @@ pub fn stage_central_differences<C: StageCost + ?Sized>(
     ju: &mut [f64],
 ) -> ModelResult<()> {
     differences(
-        cost.n_residuals(),
+        residual_count(cost, u.is_none()),
         x,
         u,
         &mut |x, u, r| cost.residuals(k, x, u, r),
@@ -331,8 +342,17 @@ pub fn stage_central_differences<C: StageCost + ?Sized>(
 /// Hessian $2 J^\top J$ (plus the residuals' own curvature when
 /// [`weighted_hessian`](Self::weighted_hessian) gives it).
 pub trait StageCost {
-    /// Number of residuals per stage (the same for every stage).
+    /// Number of residuals of every running stage ($k < N$).
     fn n_residuals(&self) -> usize;
+
+    /// Number of residuals of the terminal stage ($k = N$, `u` is `None`);
+    /// by default [`n_residuals`](Self::n_residuals). A terminal cost of
+    /// its own size (say, the state's error alone, heavily weighted, after
+    /// running stages that also weigh the control) returns its count here;
+    /// every solver sizes the terminal stage by it.
+    fn n_terminal_residuals(&self) -> usize {
+        self.n_residuals()
+    }
 
     /// Writes $r_k(x_k, u_k)$; `u` is `None` at the terminal stage $k = N$.
     ///
@@ -340,8 +360,8 @@ pub trait StageCost {
     /// Whatever the cost reports when it cannot evaluate the point.
     fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()>;
 
-    /// Writes $\partial r_k / \partial x$ (`n_residuals` $\times n$) and
-    /// $\partial r_k / \partial u$ (`n_residuals` $\times m$), row-major;
+    /// Writes $\partial r_k / \partial x$ ([`residual_count`] $\times n$) and
+    /// $\partial r_k / \partial u$ ([`residual_count`] $\times m$), row-major;
     /// at the terminal stage `ju` is ignored. The default differences
     /// [`residuals`](Self::residuals) ([`stage_central_differences`],
     /// $2(n + m)$ evaluations): a cost that leaves it out still works with
@@ -387,6 +407,10 @@ pub trait StageCost {
 impl<C: StageCost + ?Sized> StageCost for &C {
     fn n_residuals(&self) -> usize {
         (**self).n_residuals()
+    }
+
+    fn n_terminal_residuals(&self) -> usize {
+        (**self).n_terminal_residuals()
     }
 
     fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {

@@ -338,3 +338,138 @@ fn every_solver_runs_under_argmins_executor() {
     assert_eq!(r, own);
     assert!(r.objective < r.initial_objective);
 }
+
+/// [`Reach`] with a terminal stage of its own size (two residuals, the
+/// state's error alone) instead of a zero-padded third, and no Jacobians:
+/// the solvers size the terminal stage by `n_terminal_residuals` and
+/// difference the residuals.
+struct ReachOwnTerminal;
+
+impl StageCost for ReachOwnTerminal {
+    fn n_residuals(&self) -> usize {
+        3
+    }
+    fn n_terminal_residuals(&self) -> usize {
+        2
+    }
+    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
+        let w = if u.is_some() { 1.0 } else { 10.0 };
+        r[0] = w * (x[0] - TARGET);
+        r[1] = 0.3 * w * x[1];
+        if let Some(u) = u {
+            r[2] = 0.2 * u[0];
+        }
+        Ok(())
+    }
+}
+
+/// A running cost on the control alone, a terminal cost on the state:
+/// the terminal stage has more residuals than the running ones.
+struct EffortThenReach;
+
+impl StageCost for EffortThenReach {
+    fn n_residuals(&self) -> usize {
+        1
+    }
+    fn n_terminal_residuals(&self) -> usize {
+        2
+    }
+    fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
+        match u {
+            Some(u) => r[0] = 0.2 * u[0],
+            None => r.copy_from_slice(&[10.0 * (x[0] - TARGET), 3.0 * x[1]]),
+        }
+        Ok(())
+    }
+}
+
+/// The workaround a user wrote before `n_terminal_residuals`: every stage
+/// padded with zeros to the larger count.
+struct Padded<C>(C);
+
+impl<C: StageCost> StageCost for Padded<C> {
+    fn n_residuals(&self) -> usize {
+        self.0.n_residuals().max(self.0.n_terminal_residuals())
+    }
+    fn residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
+        r.fill(0.0);
+        let own = systems::residual_count(&self.0, u.is_none());
+        self.0.residuals(k, x, u, &mut r[..own])
+    }
+}
+
+/// Issue 50: a terminal cost of its own size plans to the padded one's
+/// optimum, by Eq. 3 (Gauss-Newton) and by DDP; a residual buffer of the
+/// wrong size would panic or shift the stages' rows.
+#[test]
+fn a_terminal_cost_of_its_own_size_plans_as_the_padded_one() {
+    let model = UserPendulum { a: 9.81 / 0.5, b: 0.1 };
+    let times: Vec<f64> = (0..=HORIZON).map(|k| k as f64 * DT).collect();
+    let state_basis = BSplineBasis::clamped_uniform(HORIZON + 1, 3, 0.0, times[HORIZON]).expect("basis");
+    let control_basis = BSplineBasis::clamped_uniform(HORIZON, 3, 0.0, times[HORIZON]).expect("basis");
+    let own_costs: [&dyn StageCost; 2] = [&ReachOwnTerminal, &EffortThenReach];
+    let padded_costs: [&dyn StageCost; 2] = [&Padded(ReachOwnTerminal), &Padded(EffortThenReach)];
+    for (own_cost, padded_cost) in own_costs.into_iter().zip(padded_costs) {
+        let build = |cost: &'static dyn StageCost| {
+            Eq3Problem::new(
+                &model,
+                cost,
+                &state_basis,
+                &control_basis,
+                &times,
+                Lambda::Constant(1e3),
+            )
+            .expect("problem")
+            .with_initial_state(&[0.0, 0.0], 1e4)
+            .expect("initial state")
+        };
+        let (own, padded) = (build(own_cost), build(padded_cost));
+        // Eq. 3 gives every stage the larger count (zeros below a stage's
+        // own rows): the same rows, the same cost at any point
+        assert_eq!(own.n_residuals(), padded.n_residuals());
+        let theta0 = vec![0.0; own.n_params()];
+        let probe: Vec<f64> = (0..theta0.len()).map(|i| 0.1 * (i as f64).sin()).collect();
+        let mut r = vec![0.0; own.n_residuals()];
+        own.residuals(&probe, &mut r).expect("residuals");
+        let c_own: f64 = r.iter().map(|v| v * v).sum();
+        padded.residuals(&probe, &mut r).expect("residuals");
+        let c_pad: f64 = r.iter().map(|v| v * v).sum();
+        assert!((c_own - c_pad).abs() <= 1e-12 * c_pad, "{c_own} vs {c_pad}");
+        let settings = GaussNewtonSettings::default();
+        let a = GaussNewton::new(settings.clone())
+            .expect("settings")
+            .solve(&own, &theta0)
+            .expect("own");
+        let b = GaussNewton::new(settings)
+            .expect("settings")
+            .solve(&padded, &theta0)
+            .expect("padded");
+        assert!(a.status.termination().is_converged(), "{:?}", a.status);
+        assert!((a.cost - b.cost).abs() <= 1e-6 * b.cost, "{} vs {}", a.cost, b.cost);
+
+        let plan = |cost: &'static dyn StageCost| {
+            let problem =
+                DdpProblem::new(&model, ResidualCost::new(cost, 2, 1, HORIZON), &[0.0, 0.0], HORIZON).expect("problem");
+            Ddp::new(DdpSettings::default())
+                .expect("settings")
+                .solve(&problem)
+                .expect("ddp")
+        };
+        let (a, b) = (plan(own_cost), plan(padded_cost));
+        assert!(a.status.is_converged(), "{:?}", a.status);
+        assert!((a.cost - b.cost).abs() <= 1e-6 * b.cost, "{} vs {}", a.cost, b.cost);
+    }
+    // and the DDP cost is the rollout's, terminal included
+    let problem = DdpProblem::new(
+        &model,
+        ResidualCost::new(ReachOwnTerminal, 2, 1, HORIZON),
+        &[0.0, 0.0],
+        HORIZON,
+    )
+    .expect("problem");
+    let plan = Ddp::new(DdpSettings::default())
+        .expect("settings")
+        .solve(&problem)
+        .expect("ddp");
+    assert!((plan.cost - rollout_cost(&model, &plan.controls.concat())).abs() <= 1e-9 * plan.cost);
+}

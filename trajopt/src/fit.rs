@@ -378,7 +378,15 @@ impl<'a> LeastSquares<'a> {
                     None => (r.evals + problem.differencing_evals.get(), 0),
                 };
                 let status = FitStatus::GaussNewton(r.status);
-                (r.x, r.initial_cost, status, r.iterations, evals, jacobian_evals, r.solve_time)
+                (
+                    r.x,
+                    r.initial_cost,
+                    status,
+                    r.iterations,
+                    evals,
+                    jacobian_evals,
+                    r.solve_time,
+                )
             }
             Method::DerivativeFree => {
                 if self.loss != Loss::Linear {

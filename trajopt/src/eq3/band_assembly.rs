@@ -191,7 +191,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     /// (states, controls, stage-cost residuals): the key of the
     /// fixed-shape table ([`with_fixed_shape`]).
     fn local_sizes(&self) -> (usize, usize, usize) {
-        (self.n, self.m, self.cost.n_residuals())
+        (self.n, self.m, self.nc())
     }
 
     /// [`band_normal_equations_impl`](Self::band_normal_equations_impl)
@@ -232,7 +232,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let (n, m, nc) = if NX > 0 {
             (NX, NU, NC)
         } else {
-            (self.n, self.m, self.cost.n_residuals())
+            (self.n, self.m, self.nc())
         };
         let nz = n + m;
         let (x, u) = self.sample_range(theta, steps.clone());
@@ -338,7 +338,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
             row += r_cons.len();
             q.fill(0.0);
             if !S_ONLY {
-                self.cost.jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
+                self.stage_jacobians(k, xk, uk, &mut d.jx, &mut d.ju)?;
                 if !terminal {
                     let km = k - k0;
                     d.fx.copy_from_slice(&model_fx[km * n * n..(km + 1) * n * n]);
@@ -401,7 +401,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
                 hz.fill(0.0);
                 let u_k = (!terminal).then(|| &u[k * m..(k + 1) * m]);
                 let xk = &x[k * n..(k + 1) * n];
-                with_s = self.cost.weighted_hessian(k, xk, u_k, r_cost, &mut hz[..dim * dim])?;
+                with_s = self.stage_hessian(k, xk, u_k, r_cost, &mut hz[..dim * dim])?;
                 if with_s && !terminal && self.lambda[k] > 0.0 {
                     let w = self.scale * self.lambda[k].sqrt();
                     for (wi, ri) in wm.iter_mut().zip(r_cons) {

@@ -51,10 +51,10 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         let (n, m) = (self.n, self.m);
         let xk = &x[k * n..(k + 1) * n];
         if k == self.horizon {
-            return Ok(self.cost.jacobians(k, xk, None, &mut d.jx, &mut d.ju)?);
+            return self.stage_jacobians(k, xk, None, &mut d.jx, &mut d.ju);
         }
         let uk = &u[k * m..(k + 1) * m];
-        self.cost.jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
+        self.stage_jacobians(k, xk, Some(uk), &mut d.jx, &mut d.ju)?;
         if !self.model.jacobians(xk, uk, &mut d.fx, &mut d.fu)? {
             systems::central_differences(&self.model, xk, uk, &mut d.fx, &mut d.fu)?;
         }
@@ -63,9 +63,9 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
 
     /// The structural nonzeros of the local derivatives.
     pub(super) fn local_structure(&self) -> LocalStructure {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let (mut jx, mut ju) = (vec![false; nc * n], vec![false; nc * m]);
-        self.cost.jacobian_structure(&mut jx, &mut ju);
+        self.stage_structure(&mut jx, &mut ju);
         let (mut fx, mut fu) = (vec![false; n * n], vec![false; n * m]);
         self.model.jacobian_structure(&mut fx, &mut fu);
         LocalStructure { jx, ju, fx, fu }
@@ -81,7 +81,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         mut local: impl FnMut(usize, &mut LocalDerivatives) -> Result<()>,
         mut term: impl FnMut(usize, usize, f64),
     ) -> Result<()> {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let mut d = LocalDerivatives {
             jx: vec![0.0; nc * n],
             ju: vec![0.0; nc * m],

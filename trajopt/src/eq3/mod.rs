@@ -364,7 +364,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     ) -> Result<std::ops::Range<usize>> {
         expect_len("parameters", self.n_params(), theta.len())?;
         expect_len("residuals", self.n_residuals(), r.len())?;
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let horizon = self.horizon;
         let (k0, k1) = (steps.start.min(horizon + 1), steps.end.min(horizon + 1));
         if k0 >= k1 {
@@ -387,7 +387,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         for k in k0..k1 {
             let xk = &x[k * n..(k + 1) * n];
             let uk = (k < horizon).then(|| &u[k * m..(k + 1) * m]);
-            self.cost.residuals(k, xk, uk, &mut r[row..row + nc])?;
+            self.stage_residuals(k, xk, uk, &mut r[row..row + nc])?;
             row += nc;
             if k < horizon {
                 let w = self.scale * self.lambda[k].sqrt();
@@ -447,7 +447,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     pub fn cost_breakdown(&self, theta: &[f64]) -> Result<CostBreakdown> {
         expect_len("parameters", self.n_params(), theta.len())?;
         let (x, u) = self.sample(theta);
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let mut r = vec![0.0; nc];
         let mut next = vec![0.0; n];
         let mut out = CostBreakdown {
@@ -460,7 +460,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         for k in 0..=self.horizon {
             let xk = &x[k * n..(k + 1) * n];
             let uk = (k < self.horizon).then(|| &u[k * m..(k + 1) * m]);
-            self.cost.residuals(k, xk, uk, &mut r)?;
+            self.stage_residuals(k, xk, uk, &mut r)?;
             out.task += r.iter().map(|v| v * v).sum::<f64>();
             if let Some(uk) = uk {
                 self.model.step(xk, uk, &mut next)?;
@@ -502,8 +502,64 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         Ok(g)
     }
 
+    /// The rows of every stage's cost block: the larger of the running
+    /// and the terminal counts ([`StageCost::n_terminal_residuals`]); a
+    /// stage with fewer fills the rest with zeros (rows that add nothing
+    /// to the cost, its gradient or $J^\top J$).
+    pub(super) fn nc(&self) -> usize {
+        self.cost.n_residuals().max(self.cost.n_terminal_residuals())
+    }
+
+    /// The stage's own residual count.
+    fn stage_count(&self, terminal: bool) -> usize {
+        systems::residual_count(&self.cost, terminal)
+    }
+
+    /// The cost's residuals of stage `k` into the first rows of `r` (of
+    /// [`nc`](Self::nc) rows), zeros below.
+    fn stage_residuals(&self, k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> Result<()> {
+        let (own, pad) = r.split_at_mut(self.stage_count(u.is_none()));
+        pad.fill(0.0);
+        Ok(self.cost.residuals(k, x, u, own)?)
+    }
+
+    /// The cost's Jacobians of stage `k` into the first rows of `jx` and
+    /// `ju` ([`nc`](Self::nc) rows each), zeros below.
+    fn stage_jacobians(&self, k: usize, x: &[f64], u: Option<&[f64]>, jx: &mut [f64], ju: &mut [f64]) -> Result<()> {
+        let rows = self.stage_count(u.is_none());
+        let (own_x, pad_x) = jx.split_at_mut(rows * self.n);
+        let (own_u, pad_u) = ju.split_at_mut(rows * self.m);
+        pad_x.fill(0.0);
+        pad_u.fill(0.0);
+        Ok(self.cost.jacobians(k, x, u, own_x, own_u)?)
+    }
+
+    /// The cost's weighted Hessian of stage `k`, the weights of its own
+    /// rows (the first of `w`'s [`nc`](Self::nc)).
+    fn stage_hessian(&self, k: usize, x: &[f64], u: Option<&[f64]>, w: &[f64], hess: &mut [f64]) -> Result<bool> {
+        let rows = self.stage_count(u.is_none());
+        Ok(self.cost.weighted_hessian(k, x, u, &w[..rows], hess)?)
+    }
+
+    /// The structure of the cost blocks' Jacobians ([`nc`](Self::nc) rows):
+    /// the cost's own when every stage has as many residuals; otherwise the
+    /// running stages' with every state entry of the terminal stage's rows
+    /// (the structure is one for all stages).
+    fn stage_structure(&self, jx: &mut [bool], ju: &mut [bool]) {
+        let (nr, nt) = (self.cost.n_residuals(), self.cost.n_terminal_residuals());
+        if nr == nt {
+            self.cost.jacobian_structure(jx, ju);
+            return;
+        }
+        jx.fill(false);
+        ju.fill(false);
+        self.cost
+            .jacobian_structure(&mut jx[..nr * self.n], &mut ju[..nr * self.m]);
+        jx[..nt * self.n].fill(true);
+    }
+
     fn rows_per_step(&self) -> usize {
-        self.cost.n_residuals() + self.n
+        self.nc() + self.n
     }
 
     /// Columns of a state channel's coefficients touched by $\Phi_x$ row `k`.
@@ -537,7 +593,7 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
 
     fn n_residuals(&self) -> usize {
         let init = if self.initial_state.is_some() { self.n } else { 0 };
-        self.horizon * self.rows_per_step() + self.cost.n_residuals() + init
+        self.horizon * self.rows_per_step() + self.nc() + init
     }
 
     fn residuals(&self, theta: &[f64], r: &mut [f64]) -> Result<()> {

@@ -15,10 +15,10 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     /// $\partial^2 r / \partial z_a \partial z_b$ can be nonzero only if $r$
     /// depends on both $z_a$ and $z_b$, so the Jacobian structures give them.
     pub(super) fn local_hessian_structure(&self) -> (Vec<bool>, Vec<bool>, Vec<bool>) {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let nz = n + m;
         let (mut bx, mut bu) = (vec![false; nc * n], vec![false; nc * m]);
-        self.cost.jacobian_structure(&mut bx, &mut bu);
+        self.stage_structure(&mut bx, &mut bu);
         let (mut mx, mut mu) = (vec![false; n * n], vec![false; n * m]);
         self.model.jacobian_structure(&mut mx, &mut mu);
         let pairs = |rows: usize, jx: &[bool], ju: &[bool], dim: usize| {
@@ -107,17 +107,15 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
         r: &[f64],
         (hz, hm, w): (&mut [f64], &mut [f64], &mut [f64]),
     ) -> Result<bool> {
-        let (n, m, nc) = (self.n, self.m, self.cost.n_residuals());
+        let (n, m, nc) = (self.n, self.m, self.nc());
         let xk = &x[k * n..(k + 1) * n];
         let row = k * (nc + n);
         hz.fill(0.0);
         if k == self.horizon {
-            return Ok(self
-                .cost
-                .weighted_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n])?);
+            return self.stage_hessian(k, xk, None, &r[row..row + nc], &mut hz[..n * n]);
         }
         let uk = &u[k * m..(k + 1) * m];
-        if !self.cost.weighted_hessian(k, xk, Some(uk), &r[row..row + nc], hz)? {
+        if !self.stage_hessian(k, xk, Some(uk), &r[row..row + nc], hz)? {
             return Ok(false);
         }
         if self.lambda[k] > 0.0 {
