@@ -34,7 +34,7 @@ use faer::Mat;
 use serde::{Deserialize, Serialize};
 use splines::BSplineBasis;
 use systems::hand_pendulum::SoftBounds;
-use trajopt::{Eq3Problem, Lambda, Model, ModelResult, StageCost, TrackingCost};
+use trajopt::{Dynamics, Eq3Problem, Lambda, ModelResult, StageCost, TrackingCost};
 
 use crate::error::{BenchError, Result};
 
@@ -121,7 +121,7 @@ impl LearnedPendulum {
     }
 }
 
-impl Model for LearnedPendulum {
+impl Dynamics for LearnedPendulum {
     fn state_dim(&self) -> usize {
         4
     }
@@ -143,7 +143,7 @@ impl Model for LearnedPendulum {
         Ok(true)
     }
 
-    /// The points in parallel (rayon), each exactly as [`step`](Model::step).
+    /// The points in parallel (rayon), each exactly as [`step`](Dynamics::step).
     fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
         use rayon::prelude::*;
         next.par_chunks_mut(4 * BATCH_CHUNK)
@@ -156,7 +156,7 @@ impl Model for LearnedPendulum {
             })
     }
 
-    /// The points in parallel (rayon), each exactly as [`jacobians`](Model::jacobians).
+    /// The points in parallel (rayon), each exactly as [`jacobians`](Dynamics::jacobians).
     fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         use rayon::prelude::*;
         fx.par_chunks_mut(16 * BATCH_CHUNK)

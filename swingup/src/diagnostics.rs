@@ -47,7 +47,7 @@ pub fn diagnose<G: PendulumRegression>(
         let (n, se) = uncertainty(&[s[0], s[1], s[2], s[3], u]);
         plan_support.push(n);
         plan_std_error.push(se);
-        let mismatch = match trajopt::Model::step(model, &s, &[u], &mut next) {
+        let mismatch = match trajopt::Dynamics::step(model, &s, &[u], &mut next) {
             Ok(()) => {
                 (0..4)
                     .map(|i| (plan.states[k + 1][i] - next[i]).powi(2))
@@ -183,7 +183,7 @@ pub(crate) mod tests {
         let mut states = vec![[0.2, 0.0, 0.0, 0.0]];
         for (k, &u) in controls.iter().enumerate() {
             let mut next = [0.0; 4];
-            trajopt::Model::step(&model, &states[k], &[u], &mut next).expect("step");
+            trajopt::Dynamics::step(&model, &states[k], &[u], &mut next).expect("step");
             states.push(next);
         }
         let plan = plan_of(states.clone(), controls.clone());

@@ -12,7 +12,7 @@ pub struct RootReadme;
 use std::path::{Path, PathBuf};
 
 use faer::Mat;
-use trajopt::{CostBreakdown, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Model, StageCost};
+use trajopt::{CostBreakdown, Dynamics, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, StageCost};
 
 /// An Eq. 3 plan: Gauss-Newton's result on the problem, the cost breakdown
 /// of its answer, and the answer's states and controls (one row per
@@ -30,7 +30,7 @@ pub struct Eq3Plan {
 
 /// Gauss-Newton (default settings but at most `max_iterations`) on
 /// `problem` from `theta0`; panics if the solver fails (a test's failure).
-pub fn gauss_newton_plan<M: Model, C: StageCost>(
+pub fn gauss_newton_plan<M: Dynamics, C: StageCost>(
     problem: &Eq3Problem<M, C>,
     theta0: &[f64],
     max_iterations: usize,

@@ -11,7 +11,7 @@ use ddp::Dynamics;
 use ddp::strategies::check_dynamics;
 use integration_tests::gauss_newton_plan;
 use trajopt::problems::trajectory::{self, SwingUpProblem, parameters_of};
-use trajopt::{Model, StageCost, check_model_jacobians};
+use trajopt::{StageCost, check_model_jacobians};
 
 /// Deterministic spread-out test points: states in $[-3, 3]^n$ (angles
 /// beyond $\pm\pi/2$, fast rates), controls in $[-8, 8]$.
@@ -84,14 +84,14 @@ fn models_step_alike_and_pass_both_jacobian_checks() {
         let ddp_problem = ddp_twin(&instance).problem().expect("problem");
         let (model, dyn_) = (problem.model(), ddp_problem.dynamics());
         // one type (`systems::SwingUpModel`) under the one model contract
-        let n = Model::state_dim(model);
+        let n = Dynamics::state_dim(model);
         assert_eq!(
-            (n, Model::control_dim(model)),
+            (n, Dynamics::control_dim(model)),
             (Dynamics::state_dim(dyn_), Dynamics::control_dim(dyn_))
         );
         for (x, u) in points(n) {
             let (mut a, mut b) = (vec![0.0; n], vec![0.0; n]);
-            Model::step(model, &x, &u, &mut a).expect("step");
+            Dynamics::step(model, &x, &u, &mut a).expect("step");
             Dynamics::step(dyn_, &x, &u, &mut b).expect("step");
             for i in 0..n {
                 assert!(

@@ -30,7 +30,7 @@ use trajopt::ModelResult;
 
 use splines::{BSplineBasis, FitSettings, fit_matrix};
 use trajopt::faer::Mat;
-use trajopt::{Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, Model, StageCost};
+use trajopt::{Dynamics, Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, StageCost};
 
 const DT: f64 = 0.05;
 
@@ -42,7 +42,7 @@ struct MyCartPole {
     gravity: f64,
 }
 
-impl Model for MyCartPole {
+impl Dynamics for MyCartPole {
     fn state_dim(&self) -> usize {
         4
     }

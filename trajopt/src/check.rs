@@ -9,7 +9,7 @@
 //! Entries outside the Jacobian's pattern count as analytic zeros, so a
 //! pattern that misses a dependence shows up too.
 //! [`check_model_jacobians`] and [`check_stage_cost_jacobians`] do the same
-//! for the two halves of Eq. 3, a [`Model`] and a [`StageCost`], over
+//! for the two halves of Eq. 3, a [`Dynamics`] and a [`StageCost`], over
 //! $z = (x, u)$ (columns: the state, then the control), with their declared
 //! Jacobian structures as the pattern. The field names are those of the
 //! other crates' checks (`ddp::strategies::check_jacobian`,
@@ -17,17 +17,17 @@
 //!
 //! ```
 //! use trajopt::check::{check_jacobian, check_model_jacobians};
-//! use trajopt::problems::{Pendulum, pendulum_swingup};
+//! use trajopt::problems::{HandPendulum, pendulum_swingup};
 //!
 //! let (problem, theta) = pendulum_swingup(20, 1e2)?;
 //! let worst = check_jacobian(&problem, &theta)?;
 //! assert!(worst.max_rel_error < 1e-6, "{worst:?}");
-//! let worst = check_model_jacobians(&Pendulum::default(), &[2.0, -1.0, 0.3, 0.1], &[4.0])?;
+//! let worst = check_model_jacobians(&HandPendulum::default(), &[2.0, -1.0, 0.3, 0.1], &[4.0])?;
 //! assert!(worst.expect("analytic").max_rel_error < 1e-6);
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
-use crate::eq3::{Model, StageCost};
+use crate::eq3::{Dynamics, StageCost};
 use crate::error::{Result, check_point};
 use crate::least_squares::{LeastSquaresProblem, check_jacobian_pattern};
 
@@ -62,17 +62,17 @@ pub fn check_jacobian<P: LeastSquaresProblem + ?Sized>(problem: &P, theta: &[f64
     worst_difference(theta, n_r, &analytic, |t, r| problem.residuals(t, r))
 }
 
-/// Compares a [`Model`]'s analytic $\partial f / \partial x$ and
+/// Compares a [`Dynamics`]'s analytic $\partial f / \partial x$ and
 /// $\partial f / \partial u$ at $(x, u)$ with central differences of
-/// [`Model::step`], columns $0..n$ the state and $n..n+m$ the control.
-/// Entries outside [`Model::jacobian_structure`] count as analytic zeros.
+/// [`Dynamics::step`], columns $0..n$ the state and $n..n+m$ the control.
+/// Entries outside [`Dynamics::jacobian_structure`] count as analytic zeros.
 /// Returns `None` when the model has no analytic Jacobians
-/// ([`Model::jacobians`] returns `false`): the solvers then difference it
+/// ([`Dynamics::jacobians`] returns `false`): the solvers then difference it
 /// themselves and there is nothing to check.
 ///
 /// # Errors
 /// Wrong-sized or non-finite `x` or `u`, or an error from the model.
-pub fn check_model_jacobians<M: Model + ?Sized>(model: &M, x: &[f64], u: &[f64]) -> Result<Option<JacobianCheck>> {
+pub fn check_model_jacobians<M: Dynamics + ?Sized>(model: &M, x: &[f64], u: &[f64]) -> Result<Option<JacobianCheck>> {
     let (n, m) = (model.state_dim(), model.control_dim());
     check_point("state", n, x)?;
     check_point("control", m, u)?;
@@ -267,7 +267,7 @@ mod tests {
         analytic: bool,
     }
 
-    impl Model for Toy {
+    impl Dynamics for Toy {
         fn state_dim(&self) -> usize {
             2
         }

@@ -51,7 +51,7 @@ pub use check::{JacobianCheck, check_jacobian, check_model_jacobians, check_stag
 pub use derivative_free::{
     DerivativeFree, DerivativeFreeResult, DerivativeFreeRun, DerivativeFreeSettings, Difference,
 };
-pub use eq3::{CostBreakdown, Eq3Problem, Lambda, Model, StageCost, TrackingCost};
+pub use eq3::{CostBreakdown, Eq3Problem, Lambda, StageCost, TrackingCost};
 pub use error::{Result, TrajoptError};
 pub use fit::{FitStatus, LeastSquares, LeastSquaresFit, Method, dense_pattern};
 pub use gauss_newton::{

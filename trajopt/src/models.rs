@@ -2,7 +2,7 @@
 
 use faer::Mat;
 
-use crate::eq3::Model;
+use crate::eq3::Dynamics;
 use crate::error::{Result, TrajoptError, check_finite};
 use systems::ModelResult;
 
@@ -33,7 +33,7 @@ impl LinearModel {
     }
 }
 
-impl Model for LinearModel {
+impl Dynamics for LinearModel {
     fn state_dim(&self) -> usize {
         self.a.nrows()
     }

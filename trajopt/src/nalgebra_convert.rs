@@ -74,7 +74,7 @@ impl TrackingCost {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::eq3::{Model, StageCost};
+    use crate::eq3::{Dynamics, StageCost};
 
     #[test]
     fn conversions_round_trip_and_keep_row_major_meaning() {

@@ -24,7 +24,7 @@ pub mod trajectory;
 use faer::Mat;
 use splines::BSplineBasis;
 
-use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
+use crate::eq3::{Dynamics, Eq3Problem, Lambda, TrackingCost};
 use crate::error::Result;
 use systems::ModelResult;
 
@@ -33,7 +33,7 @@ pub const PENDULUM_DT: f64 = 1.0 / 60.0;
 
 /// The hand-driven pendulum; see the [module docs](self).
 #[derive(Debug, Clone, Copy, PartialEq)]
-pub struct Pendulum {
+pub struct HandPendulum {
     /// Gravity $g$.
     pub gravity: f64,
     /// Length $l$.
@@ -44,7 +44,7 @@ pub struct Pendulum {
     pub dt: f64,
 }
 
-impl Default for Pendulum {
+impl Default for HandPendulum {
     fn default() -> Self {
         Self {
             gravity: 9.81,
@@ -55,7 +55,7 @@ impl Default for Pendulum {
     }
 }
 
-impl Model for Pendulum {
+impl Dynamics for HandPendulum {
     fn state_dim(&self) -> usize {
         4
     }
@@ -145,7 +145,7 @@ pub fn swingup_reference(k: usize) -> [f64; 4] {
 /// `lambda` in rate units (scale $1/\Delta t$). Returns the problem and the
 /// starting parameters: the reference fitted into the state basis, zero
 /// controls.
-pub fn pendulum_swingup(horizon: usize, lambda: f64) -> Result<(Eq3Problem<Pendulum, TrackingCost>, Vec<f64>)> {
+pub fn pendulum_swingup(horizon: usize, lambda: f64) -> Result<(Eq3Problem<HandPendulum, TrackingCost>, Vec<f64>)> {
     let times: Vec<f64> = (0..=horizon).map(|k| k as f64 * PENDULUM_DT).collect();
     let t_end = times[horizon];
     let state_ref = Mat::from_fn(horizon + 1, 4, |k, i| swingup_reference(k)[i]);
@@ -159,7 +159,7 @@ pub fn pendulum_swingup(horizon: usize, lambda: f64) -> Result<(Eq3Problem<Pendu
     let state_basis = BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, t_end)?;
     let control_basis = BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, t_end)?;
     let problem = Eq3Problem::new(
-        Pendulum::default(),
+        HandPendulum::default(),
         cost,
         &state_basis,
         &control_basis,
@@ -211,7 +211,7 @@ mod tests {
 
     #[test]
     fn pendulum_jacobians_match_central_differences() {
-        let worst = crate::check_model_jacobians(&Pendulum::default(), &[0.7, -1.3, 0.2, 0.4], &[2.5])
+        let worst = crate::check_model_jacobians(&HandPendulum::default(), &[0.7, -1.3, 0.2, 0.4], &[2.5])
             .expect("check")
             .expect("analytic");
         assert!(worst.max_rel_error < 1e-7, "{worst:?}");
@@ -219,7 +219,7 @@ mod tests {
 
     #[test]
     fn pendulum_weighted_hessian_matches_differences_of_the_jacobians() {
-        let p = Pendulum::default();
+        let p = HandPendulum::default();
         let (x, u, w) = ([0.7, -1.3, 0.2, 0.4], [2.5], [0.3, -1.7, 0.9, 2.0]);
         let mut hess = vec![0.0; 25];
         assert!(p.weighted_hessian(&x, &u, &w, &mut hess).expect("ok"));

@@ -459,10 +459,10 @@ mod tests {
     use super::*;
     use crate::eq3::{Eq3Problem, TrackingCost};
     use crate::least_squares::LeastSquaresProblem;
-    use crate::problems::{Pendulum, pendulum_swingup};
+    use crate::problems::{HandPendulum, pendulum_swingup};
 
     /// The benchmark swing-up at 120 steps, its start, layout and residuals.
-    fn benchmark() -> (Eq3Problem<Pendulum, TrackingCost>, Vec<f64>, BandLayout, Vec<f64>) {
+    fn benchmark() -> (Eq3Problem<HandPendulum, TrackingCost>, Vec<f64>, BandLayout, Vec<f64>) {
         let (p, theta) = pendulum_swingup(120, 1e2).expect("problem");
         let layout = BandForm::layout(&p);
         let mut r = vec![0.0; p.n_residuals()];

@@ -8,7 +8,7 @@ use proptest::collection::vec;
 use proptest::prelude::*;
 use splines::BSplineBasis;
 
-use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
+use crate::eq3::{Dynamics, Eq3Problem, Lambda, TrackingCost};
 use crate::least_squares::LinearLeastSquares;
 use crate::models::LinearModel;
 
@@ -68,7 +68,7 @@ pub fn linear_least_squares(max_params: usize) -> impl Strategy<Value = (LinearL
 /// the global minimum, cost 0, and the Jacobian
 /// $\operatorname{diag}(h'(Ax)) A$ has full column rank everywhere.
 /// Residuals, the exact Jacobian and the pattern come as a
-/// [`LeastSquaresProblem`], and as closures for [`crate::LeastSquares`].
+/// [`LeastSquaresProblem`](crate::LeastSquaresProblem), and as closures for [`crate::LeastSquares`].
 #[derive(Debug, Clone, PartialEq)]
 pub struct NonlinearLeastSquares {
     /// $A$, $m \times n$ row-major.

@@ -11,10 +11,10 @@ use splines::BSplineBasis;
 use trajopt::ModelResult;
 use trajopt::derivative_free::{DerivativeFree, DerivativeFreeSettings, Difference};
 use trajopt::problems::mgh;
-use trajopt::problems::{Pendulum, pendulum_swingup, swingup_reference};
+use trajopt::problems::{HandPendulum, pendulum_swingup, swingup_reference};
 use trajopt::{
-    Eq3Problem, GaussNewton, GaussNewtonSettings, GaussNewtonStatus, Lambda, LeastSquaresProblem, Model, TrackingCost,
-    TrajoptError,
+    Dynamics, Eq3Problem, GaussNewton, GaussNewtonSettings, GaussNewtonStatus, Lambda, LeastSquaresProblem,
+    TrackingCost, TrajoptError,
 };
 
 /// A consistent linear problem $r = A\theta - b$ with a dense $A$ of full
@@ -165,9 +165,9 @@ proptest! {
 }
 
 /// A model that answers its value but fails when asked for derivatives.
-struct NoDerivatives(Pendulum);
+struct NoDerivatives(HandPendulum);
 
-impl Model for NoDerivatives {
+impl Dynamics for NoDerivatives {
     fn state_dim(&self) -> usize {
         self.0.state_dim()
     }
@@ -257,7 +257,7 @@ fn without_derivatives(horizon: usize, lambda: f64) -> Eq3Problem<NoDerivatives,
     let state_basis = BSplineBasis::clamped_uniform(horizon / 6 + 4, 3, 0.0, t_end).expect("basis");
     let control_basis = BSplineBasis::clamped_uniform(horizon / 8 + 4, 3, 0.0, t_end).expect("basis");
     Eq3Problem::new(
-        NoDerivatives(Pendulum::default()),
+        NoDerivatives(HandPendulum::default()),
         cost,
         &state_basis,
         &control_basis,

@@ -10,8 +10,8 @@ use proptest::prelude::*;
 use splines::{BSplineBasis, TrajectoryBasis};
 use trajopt::ModelResult;
 use trajopt::{
-    Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LeastSquaresProblem, LinearLeastSquares, LinearModel,
-    LinearSolver, Model, Result, StepModel, TrackingCost, TrajoptError,
+    Dynamics, Eq3Problem, GaussNewton, GaussNewtonSettings, Lambda, LeastSquaresProblem, LinearLeastSquares,
+    LinearModel, LinearSolver, Result, StepModel, TrackingCost, TrajoptError,
 };
 
 const DT: f64 = 1.0 / 60.0;
@@ -22,7 +22,7 @@ struct Pendulum {
     analytic: bool,
 }
 
-impl Model for Pendulum {
+impl Dynamics for Pendulum {
     fn state_dim(&self) -> usize {
         2
     }
@@ -243,7 +243,7 @@ fn bad_input_gives_errors() {
 
     /// A model that returns NaN beyond |theta| > 1: the solver must not step there.
     struct Cliff;
-    impl Model for Cliff {
+    impl Dynamics for Cliff {
         fn state_dim(&self) -> usize {
             2
         }
@@ -521,7 +521,7 @@ fn band_and_sparse_normal_equations_take_the_same_steps() {
 /// problem must use the batches, and get the same answer as point by point.
 struct Batched(Pendulum, std::sync::atomic::AtomicUsize);
 
-impl Model for Batched {
+impl Dynamics for Batched {
     fn state_dim(&self) -> usize {
         2
     }

@@ -6,9 +6,9 @@ mod common;
 use common::{
     Hooked, assert_iterations_close, assert_same_minimum, forward_band_form, forward_least_squares, swingup_problem,
 };
-use trajopt::problems::{PENDULUM_DT, Pendulum, pendulum_swingup, swingup_reference};
+use trajopt::problems::{HandPendulum, PENDULUM_DT, pendulum_swingup, swingup_reference};
 use trajopt::{
-    BandForm, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, LeastSquaresProblem, Model, Part,
+    BandForm, Dynamics, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, LeastSquaresProblem, Part,
     Result, StepModel, TrackingCost, TrajoptError,
 };
 
@@ -87,7 +87,7 @@ fn failing_late(max_angle: f64) -> Hooked<impl Fn(&[f64]) -> trajopt::ModelResul
 /// (the same bases, cost and lambda), and the angle past which 95% of the
 /// reference's steps lie: a model that misbehaves beyond it does so only
 /// at the last steps, in the last part of a split.
-fn swingup_with<M: Model>(horizon: usize, model: impl FnOnce(f64) -> M) -> Result<Eq3Problem<M, TrackingCost>> {
+fn swingup_with<M: Dynamics>(horizon: usize, model: impl FnOnce(f64) -> M) -> Result<Eq3Problem<M, TrackingCost>> {
     let max_angle = swingup_reference(horizon * 95 / 100)[0];
     let state_ref = faer::Mat::from_fn(horizon + 1, 4, |k, i| swingup_reference(k)[i]);
     let cost = TrackingCost::new(
@@ -150,7 +150,7 @@ fn an_overflow_in_a_helper_part_gives_gauss_newton_steps() -> Result<()> {
 /// A problem with a band form but no split of its own: the default
 /// `BandForm::normal_equations_part` forms everything in part 0, so the
 /// parallel solve is the sequential one, bit for bit.
-struct Unsplit(Eq3Problem<Pendulum, TrackingCost>);
+struct Unsplit(Eq3Problem<HandPendulum, TrackingCost>);
 
 impl LeastSquaresProblem for Unsplit {
     forward_least_squares!(0, band_form);
@@ -216,7 +216,7 @@ fn residual_parts_make_up_the_residuals() -> Result<()> {
 
 /// A problem whose residual parts miss rows is an error of the parallel
 /// solve, not a solve on stale residuals.
-struct MissingRows(Eq3Problem<Pendulum, TrackingCost>);
+struct MissingRows(Eq3Problem<HandPendulum, TrackingCost>);
 
 impl LeastSquaresProblem for MissingRows {
     forward_least_squares!(0, band_form);

@@ -11,7 +11,7 @@ use faer::sparse::{SparseColMat, SparseRowMat};
 use faer::{Mat, Side};
 use proptest::prelude::*;
 use trajopt::linalg::{BandLayout, BandedSym};
-use trajopt::problems::{Pendulum, pendulum_swingup};
+use trajopt::problems::{HandPendulum, pendulum_swingup};
 use trajopt::{
     BandForm, BandNormalEquations, Eq3Problem, GaussNewton, GaussNewtonSettings, LeastSquaresProblem, LinearSolver,
     Part, Point, Result, SecondOrder, StepModel, TrackingCost,
@@ -390,7 +390,7 @@ fn adaptive_mode_without_an_exact_form_probes_the_residuals() -> Result<()> {
 /// The benchmark pendulum with call counters, and with or without its
 /// second-order term alone in band form (`BandForm::second_order_part`).
 struct Counting {
-    inner: Eq3Problem<Pendulum, TrackingCost>,
+    inner: Eq3Problem<HandPendulum, TrackingCost>,
     forward_s: bool,
     normal_equations: std::sync::atomic::AtomicUsize,
     second_order_alone: std::sync::atomic::AtomicUsize,

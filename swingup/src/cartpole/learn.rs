@@ -522,7 +522,7 @@ impl Mpc<'_> {
     /// Replans from the measured state `x0` with `model`; returns the force
     /// to apply, the wall time, the iterations and whether the previous
     /// plan was kept.
-    fn step<M: trajopt::Model>(&mut self, model: &M, x0: &[f64; 4]) -> crate::Result<(f64, f64, usize, bool)> {
+    fn step<M: trajopt::Dynamics>(&mut self, model: &M, x0: &[f64; 4]) -> crate::Result<(f64, f64, usize, bool)> {
         let s = self.settings;
         let started = Instant::now();
         let (plan, iterations, kept) = match self.plan.take() {
@@ -557,7 +557,7 @@ impl Mpc<'_> {
 
     /// The first replan of a trial: three cold starts, a continuation in
     /// lambda from 1 for each, the least criterion kept.
-    fn cold<M: trajopt::Model>(&self, model: &M, x0: &[f64; 4]) -> crate::Result<(WindowPlan, usize)> {
+    fn cold<M: trajopt::Dynamics>(&self, model: &M, x0: &[f64; 4]) -> crate::Result<(WindowPlan, usize)> {
         let s = self.settings;
         let mut best: Option<(f64, WindowPlan)> = None;
         let mut iterations = 0;

@@ -316,7 +316,7 @@ fn linear_fit(zs: &[[f64; N_INPUTS]], ds: &[[f64; 4]], control_affine: bool) -> 
     })
 }
 
-impl trajopt::Model for CartPoleModel {
+impl trajopt::Dynamics for CartPoleModel {
     fn state_dim(&self) -> usize {
         4
     }
@@ -360,7 +360,7 @@ mod tests {
     use super::*;
     use crate::cartpole::plant::{CartPoleParams, CartPolePlant};
     use rand::{Rng, SeedableRng};
-    use trajopt::Model;
+    use trajopt::Dynamics;
 
     /// Transitions of the true plant (no sensor noise) from random states
     /// and forces.

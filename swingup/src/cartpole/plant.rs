@@ -198,7 +198,7 @@ impl CartPolePlant {
 /// The true plant as a planning model (the reference the learned model is
 /// measured against; Jacobians by central differences): one control
 /// period, the force clipped.
-impl trajopt::Model for CartPolePlant {
+impl trajopt::Dynamics for CartPolePlant {
     fn state_dim(&self) -> usize {
         4
     }

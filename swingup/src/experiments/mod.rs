@@ -586,7 +586,7 @@ pub fn rollouts(cfg: &Config, record: &RunRecord) -> crate::Result<Vec<Rollout>>
                 blew = Some(k);
                 break;
             }
-            trajopt::Model::step(&model, &s, &[u], &mut next_state).map_err(trajopt::TrajoptError::from)?;
+            trajopt::Dynamics::step(&model, &s, &[u], &mut next_state).map_err(trajopt::TrajoptError::from)?;
             s = next_state;
             err = err.max((s[0] - next.states[k + 1][0]).abs());
         }

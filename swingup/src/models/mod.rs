@@ -1,6 +1,6 @@
 //! The robot's models of its own dynamics, written once to the workspace's
-//! model contract (`systems::Dynamics`: `trajopt`'s `Model`, `ddp`'s
-//! `Dynamics`).
+//! model contract (`systems::Dynamics`, re-exported by `trajopt` and
+//! `ddp`).
 //!
 //! As in the paper, the hand's kinematics are known and the pendulum's are
 //! learned: a regression $g$ predicts the per-sample change of the
@@ -143,7 +143,7 @@ impl<G: PendulumRegression> KnownHand<G> {
 /// costs microseconds, so smaller tasks would spend more on scheduling.
 const BATCH_CHUNK: usize = 32;
 
-impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
+impl<G: PendulumRegression> trajopt::Dynamics for KnownHand<G> {
     fn state_dim(&self) -> usize {
         4
     }
@@ -170,7 +170,7 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
         self.regression.support(&[x[0], x[1], x[2], x[3], u[0]])
     }
 
-    /// The points in parallel (rayon), each exactly as [`step`](trajopt::Model::step).
+    /// The points in parallel (rayon), each exactly as [`step`](trajopt::Dynamics::step).
     fn step_batch(&self, xs: &[f64], us: &[f64], next: &mut [f64]) -> ModelResult<()> {
         use rayon::prelude::*;
         next.par_chunks_mut(4 * BATCH_CHUNK).enumerate().for_each(|(c, out)| {
@@ -182,7 +182,7 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
         Ok(())
     }
 
-    /// The points in parallel (rayon), each exactly as [`jacobians`](trajopt::Model::jacobians).
+    /// The points in parallel (rayon), each exactly as [`jacobians`](trajopt::Dynamics::jacobians).
     fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         use rayon::prelude::*;
         fx.par_chunks_mut(16 * BATCH_CHUNK)
@@ -202,9 +202,9 @@ impl<G: PendulumRegression> trajopt::Model for KnownHand<G> {
 mod tests {
     use super::*;
     use lwr::{Kernel, LwrSettings};
-    use trajopt::Model;
+    use trajopt::Dynamics;
 
-    fn check_against_differences(model: &impl Model, x: [f64; 4], u: [f64; 1], tol: f64) {
+    fn check_against_differences(model: &impl Dynamics, x: [f64; 4], u: [f64; 1], tol: f64) {
         let worst = trajopt::check_model_jacobians(model, &x, &u)
             .expect("check")
             .expect("analytic");
@@ -366,7 +366,7 @@ mod tests {
     /// number of points that is not a multiple of the task size.
     #[test]
     fn batches_equal_point_by_point_evaluation() {
-        use trajopt::Model;
+        use trajopt::Dynamics;
         let model = model_of(300, 1.0, Kernel::Gaussian);
         let k = 2 * BATCH_CHUNK + 13;
         let xs: Vec<f64> = (0..4 * k).map(|i| (i as f64 * 0.37).sin() * 2.0).collect();

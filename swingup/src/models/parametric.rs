@@ -562,7 +562,7 @@ mod tests {
     /// hanging at rest.
     #[test]
     fn known_hand_wrapper_is_consistent() {
-        use trajopt::Model;
+        use trajopt::Dynamics;
         let params = PlantParams::robot();
         let (xs, ys) = plant_data(params, 300, 9);
         let model = KnownHand::new(

@@ -140,7 +140,7 @@ impl TrajectoryBasis for PlanBasis {
 
 /// The Eq. 3 problem of planning a swing-up with `model`, and its starting
 /// point: the demonstration fitted by the bases (Eqs. 6-7).
-pub fn build_problem<M: trajopt::Model>(
+pub fn build_problem<M: trajopt::Dynamics>(
     cfg: &Config,
     demo: &Demonstration,
     model: M,
@@ -166,7 +166,7 @@ pub fn build_problem<M: trajopt::Model>(
 
 /// The coefficients of `problem` that best fit (least squares) a trajectory
 /// of `horizon + 1` states and `horizon` controls at the sample times.
-pub fn fit_coefficients<M: trajopt::Model>(
+pub fn fit_coefficients<M: trajopt::Dynamics>(
     cfg: &Config,
     demo: &Demonstration,
     problem: &Eq3Problem<M, SwingupCost>,
@@ -204,7 +204,7 @@ pub fn fit_coefficients<M: trajopt::Model>(
 /// [`PlannerConfig::solver`](crate::config::PlannerConfig::solver) says; DDP is [`crate::planning::ddp::plan_ddp`]),
 /// starting from the demonstration fitted by the bases (Eqs. 6-7), with a
 /// continuation in $\lambda$ ([`PlannerConfig::lambda_start`](crate::config::PlannerConfig::lambda_start)).
-pub fn plan<M: trajopt::Model>(
+pub fn plan<M: trajopt::Dynamics>(
     cfg: &Config,
     demo: &Demonstration,
     model: M,
@@ -218,7 +218,7 @@ pub fn plan<M: trajopt::Model>(
 /// $\lambda$ directly, without the continuation (see
 /// [`PlannerConfig::warm_start`](crate::config::PlannerConfig::warm_start)).
 /// `start` must span the demonstration's horizon.
-pub fn plan_from<M: trajopt::Model>(
+pub fn plan_from<M: trajopt::Dynamics>(
     cfg: &Config,
     demo: &Demonstration,
     model: M,
@@ -255,7 +255,7 @@ pub fn plan_from<M: trajopt::Model>(
 /// along `states` and `controls`: $\lambda_k = \lambda \max(\epsilon,
 /// \min(1, n_k / n_{full}))$, with $n_k$ the model's support at step $k$
 /// ($\lambda$ where the model has none).
-pub fn confidence_lambda<M: trajopt::Model>(
+pub fn confidence_lambda<M: trajopt::Dynamics>(
     p: &crate::config::PlannerConfig,
     model: &M,
     states: &Mat<f64>,
@@ -287,7 +287,7 @@ enum Method {
 }
 
 /// [`plan_from`] with `method`.
-fn solve<M: trajopt::Model>(
+fn solve<M: trajopt::Dynamics>(
     cfg: &Config,
     demo: &Demonstration,
     model: M,

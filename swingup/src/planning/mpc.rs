@@ -109,7 +109,7 @@ impl Window {
     ///
     /// # Errors
     /// Whatever [`Eq3Problem`] refuses (dimensions, non-finite values).
-    pub fn problem<M: trajopt::Model, C: StageCost>(
+    pub fn problem<M: trajopt::Dynamics, C: StageCost>(
         &self,
         model: M,
         cost: C,
@@ -135,7 +135,7 @@ impl Window {
     ///
     /// # Errors
     /// Sizes that do not match the window or the problem.
-    pub fn fit<M: trajopt::Model, C: StageCost>(
+    pub fn fit<M: trajopt::Dynamics, C: StageCost>(
         &self,
         problem: &Eq3Problem<M, C>,
         states: &Mat<f64>,
@@ -164,7 +164,7 @@ impl Window {
 /// # Errors
 /// A problem that is not the pendulum's (4 states, 1 control), or limits
 /// that are not finite and positive.
-pub fn bounded<M: trajopt::Model, C: StageCost>(
+pub fn bounded<M: trajopt::Dynamics, C: StageCost>(
     problem: Eq3Problem<M, C>,
     x_max: f64,
     u_max: f64,
@@ -264,7 +264,7 @@ pub struct Replan {
 ///
 /// # Errors
 /// Only sizes that do not match: a failed solve keeps the previous plan.
-pub fn replan<M: trajopt::Model, C: StageCost>(
+pub fn replan<M: trajopt::Dynamics, C: StageCost>(
     window: &Window,
     problem: &Eq3Problem<M, C>,
     warm: &WindowPlan,
@@ -564,7 +564,7 @@ mod tests {
         }
     }
 
-    impl trajopt::Model for SlowLater {
+    impl trajopt::Dynamics for SlowLater {
         fn state_dim(&self) -> usize {
             self.inner.state_dim()
         }

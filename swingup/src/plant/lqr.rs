@@ -133,7 +133,7 @@ fn riccati_step(p: &[[f64; 4]; 4], a: &[[f64; 4]; 4], b: &[f64; 4], q: &[f64; 4]
 /// $Q = \mathrm{diag}(q)$, $R = r$ and terminal weight $Q$. `None` if the
 /// model fails or the pass is not finite.
 pub fn tracking_gains(
-    model: &impl trajopt::Model,
+    model: &impl trajopt::Dynamics,
     states: &[[f64; 4]],
     controls: &[f64],
     q: [f64; 4],

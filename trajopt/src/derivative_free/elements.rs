@@ -4,12 +4,12 @@
 use std::sync::atomic::{AtomicUsize, Ordering};
 
 use super::Difference;
-use crate::eq3::Model;
+use crate::eq3::Dynamics;
 use crate::error::{Result, TrajoptError};
 use systems::ModelResult;
 
-/// A [`Model`] whose Jacobians are differences of its own values: `inner`'s
-/// [`jacobians`](Model::jacobians) are never called.
+/// A [`Dynamics`] whose Jacobians are differences of its own values: `inner`'s
+/// [`jacobians`](Dynamics::jacobians) are never called.
 ///
 /// Eq. 3's consistency residual at step $k$,
 /// $x_{k+1} - f(x_k, u_k)$, depends on the coefficients only through the
@@ -23,7 +23,7 @@ use systems::ModelResult;
 /// evaluations for the pendulum, where grouping the coefficients
 /// ([`GroupedDifferences`](super::GroupedDifferences)) needs 14. All
 /// the perturbed points go to the inner model in one
-/// [`step_batch`](Model::step_batch) call (a learned model may evaluate them
+/// [`step_batch`](Dynamics::step_batch) call (a learned model may evaluate them
 /// in parallel).
 ///
 /// Step $h_c = s \max(|z_c|, 1)$, $s = \sqrt{\epsilon}$ (forward) or
@@ -31,15 +31,15 @@ use systems::ModelResult;
 ///
 /// ```
 /// use trajopt::derivative_free::{Difference, Differenced};
-/// use trajopt::{Model, check_model_jacobians};
-/// use trajopt::problems::Pendulum;
+/// use trajopt::{Dynamics, check_model_jacobians};
+/// use trajopt::problems::HandPendulum;
 ///
-/// let model = Differenced::new(Pendulum::default(), Difference::Central, None)?;
+/// let model = Differenced::new(HandPendulum::default(), Difference::Central, None)?;
 /// // the differences agree with the pendulum's exact Jacobians
 /// let (mut fx, mut fu) = (vec![0.0; 16], vec![0.0; 4]);
 /// assert!(model.jacobians(&[0.7, -1.3, 0.2, 0.4], &[2.5], &mut fx, &mut fu)?);
 /// let (mut ex, mut eu) = (vec![0.0; 16], vec![0.0; 4]);
-/// Pendulum::default().jacobians(&[0.7, -1.3, 0.2, 0.4], &[2.5], &mut ex, &mut eu)?;
+/// HandPendulum::default().jacobians(&[0.7, -1.3, 0.2, 0.4], &[2.5], &mut ex, &mut eu)?;
 /// for (a, b) in fx.iter().chain(&fu).zip(ex.iter().chain(&eu)) {
 ///     assert!((a - b).abs() < 1e-8 * (1.0 + b.abs()));
 /// }
@@ -56,7 +56,7 @@ pub struct Differenced<M> {
     evals: AtomicUsize,
 }
 
-impl<M: Model> Differenced<M> {
+impl<M: Dynamics> Differenced<M> {
     /// `inner` differenced with `difference`; `relative_step` `None` picks
     /// $s$ by the kind of difference.
     ///
@@ -103,7 +103,7 @@ impl<M: Model> Differenced<M> {
     }
 }
 
-impl<M: Model> Model for Differenced<M> {
+impl<M: Dynamics> Dynamics for Differenced<M> {
     fn state_dim(&self) -> usize {
         self.inner.state_dim()
     }
@@ -124,7 +124,7 @@ impl<M: Model> Model for Differenced<M> {
         self.jacobians_batch(x, u, fx, fu)
     }
 
-    /// Every point's differences in one [`step_batch`](Model::step_batch)
+    /// Every point's differences in one [`step_batch`](Dynamics::step_batch)
     /// call of the inner model.
     fn jacobians_batch(&self, xs: &[f64], us: &[f64], fx: &mut [f64], fu: &mut [f64]) -> ModelResult<bool> {
         let (n, m) = (self.inner.state_dim(), self.inner.control_dim());

@@ -20,7 +20,7 @@
 //! consecutive samples.
 
 use super::jacobian::LocalDerivatives;
-use super::{Eq3Problem, Model, StageCost};
+use super::{Dynamics, Eq3Problem, StageCost};
 use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::kernels::{
@@ -31,7 +31,7 @@ use crate::linalg::{BandLayout, BandedSym};
 /// The band positions and basis values of one local variable at one sample.
 type Spread = Vec<(usize, f64)>;
 
-impl<M: Model, C: StageCost> Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> Eq3Problem<M, C> {
     /// The parameter order by first touched sample, and the half-bandwidth
     /// of the normal equations in it.
     fn band_layout_impl(&self) -> BandLayout {
@@ -534,7 +534,7 @@ struct BandBody<'p, 'a, M, C, const S_ONLY: bool> {
     job: BandJob<'a>,
 }
 
-impl<M: Model, C: StageCost, const S_ONLY: bool> FixedShape for BandBody<'_, '_, M, C, S_ONLY> {
+impl<M: Dynamics, C: StageCost, const S_ONLY: bool> FixedShape for BandBody<'_, '_, M, C, S_ONLY> {
     type Output = Result<bool>;
 
     fn run<const NX: usize, const NU: usize, const NC: usize>(self) -> Result<bool> {
@@ -542,7 +542,7 @@ impl<M: Model, C: StageCost, const S_ONLY: bool> FixedShape for BandBody<'_, '_,
     }
 }
 
-impl<M: Model, C: StageCost> BandForm for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> BandForm for Eq3Problem<M, C> {
     fn layout(&self) -> BandLayout {
         self.band_layout_impl()
     }

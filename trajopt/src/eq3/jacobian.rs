@@ -4,11 +4,11 @@
 
 use faer::sparse::SymbolicSparseRowMat;
 
-use super::{Eq3Problem, Model, StageCost, expect_len};
+use super::{Dynamics, Eq3Problem, StageCost, expect_len};
 use crate::error::Result;
 use crate::least_squares::LeastSquaresProblem;
 
-impl<M: Model, C: StageCost> Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> Eq3Problem<M, C> {
     pub(super) fn build_pattern(&self) -> SymbolicSparseRowMat<usize> {
         let n_rows = self.n_residuals();
         let mut row_ptr = vec![0];

@@ -2,7 +2,7 @@
 
 use faer::Mat;
 
-use crate::eq3::Model;
+use crate::eq3::Dynamics;
 use crate::error::{Result, TrajoptError, check_finite, expect_len};
 
 /// The consistency weight $\lambda_k$ of each step.
@@ -19,7 +19,7 @@ impl Lambda {
     /// $\lambda_k = g(\text{confidence}(x_k, u_k))$, `default` where the model
     /// has no confidence. The weights are fixed for a solve (evaluate them at
     /// the initial plan, or between solves for a schedule).
-    pub fn from_confidence<M: Model>(
+    pub fn from_confidence<M: Dynamics>(
         model: &M,
         states: &Mat<f64>,
         controls: &Mat<f64>,

@@ -41,7 +41,7 @@ pub use stage_cost::TrackingCost;
 /// ([`GaussNewtonSettings::step_model`](crate::GaussNewtonSettings::step_model)),
 /// and weighs the consistency term by `confidence` with
 /// [`Lambda::from_confidence`].
-pub use systems::Dynamics as Model;
+pub use systems::Dynamics;
 pub use systems::StageCost;
 /// The criterion split into its parts (all squared norms as in the module
 /// docs).
@@ -104,7 +104,7 @@ impl<M, C> std::fmt::Debug for Eq3Problem<M, C> {
     }
 }
 
-impl<M: Model, C: StageCost> Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> Eq3Problem<M, C> {
     /// The problem on sample times `times` ($t_0 < \dots < t_N$, inside
     /// both bases' domains); controls are sampled at $t_0, \dots, t_{N-1}$.
     pub fn new(
@@ -586,7 +586,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     }
 }
 
-impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
     fn n_params(&self) -> usize {
         self.n_state_coeffs() * self.n + self.n_control_coeffs() * self.m
     }
@@ -622,7 +622,7 @@ impl<M: Model, C: StageCost> LeastSquaresProblem for Eq3Problem<M, C> {
 }
 
 /// Eq. 3's scalar criterion for [`Powell`](crate::powell::Powell).
-impl<M: Model, C: StageCost> crate::powell::Objective for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> crate::powell::Objective for Eq3Problem<M, C> {
     fn cost(&self, theta: &[f64]) -> Result<f64> {
         Eq3Problem::cost(self, theta)
     }
@@ -630,7 +630,7 @@ impl<M: Model, C: StageCost> crate::powell::Objective for Eq3Problem<M, C> {
 
 /// Eq. 3's scalar criterion for argmin's solvers (parameters as `Vec<f64>`).
 #[cfg(feature = "argmin")]
-impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
     type Param = Vec<f64>;
     type Output = f64;
 
@@ -641,7 +641,7 @@ impl<M: Model, C: StageCost> argmin::core::CostFunction for Eq3Problem<M, C> {
 
 /// The gradient $2 J^\top r$ for argmin's solvers ([`Eq3Problem::gradient`]).
 #[cfg(feature = "argmin")]
-impl<M: Model, C: StageCost> argmin::core::Gradient for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> argmin::core::Gradient for Eq3Problem<M, C> {
     type Param = Vec<f64>;
     type Gradient = Vec<f64>;
 

@@ -4,11 +4,11 @@
 
 use faer::sparse::SymbolicSparseColMat;
 
-use super::{Eq3Problem, Model, StageCost};
+use super::{Dynamics, Eq3Problem, StageCost};
 use crate::error::{Result, TrajoptError, expect_len};
 use crate::least_squares::{LeastSquaresProblem, SecondOrder};
 
-impl<M: Model, C: StageCost> Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> Eq3Problem<M, C> {
     /// Which pairs of local variables $z = (x_k, u_k)$ the second
     /// derivatives can couple: (stage, terminal stage, model), row-major
     /// boolean matrices of sides $n+m$, $n$, $n+m$. A second derivative
@@ -252,7 +252,7 @@ impl<M: Model, C: StageCost> Eq3Problem<M, C> {
     }
 }
 
-impl<M: Model, C: StageCost> SecondOrder for Eq3Problem<M, C> {
+impl<M: Dynamics, C: StageCost> SecondOrder for Eq3Problem<M, C> {
     fn pattern(&self) -> SymbolicSparseColMat<usize> {
         self.hessian_pattern().clone()
     }

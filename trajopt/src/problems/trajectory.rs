@@ -106,7 +106,7 @@ mod models;
 use faer::Mat;
 use splines::BSplineBasis;
 
-use crate::eq3::{Eq3Problem, Lambda, Model, TrackingCost};
+use crate::eq3::{Dynamics, Eq3Problem, Lambda, TrackingCost};
 use crate::error::{Result, TrajoptError, expect_len};
 
 pub use models::{Acrobot, CartPole, Pendulum, SwingUpModel};

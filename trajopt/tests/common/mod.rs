@@ -8,9 +8,9 @@
 use proptest::prelude::*;
 use splines::BSplineBasis;
 use trajopt::ModelResult;
-use trajopt::problems::{PENDULUM_DT, Pendulum};
+use trajopt::problems::{HandPendulum, PENDULUM_DT};
 use trajopt::{
-    Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda, LeastSquaresProblem, Model, Result,
+    Dynamics, Eq3Problem, GaussNewton, GaussNewtonResult, GaussNewtonSettings, Lambda, LeastSquaresProblem, Result,
     StageCost, StepModel, TrackingCost,
 };
 
@@ -74,7 +74,7 @@ pub(crate) use forward_band_form;
 /// weighted second derivatives at a state and says whether the model has
 /// them.
 pub(crate) struct Hooked<J, H> {
-    pub(crate) inner: Pendulum,
+    pub(crate) inner: HandPendulum,
     pub(crate) before_jacobians: J,
     pub(crate) hessian: H,
 }
@@ -89,7 +89,7 @@ impl<J: Fn(&[f64]) -> ModelResult<()>> Hooked<J, Unaltered> {
     /// The pendulum with a hook before its Jacobians.
     pub(crate) fn before_jacobians(before_jacobians: J) -> Self {
         Self {
-            inner: Pendulum::default(),
+            inner: HandPendulum::default(),
             before_jacobians,
             hessian: |_, _| true,
         }
@@ -100,14 +100,14 @@ impl<H: Fn(&[f64], &mut [f64]) -> bool> Hooked<Unchecked, H> {
     /// The pendulum with its second derivatives altered by `hessian`.
     pub(crate) fn hessian(hessian: H) -> Self {
         Self {
-            inner: Pendulum::default(),
+            inner: HandPendulum::default(),
             before_jacobians: |_| Ok(()),
             hessian,
         }
     }
 }
 
-impl<J: Fn(&[f64]) -> ModelResult<()>, H: Fn(&[f64], &mut [f64]) -> bool> Model for Hooked<J, H> {
+impl<J: Fn(&[f64]) -> ModelResult<()>, H: Fn(&[f64], &mut [f64]) -> bool> Dynamics for Hooked<J, H> {
     fn state_dim(&self) -> usize {
         4
     }
@@ -138,7 +138,7 @@ impl<J: Fn(&[f64]) -> ModelResult<()>, H: Fn(&[f64], &mut [f64]) -> bool> Model 
 /// (`horizon` steps at 60 Hz, cubic clamped B-splines with `horizon / 6 + 4`
 /// state and `horizon / 8 + 4` control coefficients per channel), the
 /// task `cost` and a constant `lambda`.
-pub(crate) fn swingup_problem<M: Model>(
+pub(crate) fn swingup_problem<M: Dynamics>(
     horizon: usize,
     model: M,
     cost: TrackingCost,
@@ -173,7 +173,7 @@ pub(crate) fn solve_in<P: LeastSquaresProblem + ?Sized>(
 /// Solves `p` from `theta` in `step_model`, 30 iterations at most, and
 /// checks the solve: no accepted step raised the cost, and the cost
 /// reported is the problem's at the point reported.
-pub(crate) fn check_descent<M: Model, C: StageCost>(
+pub(crate) fn check_descent<M: Dynamics, C: StageCost>(
     p: &Eq3Problem<M, C>,
     theta: &[f64],
     step_model: StepModel,

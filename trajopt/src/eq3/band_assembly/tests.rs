@@ -287,7 +287,7 @@ fn band_normal_equations_hold_for_other_bases() {
         WaveletBasis::new(Wavelet::Db2, Boundary::Periodization, horizon + 1, None, 0.0, dt).expect("basis");
     let control_basis = splines::BSplineBasis::clamped_uniform(9, 2, 0.0, times[horizon]).expect("basis");
     let problem = Eq3Problem::new(
-        crate::problems::Pendulum::default(),
+        crate::problems::HandPendulum::default(),
         cost,
         &state_basis,
         &control_basis,
