@@ -17,7 +17,7 @@
 //! #     RunRecord { solver: solver.into(), set: "s".into(), problem: problem.into(), n: 2, m: 2,
 //! #         scale: 1.0, status: "done".into(), converged: true, f0: 10.0, f, f_star: Some(0.0),
 //! #         objective: None, f_evals: 9, jac_evals: 0, evals: 9, time_s: 0.1, repeats: 1,
-//! #         trace: vec![(1, 10.0), (9, f)], x0: None, x: None }
+//! #         trace: vec![(1, 10.0), (9, f)], x0: None, x: None, termination: None }
 //! # }
 //! let before = Analysis::new(vec![run("a", "p", 0.0), run("a", "q", 1.0)], &["a".into()]);
 //! let after = Analysis::new(vec![run("a", "p", 1.0), run("a", "q", 0.0)], &["a".into()]);

@@ -39,6 +39,8 @@
 use std::fmt;
 use std::time::Instant;
 
+use solve::Termination;
+
 use trajopt::LeastSquaresProblem;
 
 use crate::error::{BenchError, Result};
@@ -86,6 +88,7 @@ pub trait BenchSolver: Send + Sync {
                     Ok(stop) => Outcome::Stopped {
                         status: stop.status,
                         converged: stop.converged,
+                        termination: stop.termination,
                     },
                     Err(message) => Outcome::Failed(message),
                 })
@@ -110,6 +113,9 @@ pub struct Stop {
     /// judges every run by its own test at the best point; this is
     /// recorded beside it.
     pub converged: bool,
+    /// The stop in the workspace's vocabulary, when the solver knows it
+    /// ([`RunRecord::termination`]).
+    pub termination: Option<Termination>,
 }
 
 impl Stop {
@@ -118,6 +124,7 @@ impl Stop {
         Self {
             status: status.into(),
             converged: true,
+            termination: Some(Termination::Converged),
         }
     }
 
@@ -126,7 +133,30 @@ impl Stop {
         Self {
             status: status.into(),
             converged: false,
+            termination: None,
         }
+    }
+
+    /// A typed status (any workspace solver's, or one of yours that
+    /// implements [`solve::Status`] and `Serialize`): its name as serde
+    /// writes it, and its termination.
+    pub fn typed<S: solve::Status + serde::Serialize>(status: &S) -> Self {
+        let termination = status.termination();
+        Self {
+            status: status_text(status),
+            converged: termination.is_converged(),
+            termination: Some(termination),
+        }
+    }
+}
+
+/// A status's name as serde writes it: a unit variant's name
+/// (`ConvergedGradient`), a variant with data as its JSON.
+pub fn status_text<S: serde::Serialize>(status: &S) -> String {
+    match serde_json::to_value(status) {
+        Ok(serde_json::Value::String(name)) => name,
+        Ok(other) => other.to_string(),
+        Err(e) => format!("unprintable status ({e})"),
     }
 }
 
@@ -299,6 +329,7 @@ where
 pub(crate) struct Measured {
     pub(crate) status: String,
     pub(crate) converged: bool,
+    pub(crate) termination: Option<Termination>,
     /// Residual (cost) evaluations, Jacobian evaluations, evaluation equivalents.
     pub(crate) counts: [u64; 3],
     /// The solver's best objective value.
@@ -320,14 +351,24 @@ pub(crate) enum End {
 /// How a solve ended.
 pub(crate) enum Outcome {
     /// The solver stopped by itself with this status.
-    Stopped { status: String, converged: bool },
+    Stopped {
+        status: String,
+        converged: bool,
+        termination: Option<Termination>,
+    },
     /// The solve returned an error (the budget, or a failed evaluation).
     Failed(String),
 }
 
 impl Outcome {
-    pub(crate) fn stopped(status: String, converged: bool) -> Self {
-        Self::Stopped { status, converged }
+    /// A typed status ([`Stop::typed`]).
+    pub(crate) fn typed<S: solve::Status + serde::Serialize>(status: &S) -> Self {
+        let stop = Stop::typed(status);
+        Self::Stopped {
+            status: stop.status,
+            converged: stop.converged,
+            termination: stop.termination,
+        }
     }
 }
 
@@ -342,10 +383,21 @@ pub(crate) fn measure(
     let start = Instant::now();
     let outcome = solve(&counted)?;
     let time = start.elapsed().as_secs_f64();
-    let (status, converged) = match outcome {
-        _ if counted.spent() => ("budget".to_string(), false),
-        Outcome::Stopped { status, converged } => (status, converged),
-        Outcome::Failed(e) => (format!("error: {e}"), false),
+    let (status, converged, termination) = match outcome {
+        _ if counted.spent() => {
+            let limit = if Instant::now() > counted.deadline() {
+                Termination::TimeLimit
+            } else {
+                Termination::MaxEvaluations
+            };
+            ("budget".to_string(), false, Some(limit))
+        }
+        Outcome::Stopped {
+            status,
+            converged,
+            termination,
+        } => (status, converged, termination),
+        Outcome::Failed(e) => (format!("error: {e}"), false, Some(Termination::Failed)),
     };
     let end = match instance.rollout {
         Some(_) => End::Point(counted.best_point()),
@@ -357,6 +409,7 @@ pub(crate) fn measure(
         Measured {
             status,
             converged,
+            termination,
             counts,
             objective: counted.best(),
             end,
@@ -444,6 +497,7 @@ pub(crate) fn record(
         // controls, stacked)
         x0: Some(instance.start.clone()),
         x: x.iter().all(|v| v.is_finite()).then_some(x),
+        termination: m.termination,
     })
 }
 

@@ -27,6 +27,11 @@
 //! solver  -> {"done": {"status": "converged", "converged": true}}
 //! ```
 //!
+//! `done` may also name the stop in the workspace's vocabulary,
+//! `"termination"`: one of `Converged`, `TargetReached`, `MaxIterations`,
+//! `MaxEvaluations`, `TimeLimit`, `Stopped`, `Failed`
+//! ([`solve::Termination`]); without it a converged run's is `Converged`.
+//!
 //! - A residual evaluation counts 1 against the run's budget, a Jacobian
 //!   $n$. A refused or failed evaluation is answered `{"error": MESSAGE,
 //!   "budget_spent": BOOL}`; once the budget is spent, the program should
@@ -143,9 +148,16 @@ impl ProcessSolver {
                 };
                 session.send(&reply)?;
             } else if let Some(done) = request.get("done") {
+                let converged = done.get("converged").and_then(Value::as_bool).unwrap_or(false);
+                // optional: one of solve::Termination's names
+                let termination = done
+                    .get("termination")
+                    .and_then(|t| serde_json::from_value(t.clone()).ok())
+                    .or(converged.then_some(solve::Termination::Converged));
                 return Ok(Stop {
                     status: done.get("status").and_then(Value::as_str).unwrap_or("done").to_string(),
-                    converged: done.get("converged").and_then(Value::as_bool).unwrap_or(false),
+                    converged,
+                    termination,
                 });
             } else if let Some(message) = request.get("failed") {
                 return Err(Ended::Failed(

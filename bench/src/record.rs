@@ -91,6 +91,12 @@ pub struct RunRecord {
     /// ([`crate::trajectory::figure_of_merit`]). Absent in older records.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub x: Option<Vec<f64>>,
+    /// Why the run stopped, in the workspace's one vocabulary (typed; the
+    /// solver's own word is [`status`](Self::status)): every built-in
+    /// solver's, a user's solver's when it gives one. Absent in the
+    /// outside solvers' records and in older ones.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub termination: Option<solve::Termination>,
 }
 
 /// An `f64` that JSON holds as `null` when it was not finite (serde_json
@@ -327,6 +333,7 @@ pub(crate) mod tests {
             trace: vec![(1, 10.0), (evals, f)],
             x0: None,
             x: None,
+            termination: None,
         }
     }
 

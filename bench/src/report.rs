@@ -470,7 +470,7 @@ pub fn nist_markdown(a: &Analysis) -> String {
     let difficulty: std::collections::BTreeMap<String, String> = crate::nist::all()
         .map(|all| {
             all.into_iter()
-                .map(|p| (p.name, format!("{:?}", p.difficulty)))
+                .map(|p| (p.name, crate::open::status_text(&p.difficulty)))
                 .collect()
         })
         .unwrap_or_default();

@@ -194,9 +194,11 @@ impl Solver {
             Ok(r) => {
                 let jac_evals = (1 + u64::from(r.method == DdpMethod::Ddp)) * r.jacobian_evals as u64;
                 let f_evals = r.evals as u64;
+                let stop = Stop::typed(&r.status);
                 Measured {
-                    status: format!("{:?}", r.status),
-                    converged: r.status.is_converged(),
+                    status: stop.status,
+                    converged: stop.converged,
+                    termination: stop.termination,
                     counts: [f_evals, jac_evals, f_evals + n * jac_evals],
                     objective: r.cost,
                     end: End::Controls(r.controls),
@@ -205,6 +207,7 @@ impl Solver {
             Err(e) => Measured {
                 status: format!("error: {e}"),
                 converged: false,
+                termination: Some(solve::Termination::Failed),
                 counts: [0; 3],
                 objective: f64::INFINITY,
                 end: End::Controls(forms.ddp.initial_controls().to_vec()),
@@ -226,7 +229,7 @@ impl Solver {
                 };
                 let solver = GaussNewton::new(gauss_newton_settings(step_model)).map_err(|e| refused(e.to_string()))?;
                 match solver.solve(counted, x0) {
-                    Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
+                    Ok(r) => Outcome::typed(&r.status),
                     Err(e) => Outcome::Failed(e.to_string()),
                 }
             }
@@ -240,7 +243,7 @@ impl Solver {
                 })
                 .map_err(|e| refused(e.to_string()))?;
                 match solver.solve(&|x: &[f64]| counted.cost(x), x0) {
-                    Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
+                    Ok(r) => Outcome::typed(&r.status),
                     Err(e) => Outcome::Failed(e.to_string()),
                 }
             }
@@ -253,7 +256,7 @@ impl Solver {
                 })
                 .map_err(|e| refused(e.to_string()))?;
                 match solver.solve(counted, x0) {
-                    Ok(r) => Outcome::stopped(format!("{:?}", r.status), r.status.is_converged()),
+                    Ok(r) => Outcome::typed(&r.status),
                     Err(e) => Outcome::Failed(e.to_string()),
                 }
             }
@@ -298,7 +301,15 @@ impl BenchSolver for Solver {
 
     fn solve(&self, problem: &Problem<'_>) -> std::result::Result<Stop, String> {
         match self.solve_counted(problem.counted, problem.instance) {
-            Ok(Outcome::Stopped { status, converged }) => Ok(Stop { status, converged }),
+            Ok(Outcome::Stopped {
+                status,
+                converged,
+                termination,
+            }) => Ok(Stop {
+                status,
+                converged,
+                termination,
+            }),
             Ok(Outcome::Failed(message)) => Err(message),
             Err(e) => Err(e.to_string()),
         }
@@ -336,7 +347,21 @@ fn from_argmin(run: std::result::Result<TerminationStatus, argmin::core::Error>)
                 status,
                 TerminationStatus::Terminated(TerminationReason::SolverConverged)
             );
-            Outcome::stopped(status.to_string(), converged)
+            Outcome::Stopped {
+                status: status.to_string(),
+                converged,
+                termination: Some(match status {
+                    TerminationStatus::NotTerminated => solve::Termination::Stopped,
+                    TerminationStatus::Terminated(reason) => match reason {
+                        TerminationReason::SolverConverged => solve::Termination::Converged,
+                        TerminationReason::MaxItersReached => solve::Termination::MaxIterations,
+                        TerminationReason::TargetCostReached => solve::Termination::TargetReached,
+                        TerminationReason::Timeout => solve::Termination::TimeLimit,
+                        TerminationReason::Interrupt => solve::Termination::Stopped,
+                        TerminationReason::SolverExit(_) => solve::Termination::Failed,
+                    },
+                }),
+            }
         }
         Err(e) => Outcome::Failed(e.to_string()),
     }
@@ -399,7 +424,18 @@ mod tests {
             assert_eq!(rec.evals, rec.f_evals + 2 * rec.jac_evals);
             assert!(rec.trace.last().is_some_and(|p| p.1 == rec.f && p.0 <= rec.evals));
             assert_eq!(solver.derivative_free(), rec.jac_evals == 0, "{}", solver.name());
+            // the status typed beside the solver's own word, which serde
+            // writes as the variant's name (the records' text is unchanged)
+            let termination = rec.termination.expect("typed");
+            assert_eq!(rec.converged, termination.is_converged(), "{}: {rec:?}", solver.name());
+            assert!(!rec.status.contains(['{', '(', '"']), "{}", rec.status);
         }
+        let rec = Solver::GaussNewton.run(inst, &budget, 1).expect("runs");
+        assert!(
+            ["ConvergedGradient", "ConvergedStep", "ConvergedCost"].contains(&rec.status.as_str()),
+            "{}",
+            rec.status
+        );
     }
 
     #[test]

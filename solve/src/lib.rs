@@ -363,6 +363,7 @@ impl Observer for Trace {
 /// share (each solver's own status says more; [`Status::termination`]
 /// maps it here).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum Termination {
     /// A convergence test passed: the point is a (local) optimum to the

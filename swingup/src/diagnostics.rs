@@ -129,7 +129,12 @@ pub(crate) mod tests {
     use crate::record::{PlanSummary, TrialKind, TrialTiming};
 
     pub(crate) fn plan_of(states: Vec<[f64; 4]>, controls: Vec<f64>) -> PlanSummary {
-        PlanSummary::along("gauss-newton", "ConvergedCost".into(), states, controls)
+        PlanSummary::along(
+            "gauss-newton",
+            trajopt::GaussNewtonStatus::ConvergedCost.into(),
+            states,
+            controls,
+        )
     }
 
     pub(crate) fn trial_of(observed: Vec<[f64; 4]>, commands: Vec<f64>) -> TrialRecord {

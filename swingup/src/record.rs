@@ -2,9 +2,113 @@
 //! [`RunRecord`]. These are what the report, the CSV logs and the plots are
 //! made from, and what `--resume` reads back.
 
+use ddp::DdpStatus;
 use serde::{Deserialize, Serialize};
+use trajopt::{GaussNewtonStatus, PowellStatus};
 
 use crate::plant::demo::Demonstration;
+
+/// How a plan's solver stopped: its own status, typed
+/// ([`solve::Status::termination`] gives the shared vocabulary).
+///
+/// Written by serde as the status's name (`"ConvergedCost"`,
+/// `"MaxIterations"`; a DDP failure with data as
+/// `{"InitialRolloutDiverged": {"step": 3}}`). Read back by name: the
+/// names that several solvers share (`MaxIterations`, `MaxEvaluations`,
+/// `TimeLimit`, `Stopped`) read as the first of Gauss-Newton, Powell and
+/// DDP that has them, with the same termination
+/// ([`PlanSummary::ddp_status`] reads a DDP plan's as DDP's); the
+/// `InitialRolloutDiverged { step: 3 }` of older records is read too.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize)]
+#[serde(untagged)]
+pub enum PlanStatus {
+    /// Gauss-Newton, the derivative-free mode.
+    GaussNewton(GaussNewtonStatus),
+    /// Powell.
+    Powell(PowellStatus),
+    /// DDP.
+    Ddp(DdpStatus),
+}
+
+impl PlanStatus {
+    /// Whether the solver's convergence test passed.
+    pub fn is_converged(&self) -> bool {
+        solve::Status::termination(self).is_converged()
+    }
+
+    /// The status from its record: a name, or DDP's failure with its data
+    /// (as serde writes it, or as older records wrote it).
+    fn from_record(value: &serde_json::Value) -> Option<Self> {
+        let parse = |v: &serde_json::Value| {
+            serde_json::from_value(v.clone())
+                .map(Self::GaussNewton)
+                .or_else(|_| serde_json::from_value(v.clone()).map(Self::Powell))
+                .or_else(|_| serde_json::from_value(v.clone()).map(Self::Ddp))
+                .ok()
+        };
+        parse(value).or_else(|| {
+            let step = value
+                .as_str()?
+                .strip_prefix("InitialRolloutDiverged { step: ")?
+                .strip_suffix(" }")?
+                .parse()
+                .ok()?;
+            Some(Self::Ddp(DdpStatus::InitialRolloutDiverged { step }))
+        })
+    }
+}
+
+impl<'de> Deserialize<'de> for PlanStatus {
+    fn deserialize<D: serde::Deserializer<'de>>(deserializer: D) -> Result<Self, D::Error> {
+        let value = serde_json::Value::deserialize(deserializer)?;
+        Self::from_record(&value).ok_or_else(|| {
+            serde::de::Error::custom(format!("unknown solver status {}", store::shorten(&value.to_string())))
+        })
+    }
+}
+
+impl solve::Status for PlanStatus {
+    fn termination(&self) -> solve::Termination {
+        match self {
+            Self::GaussNewton(s) => s.termination(),
+            Self::Powell(s) => s.termination(),
+            Self::Ddp(s) => s.termination(),
+        }
+    }
+}
+
+impl From<GaussNewtonStatus> for PlanStatus {
+    fn from(status: GaussNewtonStatus) -> Self {
+        Self::GaussNewton(status)
+    }
+}
+
+impl From<PowellStatus> for PlanStatus {
+    fn from(status: PowellStatus) -> Self {
+        Self::Powell(status)
+    }
+}
+
+impl From<DdpStatus> for PlanStatus {
+    fn from(status: DdpStatus) -> Self {
+        Self::Ddp(status)
+    }
+}
+
+/// The status's name, as in the records (a DDP failure with its data:
+/// `InitialRolloutDiverged (step 3)`).
+impl std::fmt::Display for PlanStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        if let Self::Ddp(DdpStatus::InitialRolloutDiverged { step }) = self {
+            return write!(f, "InitialRolloutDiverged (step {step})");
+        }
+        match serde_json::to_value(self) {
+            Ok(serde_json::Value::String(name)) => f.write_str(&name),
+            Ok(other) => write!(f, "{other}"),
+            Err(_) => f.write_str("unknown"),
+        }
+    }
+}
 
 /// How a trial chose its commands.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
@@ -24,8 +128,8 @@ pub enum TrialKind {
 pub struct PlanSummary {
     /// Planner name (`gauss-newton`, `powell`).
     pub planner: String,
-    /// The solver's final status, as text.
-    pub status: String,
+    /// How the solver stopped.
+    pub status: PlanStatus,
     /// Final criterion (Eq. 3).
     #[serde(with = "nullable")]
     pub cost: f64,
@@ -61,11 +165,31 @@ pub struct PlanSummary {
     pub gauss_newton_cost: Option<f64>,
 }
 
+impl PlanSummary {
+    /// A DDP plan's status as DDP's (a name DDP shares with the other
+    /// solvers, read back from a record, is DDP's here); `None` for
+    /// another planner's plan.
+    pub fn ddp_status(&self) -> Option<DdpStatus> {
+        if self.planner != "ddp" {
+            return None;
+        }
+        Some(match self.status {
+            PlanStatus::Ddp(s) => s,
+            other => match solve::Status::termination(&other) {
+                solve::Termination::Converged => DdpStatus::Converged,
+                solve::Termination::TimeLimit => DdpStatus::TimeLimit,
+                solve::Termination::Stopped => DdpStatus::Stopped,
+                _ => DdpStatus::MaxIterations,
+            },
+        })
+    }
+}
+
 #[cfg(test)]
 impl PlanSummary {
     /// A converged plan along `states` and `controls`, for tests of code
     /// that reads plans (costs 1 from 2, one iteration).
-    pub(crate) fn along(planner: &str, status: String, states: Vec<[f64; 4]>, controls: Vec<f64>) -> Self {
+    pub(crate) fn along(planner: &str, status: PlanStatus, states: Vec<[f64; 4]>, controls: Vec<f64>) -> Self {
         Self {
             planner: planner.into(),
             status,

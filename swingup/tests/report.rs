@@ -51,7 +51,7 @@ fn model(n_points: usize, loo_nmse: f64) -> ModelSummary {
 fn plan(inconsistency: f64, max_mismatch: f64) -> PlanSummary {
     PlanSummary {
         planner: "gauss-newton".into(),
-        status: "converged".into(),
+        status: trajopt::GaussNewtonStatus::ConvergedCost.into(),
         cost: 12.5 + inconsistency,
         initial_cost: 400.0,
         task: 12.5,

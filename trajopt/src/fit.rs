@@ -87,6 +87,7 @@ pub fn dense_pattern(m: usize, n: usize) -> SymbolicSparseRowMat<usize> {
 /// stationary points are the robust cost's), with the Jacobian's rows
 /// scaled by $d\tilde r_i / dr_i = \rho'(z_i) |r_i| / (C \sqrt{\rho(z_i)})$.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum Loss {
     /// $\rho(z) = z$.
@@ -139,6 +140,7 @@ impl Loss {
 /// Which solver [`LeastSquares::solve`] runs: every least-squares mode
 /// of the crate, one setting away.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum Method {
     /// Damped Gauss-Newton / Levenberg-Marquardt ([`GaussNewton`]) on the
@@ -163,6 +165,7 @@ pub enum Method {
 /// Why a [`LeastSquares`] solve stopped: the status of the [`Method`]'s
 /// solver.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum FitStatus {
     /// [`Method::GaussNewton`] and [`Method::DerivativeFree`].
@@ -550,6 +553,7 @@ impl LeastSquaresProblem for Closures<'_, '_> {
 
 /// What [`LeastSquares::solve`] returns.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct LeastSquaresFit {
     /// The best point found.
     pub x: Vec<f64>,
@@ -672,6 +676,39 @@ mod tests {
                 r[i] = Y[i] - b[0] * (1.0 - (-b[1] * X[i]).exp());
             }
         })
+    }
+
+    /// Feature `serde`: a fit, its status and every solver's settings
+    /// travel as JSON and come back equal; a unit status is its name.
+    #[cfg(feature = "serde")]
+    #[test]
+    fn results_statuses_and_settings_round_trip_through_serde() {
+        let fit = misra1a().solve(&[500.0, 1e-4]).expect("solves");
+        let json = serde_json::to_string(&fit).expect("json");
+        let back: LeastSquaresFit = serde_json::from_str(&json).expect("read");
+        assert_eq!(
+            (back.x, back.status, back.evals),
+            (fit.x.clone(), fit.status, fit.evals)
+        );
+        assert_eq!(
+            serde_json::to_value(GaussNewtonStatus::ConvergedCost).expect("json"),
+            serde_json::json!("ConvergedCost")
+        );
+        let gn = GaussNewtonSettings::default();
+        assert_eq!(
+            serde_json::from_str::<GaussNewtonSettings>(&serde_json::to_string(&gn).expect("json")).expect("read"),
+            gn
+        );
+        let powell = PowellSettings::default();
+        assert_eq!(
+            serde_json::from_str::<PowellSettings>(&serde_json::to_string(&powell).expect("json")).expect("read"),
+            powell
+        );
+        let dfo = DerivativeFreeSettings::default();
+        assert_eq!(
+            serde_json::from_str::<DerivativeFreeSettings>(&serde_json::to_string(&dfo).expect("json")).expect("read"),
+            dfo
+        );
     }
 
     /// Every method from one setting: the derivative-free mode reaches

@@ -4,6 +4,7 @@
 
 /// Where the Levenberg-Marquardt term $\mu$ is added in the backward pass.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub enum Regularization {
     /// $\tilde Q_{uu} = Q_{uu} + \mu I$ (the classic Levenberg-Marquardt choice).
     Control,
@@ -24,6 +25,7 @@ pub enum Regularization {
 /// on success $\Delta \leftarrow \min(1/\Delta_0, \Delta / \Delta_0)$,
 /// $\mu \leftarrow \mu \Delta$, and 0 below $\mu_{min}$.
 #[derive(Debug, Clone, Copy, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub(super) struct Schedule {
     /// The current $\mu$.
     pub(super) mu: f64,

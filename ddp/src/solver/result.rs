@@ -10,6 +10,7 @@ use super::settings::DdpMethod;
 /// How a solve ended. Only [`DdpStatus::Converged`] is a success; every
 /// other status still comes with the last good (finite) iterate.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum DdpStatus {
     /// The expected reduction or the feedforward step fell below tolerance.

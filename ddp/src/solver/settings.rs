@@ -5,6 +5,7 @@ use crate::error::{DdpError, Result};
 
 /// Which second-order model of the dynamics the backward pass uses.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum DdpMethod {
     /// iLQR (Li and Todorov 2004): the dynamics linearised, $Q$-Hessians of
@@ -47,6 +48,7 @@ pub enum DdpMethod {
 /// tests pass with $\mu > 10\,\mu_{min}$, convergence is only declared if an
 /// unregularised backward pass passes them too.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DdpSettings {
     /// Maximum iterations.
     pub max_iterations: usize,
@@ -157,6 +159,29 @@ mod tests {
 
     /// Makes one setting invalid.
     type Spoil = fn(&mut DdpSettings);
+
+    /// Feature `serde`: the settings and every status travel as JSON
+    /// and come back equal; a unit status is its name.
+    #[cfg(feature = "serde")]
+    #[test]
+    fn settings_and_statuses_round_trip_through_serde() {
+        use crate::DdpStatus;
+        let settings = DdpSettings::default();
+        let json = serde_json::to_string(&settings).expect("json");
+        assert_eq!(serde_json::from_str::<DdpSettings>(&json).expect("read"), settings);
+        for status in [
+            DdpStatus::Converged,
+            DdpStatus::InitialRolloutDiverged { step: 3 },
+            DdpStatus::NoDescent,
+        ] {
+            let json = serde_json::to_string(&status).expect("json");
+            assert_eq!(serde_json::from_str::<DdpStatus>(&json).expect("read"), status);
+        }
+        assert_eq!(
+            serde_json::to_string(&DdpStatus::Converged).expect("json"),
+            "\"Converged\""
+        );
+    }
 
     #[test]
     fn default_settings_are_valid_and_bad_ones_are_named() {

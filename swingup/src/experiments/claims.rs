@@ -36,7 +36,7 @@ pub fn plan_agreement(runs: &[RunSummary], experiment: &str, variant: &str) -> (
     {
         for (k, status) in r.plan_statuses.iter().enumerate() {
             plans += 1;
-            let ok = status.starts_with("Converged");
+            let ok = status.is_converged();
             converged += usize::from(ok);
             if let (Some(&cost), Some(Some(gn))) = (r.plan_costs.get(k), r.plan_gauss_newton_costs.get(k)) {
                 compared += 1;

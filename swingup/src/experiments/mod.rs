@@ -481,7 +481,7 @@ fn run_one(job: &Job, version: &str) -> crate::Result<RunSummary> {
         trials: record.trials.len(),
         robot_seconds: record.robot_seconds,
         max_angles: record.trials.iter().map(|t| t.max_angle).collect(),
-        plan_statuses: planned().map(|p| p.status.clone()).collect(),
+        plan_statuses: planned().map(|p| p.status).collect(),
         plan_costs: planned().map(|p| p.cost).collect(),
         plan_gauss_newton_costs: planned().map(|p| p.gauss_newton_cost).collect(),
         failures: record

@@ -50,7 +50,7 @@ pub struct RunSummary {
     /// Largest pendulum angle per trial (rad).
     pub max_angles: Vec<f64>,
     /// Planner status per planned trial.
-    pub plan_statuses: Vec<String>,
+    pub plan_statuses: Vec<crate::record::PlanStatus>,
     /// Final Eq. 3 criterion per planned trial (empty for runs saved
     /// before it was recorded).
     #[serde(default)]

@@ -218,7 +218,11 @@ pub fn markdown(report: &ExperimentsReport) -> String {
                 .map(|a| format!("{:.0}", a.to_degrees()))
                 .collect::<Vec<_>>()
                 .join(" "),
-            r.plan_statuses.join(" ")
+            r.plan_statuses
+                .iter()
+                .map(ToString::to_string)
+                .collect::<Vec<_>>()
+                .join(" ")
         ));
     }
     md

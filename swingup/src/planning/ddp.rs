@@ -104,7 +104,7 @@ pub fn plan_ddp<G: PendulumRegression>(
     let result = solver.solve(&problem)?;
     Ok(PlanSummary {
         planner: "ddp".into(),
-        status: format!("{:?}", result.status),
+        status: result.status.into(),
         cost: result.cost,
         initial_cost: result.initial_cost,
         task: result.cost,
@@ -139,32 +139,18 @@ pub fn classify_ddp_status(status: DdpStatus) -> &'static str {
     }
 }
 
-/// [`classify_ddp_status`] of a [`plan_ddp`] summary, read from its
-/// `status` text (so it also works on a record read back from a report);
-/// `rollout blow-up` too if any planned state is not finite, and `not ddp`
-/// for another planner's summary.
+/// [`classify_ddp_status`] of a [`plan_ddp`] summary's status (typed,
+/// so it also works on a record read back from a report:
+/// [`PlanSummary::ddp_status`]); `rollout blow-up` too if any planned
+/// state is not finite, and `not ddp` for another planner's summary.
 pub fn classify_ddp_failure(summary: &PlanSummary) -> &'static str {
-    if summary.planner != "ddp" {
+    let Some(status) = summary.ddp_status() else {
         return "not ddp";
-    }
+    };
     if summary.states.iter().flatten().any(|v| !v.is_finite()) {
         return "rollout blow-up";
     }
-    let status = summary.status.as_str();
-    // the Debug names of the statuses, longest first where one prefixes another
-    let names: [(&str, DdpStatus); 7] = [
-        ("Converged", DdpStatus::Converged),
-        ("MaxIterations", DdpStatus::MaxIterations),
-        ("InitialRolloutDiverged", DdpStatus::InitialRolloutDiverged { step: 0 }),
-        ("RolloutDiverged", DdpStatus::RolloutDiverged),
-        ("NotPositiveDefinite", DdpStatus::NotPositiveDefinite),
-        ("NoDescent", DdpStatus::NoDescent),
-        ("NonFiniteDerivatives", DdpStatus::NonFiniteDerivatives),
-    ];
-    names
-        .iter()
-        .find(|(name, _)| status.starts_with(name))
-        .map_or("other", |(_, s)| classify_ddp_status(*s))
+    classify_ddp_status(status)
 }
 
 /// A cost that counts rollouts (each evaluates the terminal cost once).
@@ -198,6 +184,7 @@ mod tests {
     use crate::models::truth::TrueRegression;
     use crate::planning::eq3::build_problem;
     use crate::plant::demo::demonstrate;
+    use crate::record::PlanStatus;
     use ddp::Dynamics;
     use faer::prelude::*;
     use splines::{BSplineBasis, TrajectoryBasis};
@@ -359,7 +346,11 @@ mod tests {
         }
         let (cfg, demo) = setup(60, 20);
         let plan = plan_ddp(&cfg, &demo, &KnownHand::new(Runaway, cfg.robot.dt)).expect("a status, not an error");
-        assert!(plan.status.starts_with("InitialRolloutDiverged"), "{}", plan.status);
+        assert!(
+            matches!(plan.status, PlanStatus::Ddp(DdpStatus::InitialRolloutDiverged { .. })),
+            "{}",
+            plan.status
+        );
         assert_eq!(classify_ddp_failure(&plan), "rollout blow-up");
         assert!(plan.states.len() < 61 && plan.states.iter().flatten().all(|v| v.is_finite()));
         assert_eq!(plan.cost, f64::INFINITY);
@@ -389,9 +380,30 @@ mod tests {
             (DdpStatus::NonFiniteDerivatives, "non-finite derivatives"),
         ] {
             assert_eq!(classify_ddp_status(status), name);
-            let summary = PlanSummary::along("ddp", format!("{status:?}"), vec![[0.0; 4]], vec![0.0]);
+            let summary = PlanSummary::along("ddp", status.into(), vec![[0.0; 4]], vec![0.0]);
             assert_eq!(classify_ddp_failure(&summary), name);
+            // and read back from its record, as a report reads it
+            let json = serde_json::to_string(&summary).expect("json");
+            let back: PlanSummary = serde_json::from_str(&json).expect("read back");
+            assert_eq!(classify_ddp_failure(&back), name, "{json}");
+            assert_eq!(back.ddp_status(), Some(status), "{json}");
         }
+        // the status text of records written before statuses were typed
+        for (text, status) in [
+            (
+                "\"InitialRolloutDiverged { step: 3 }\"",
+                DdpStatus::InitialRolloutDiverged { step: 3 },
+            ),
+            ("\"MaxIterations\"", DdpStatus::MaxIterations),
+            ("\"Converged\"", DdpStatus::Converged),
+        ] {
+            let read: PlanStatus = serde_json::from_str(text).expect(text);
+            let mut summary = PlanSummary::along("ddp", read, vec![[0.0; 4]], vec![0.0]);
+            assert_eq!(summary.ddp_status(), Some(status), "{text}");
+            summary.planner = "gauss-newton".into();
+            assert_eq!(summary.ddp_status(), None);
+        }
+        assert!(serde_json::from_str::<PlanStatus>("\"Convergd\"").is_err());
         let (cfg, demo) = setup(30, 5);
         // a model sampled at another rate
         assert!(plan_ddp(&cfg, &demo, &KnownHand::new(TrueRegression::robot(), 0.01)).is_err());

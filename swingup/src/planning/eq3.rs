@@ -21,6 +21,7 @@ use crate::error::ResultExt;
 use crate::planning::cost::SwingupCost;
 use crate::planning::support::DataSupport;
 use crate::plant::demo::Demonstration;
+use crate::record::PlanStatus;
 use crate::record::PlanSummary;
 
 /// The planner's stage cost: Eq. 5 tracking of the demonstration (with
@@ -340,7 +341,7 @@ fn solve<M: trajopt::Dynamics>(
             ($result:expr) => {{
                 let r = $result;
                 (
-                    format!("{:?}", r.status),
+                    PlanStatus::from(r.status),
                     r.cost,
                     r.x,
                     r.iterations,
@@ -396,7 +397,7 @@ fn solve<M: trajopt::Dynamics>(
 #[cfg(test)]
 mod tests {
     use super::*;
-    use trajopt::StageCost;
+    use trajopt::{GaussNewtonStatus, StageCost};
 
     use crate::models::KnownHand;
     use crate::models::truth::TrueRegression;
@@ -456,7 +457,7 @@ mod tests {
             plan(&c, &d, &model, None).expect("plan")
         };
         let (tight, loose) = (plan_at(1e-14), plan_at(1e-3));
-        assert_eq!(loose.status, "ConvergedCost");
+        assert_eq!(loose.status, GaussNewtonStatus::ConvergedCost.into());
         assert!(
             loose.iterations < tight.iterations,
             "{} iterations at 1e-3, {} at 1e-14",
@@ -480,7 +481,7 @@ mod tests {
             c.planner.differences = differences;
             let p = plan(&c, &d, &model, None).expect("plan");
             assert_eq!(p.planner, "derivative-free");
-            assert!(p.status.starts_with("Converged"), "{differences:?}: {}", p.status);
+            assert!(p.status.is_converged(), "{differences:?}: {}", p.status);
             assert!(
                 (p.cost - reference.cost).abs() <= 1e-3 * reference.cost,
                 "{differences:?}: {} against {}",
@@ -509,7 +510,7 @@ mod tests {
         });
         let p = plan(&cfg, &d, &model, None).expect("plan");
         assert_eq!(p.planner, "powell");
-        assert_eq!(p.status, "MaxEvaluations");
+        assert_eq!(p.status, trajopt::PowellStatus::MaxEvaluations.into());
         assert_eq!(p.evaluations, 3000);
         assert!(p.cost < p.initial_cost, "{} from {}", p.cost, p.initial_cost);
         // the bases reproduce their own samples: refit the plan and evaluate it whole

@@ -235,8 +235,8 @@ impl Default for ReplanSettings {
 /// How a replan ended.
 #[derive(Debug, Clone, PartialEq)]
 pub enum ReplanStatus {
-    /// The solve's result is the new plan (the solver's status, as text).
-    Solved(String),
+    /// The solve's result is the new plan, with the solver's status.
+    Solved(GaussNewtonStatus),
     /// The previous plan, shifted, stays: the budget ran out before a step
     /// was accepted, or the solve failed (the reason, as text).
     KeptPrevious(String),
@@ -303,7 +303,10 @@ pub fn replan<M: trajopt::Dynamics, C: StageCost>(
         Ok(r) if r.cost.is_finite() => r,
         Ok(r) => {
             return Ok(keep(
-                format!("the solve ended at a non-finite criterion ({:?})", r.status),
+                format!(
+                    "the solve ended at a non-finite criterion ({})",
+                    crate::record::PlanStatus::from(r.status)
+                ),
                 (r.initial_cost, r.cost),
                 r.iterations,
             ));
@@ -325,7 +328,7 @@ pub fn replan<M: trajopt::Dynamics, C: StageCost>(
     let (states, controls) = problem.trajectory(&result.x)?;
     Ok(Replan {
         plan: WindowPlan { states, controls },
-        status: ReplanStatus::Solved(format!("{:?}", result.status)),
+        status: ReplanStatus::Solved(result.status),
         costs,
         iterations: result.iterations,
         seconds: started.elapsed().as_secs_f64(),
@@ -612,7 +615,7 @@ mod tests {
         let r = replan(&window, &problem, &warm, &x0, &settings).expect("replan");
         let took = started.elapsed();
         match &r.status {
-            ReplanStatus::Solved(status) => assert!(status.contains("TimeLimit"), "{status}"),
+            ReplanStatus::Solved(status) => assert_eq!(*status, GaussNewtonStatus::TimeLimit),
             other => panic!("{other:?}"),
         }
         assert!(r.costs.1 < r.costs.0, "{:?}", r.costs);

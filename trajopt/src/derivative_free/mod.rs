@@ -123,6 +123,7 @@ use solve::{Finish as _, Watch};
 
 /// Which differences form the Jacobian.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum Difference {
     /// $(r(\theta + h) - r(\theta)) / h$: one evaluation per group.
@@ -140,6 +141,7 @@ pub enum Difference {
 /// | `relative_step` | `None`, or finite and $> 0$ |
 /// | `max_evals` | `None`, or $\ge 1$ |
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DerivativeFreeSettings {
     /// The Levenberg-Marquardt step, its tests and iteration cap.
     pub gauss_newton: GaussNewtonSettings,
@@ -210,6 +212,7 @@ impl DerivativeFreeSettings {
 
 /// What [`DerivativeFree::solve`] returns.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DerivativeFreeResult {
     /// The best parameters found.
     pub x: Vec<f64>,

@@ -5,6 +5,7 @@ use std::time::Duration;
 
 /// Why [`GaussNewton`](crate::GaussNewton) stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum GaussNewtonStatus {
     /// The gradient $J^\top r$ is below tolerance.
@@ -62,6 +63,7 @@ impl GaussNewtonStatus {
 
 /// What [`GaussNewton::solve`](crate::GaussNewton::solve) returns.
 #[derive(Debug, Clone)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GaussNewtonResult {
     /// The best parameters found.
     pub x: Vec<f64>,

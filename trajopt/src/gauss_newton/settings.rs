@@ -18,6 +18,7 @@ use crate::error::{Result, check_nonnegative};
 /// Which quadratic model of $F$ each step of [`GaussNewton`](crate::GaussNewton)
 /// minimises.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum StepModel {
     /// The Gauss-Newton model $J^\top J$ (always convex; converges only
@@ -70,6 +71,7 @@ impl StepModel {
 /// The diagonal $D$ of the damping term $\mu D$ of
 /// [`GaussNewton`](crate::GaussNewton).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum DampingScale {
     /// $D = \operatorname{diag}(J^\top J)$ at the current point (at least
@@ -89,6 +91,7 @@ pub enum DampingScale {
 
 /// How [`GaussNewton`](crate::GaussNewton) solves its linear systems.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash, Default)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum LinearSolver {
     /// The band form of the normal equations when the problem has one
@@ -108,6 +111,7 @@ pub enum LinearSolver {
 /// Settings of [`GaussNewton`](crate::GaussNewton); see the
 /// [module docs](self) for the defaults.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct GaussNewtonSettings {
     /// Iteration cap.
     pub max_iterations: usize,

@@ -332,6 +332,7 @@ where
 /// come close to scipy's stopping rule, but the convergence test still
 /// has to hold on a confirming sweep.
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct PowellSettings {
     /// The convergence test holds when an iteration moves every coordinate
     /// $j$ by at most $\mathrm{tol}_{step} (1 + |x_j|)$ (0: never).
@@ -435,6 +436,7 @@ impl PowellSettings {
 
 /// Why [`Powell::solve`] stopped.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, Hash)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 #[non_exhaustive]
 pub enum PowellStatus {
     /// The decrease still to come fell below `tol_cost` (relative), also on a
@@ -487,6 +489,7 @@ enum Halt {
 
 /// The outcome of [`Powell::solve`].
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct PowellResult {
     /// The best point found (inside the bounds, if any).
     pub x: Vec<f64>,

@@ -362,7 +362,7 @@ mod tests {
             failure: String::new(),
             plan: inconsistency.map(|inconsistency| PlanSummary {
                 planner: "gauss-newton".into(),
-                status: "ConvergedCost".into(),
+                status: trajopt::GaussNewtonStatus::ConvergedCost.into(),
                 cost: 1.0,
                 initial_cost: 2.0,
                 task: 1.0,
