@@ -1,7 +1,6 @@
 #![doc = include_str!("../README.md")]
 //! # Feature flags
 #![doc = document_features::document_features!()]
-mod band_model;
 pub mod check;
 pub mod derivative_free;
 pub mod eq3;
@@ -13,33 +12,8 @@ pub mod linalg;
 pub mod models;
 #[cfg(feature = "nalgebra")]
 pub mod nalgebra_convert;
-mod parallel;
 pub mod powell;
 pub mod problems;
-#[cfg(feature = "bounds")]
-mod qp;
-/// Without the `bounds` feature there is no QP solver: Gauss-Newton refuses
-/// a bounded problem before its first step, so these are never reached.
-#[cfg(not(feature = "bounds"))]
-mod qp {
-    use faer::sparse::SparseColMat;
-
-    use crate::least_squares::LinearBounds;
-
-    pub(crate) fn bounded_step(
-        _: &SparseColMat<usize, f64>,
-        _: &[f64],
-        _: &LinearBounds,
-        _: &[f64],
-    ) -> Option<Vec<f64>> {
-        None
-    }
-
-    pub(crate) fn projection(_: &LinearBounds, _: &[f64]) -> Option<Vec<f64>> {
-        None
-    }
-}
-mod split;
 #[cfg(feature = "proptest")]
 pub mod strategies;
 

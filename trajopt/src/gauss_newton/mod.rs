@@ -99,17 +99,46 @@
 //! equations behind one trait (`sparse.rs`, `band.rs`, and `split.rs` for
 //! two threads).
 
+// the modules only Gauss-Newton uses: the band model of Eq. 3's normal
+// equations, their two-thread split, the helper threads, and the bounded
+// steps' QP
+pub(crate) mod band_model;
+pub(crate) mod parallel;
+#[cfg(feature = "bounds")]
+pub(crate) mod qp;
+/// Without the `bounds` feature there is no QP solver: Gauss-Newton refuses
+/// a bounded problem before its first step, so these are never reached.
+#[cfg(not(feature = "bounds"))]
+pub(crate) mod qp {
+    use faer::sparse::SparseColMat;
+
+    use crate::least_squares::LinearBounds;
+
+    pub(crate) fn bounded_step(
+        _: &SparseColMat<usize, f64>,
+        _: &[f64],
+        _: &LinearBounds,
+        _: &[f64],
+    ) -> Option<Vec<f64>> {
+        None
+    }
+
+    pub(crate) fn projection(_: &LinearBounds, _: &[f64]) -> Option<Vec<f64>> {
+        None
+    }
+}
 mod damping;
 mod iteration;
 mod normal_equations;
 pub mod result;
 pub mod settings;
+pub(crate) mod split;
 
 use std::time::Instant;
 
 use crate::error::{Result, TrajoptError, check_point};
+use crate::gauss_newton::parallel::Helpers;
 use crate::least_squares::LeastSquaresProblem;
-use crate::parallel::Helpers;
 use iteration::{Iteration, Start};
 use normal_equations::{BandSystem, MAX_HALF_BANDWIDTH, NormalEquations, SparseSystem, SplitSystem, sum_sq};
 
@@ -382,7 +411,7 @@ impl GaussNewton {
             }
             // an infeasible start is first moved to the nearest feasible point
             if b.violation(&theta) > 1e-9 {
-                let delta = crate::qp::projection(b, &theta).ok_or(TrajoptError::InfeasibleBounds)?;
+                let delta = crate::gauss_newton::qp::projection(b, &theta).ok_or(TrajoptError::InfeasibleBounds)?;
                 for (t, d) in theta.iter_mut().zip(delta) {
                     *t += d;
                 }

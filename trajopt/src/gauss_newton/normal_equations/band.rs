@@ -6,11 +6,11 @@
 use std::sync::Arc;
 
 use super::{Damping, NormalEquations};
-use crate::band_model::BandModel;
 use crate::error::Result;
+use crate::gauss_newton::band_model::BandModel;
+use crate::gauss_newton::parallel::Helpers;
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
-use crate::parallel::Helpers;
 
 /// The band form: $J^\top J$ (or $J^\top J + S$) formed by the problem in
 /// band storage, a band Cholesky factorisation ([`crate::linalg`]).

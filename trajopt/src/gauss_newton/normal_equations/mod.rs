@@ -8,7 +8,7 @@
 //!   ([`BandForm`](crate::BandForm)), a band Cholesky factorisation; with
 //!   helper threads, the normal equations formed in parts;
 //! - [`SplitSystem`] (`split.rs`): the band form on two threads, kept and
-//!   factorised in two parts ([`crate::split`]).
+//!   factorised in two parts ([`crate::gauss_newton::split`]).
 //!
 //! The solver holds one as a `Box<dyn NormalEquations<P>>`: a handful of
 //! calls per iteration, each doing $O(N)$ work, so the dynamic dispatch
@@ -44,7 +44,7 @@ pub(super) struct Damping<'a> {
 pub(super) trait NormalEquations<P: LeastSquaresProblem + ?Sized> {
     /// Whether this system's helper threads answered late often enough
     /// that one thread would be faster
-    /// ([`Helpers::degraded`](crate::parallel::Helpers::degraded)).
+    /// ([`Helpers::degraded`](crate::gauss_newton::parallel::Helpers::degraded)).
     fn helpers_degraded(&mut self) -> bool {
         false
     }

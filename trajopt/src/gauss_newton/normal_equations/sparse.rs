@@ -3,7 +3,7 @@
 //! a sparse Cholesky factorisation whose symbolic part (AMD ordering,
 //! elimination tree) is computed once and reused ([`Factor`]). The only
 //! form that handles bounds (the damped model minimised subject to them,
-//! a QP: [`crate::qp`]).
+//! a QP: [`crate::gauss_newton::qp`]).
 
 use faer::Side;
 use faer::dyn_stack::{MemBuffer, MemStack, StackReq};
@@ -119,7 +119,7 @@ impl SparseSystem {
         step: &mut [f64],
     ) -> bool {
         self.damp(damping.newton, damping.total, damping.scale);
-        match crate::qp::bounded_step(&self.h_damped, grad, bounds, theta) {
+        match crate::gauss_newton::qp::bounded_step(&self.h_damped, grad, bounds, theta) {
             Some(d) => {
                 step.copy_from_slice(&d);
                 true

@@ -1,4 +1,4 @@
-//! The band form on two threads ([`crate::split`]): part 0 of the normal
+//! The band form on two threads ([`crate::gauss_newton::split`]): part 0 of the normal
 //! equations on this thread, part 1 on the helper, each eliminating the
 //! coefficients only it touches; this thread factorises the Schur
 //! complement on the few coefficients both touch.
@@ -8,12 +8,12 @@ use std::sync::atomic::{AtomicBool, Ordering};
 
 use super::{Damping, NormalEquations};
 use crate::error::{Result, TrajoptError};
+use crate::gauss_newton::parallel::Helpers;
+use crate::gauss_newton::split::{SplitDone, SplitJob, SplitPart, split_points};
 use crate::least_squares::{BandForm, LeastSquaresProblem, Point};
 use crate::linalg::BandLayout;
-use crate::parallel::Helpers;
-use crate::split::{SplitDone, SplitJob, SplitPart, split_points};
 
-/// The band form on two threads ([`crate::split`]): part 0 here, part 1
+/// The band form on two threads ([`crate::gauss_newton::split`]): part 0 here, part 1
 /// on the helper; only the gradient, the diagonals, the Schur blocks on
 /// the overlap $S$ and the step's pieces cross threads.
 pub(crate) struct SplitSystem<'p> {

@@ -2,7 +2,7 @@
 //! $J^\top J + S$, with $J^\top J$ alone next to it on demand (for
 //! Gauss-Newton steps between Newton ones): the state that the one-piece
 //! band system and each part of the two-thread split
-//! ([`crate::split::SplitPart`]) keep alike.
+//! ([`crate::gauss_newton::split::SplitPart`]) keep alike.
 
 use crate::error::Result;
 use crate::least_squares::BandNormalEquations;

@@ -31,8 +31,8 @@
 use std::sync::Arc;
 use std::sync::atomic::AtomicBool;
 
-use crate::band_model::BandModel;
 use crate::error::Result;
+use crate::gauss_newton::band_model::BandModel;
 use crate::least_squares::{BandForm, BandNormalEquations, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
 

@@ -27,9 +27,9 @@ use std::thread::Scope;
 use std::time::{Duration, Instant};
 
 use crate::error::{Result, TrajoptError};
+use crate::gauss_newton::split::{self, SplitDone, SplitJob};
 use crate::least_squares::{BandForm, BandNormalEquations, LeastSquaresProblem, Part, Point};
 use crate::linalg::{BandLayout, BandedSym};
-use crate::split::{self, SplitDone, SplitJob};
 
 /// How long a helper (or the solver waiting for one) spins before it
 /// parks: longer than the gap between two assemblies at the horizons
