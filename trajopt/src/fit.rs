@@ -7,10 +7,10 @@
 //! Jacobian $J = \partial r / \partial x$) as a [`LeastSquaresProblem`] of
 //! dense pattern and solves it with damped Gauss-Newton (Levenberg-Marquardt,
 //! [`GaussNewton`]), the Jacobian differenced (central by default, scipy's
-//! steps) when it is not given. (For a large sparse problem, implement
-//! [`LeastSquaresProblem`] and use the
-//! [derivative-free mode](crate::derivative_free), which differences
-//! groups of columns at once.) The result,
+//! steps) when it is not given; with a sparsity pattern (declared, or
+//! found by probing) the differences move a group of structurally
+//! orthogonal columns at once (Curtis, Powell and Reid), so a large sparse
+//! problem costs a few residual evaluations per Jacobian. The result,
 //! [`LeastSquaresFit`], holds the point, the residuals and the Jacobian
 //! there, and gives the estimate's covariance
 //! $\hat\sigma^2 (J^\top J)^{-1}$, $\hat\sigma^2 = F / (m - n)$, and its
@@ -26,6 +26,7 @@
 //! | [`powell_settings`](LeastSquares::powell_settings) | [`PowellSettings::default`] | Powell's tolerances and budget |
 //! | [`loss`](LeastSquares::loss) | [`Loss::Linear`], scale 1 | a robust loss and its residual scale |
 //! | [`bounds`](LeastSquares::bounds) | none | box bounds $l \le x \le u$ |
+//! | [`pattern`](LeastSquares::pattern), [`detect_pattern`](LeastSquares::detect_pattern) | dense | the Jacobian's sparsity, declared or found by probing: the differences then take one residual evaluation per Curtis-Powell-Reid group of columns (forward), not per column |
 //!
 //! # Example
 //!
@@ -51,7 +52,7 @@ use std::time::Duration;
 
 use faer::sparse::SymbolicSparseRowMat;
 
-use crate::derivative_free::{DerivativeFree, DerivativeFreeSettings, Difference};
+use crate::derivative_free::{ColumnGroups, DerivativeFree, DerivativeFreeSettings, Difference};
 use crate::error::{Result, TrajoptError};
 use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
 use crate::least_squares::{LeastSquaresProblem, LinearBounds};
@@ -206,6 +207,15 @@ pub struct LeastSquares<'a> {
     loss: Loss,
     scale: f64,
     bounds: Option<(Vec<f64>, Vec<f64>)>,
+    sparsity: Sparsity,
+}
+
+/// Where the Jacobian's pattern comes from.
+#[derive(Debug, Clone)]
+enum Sparsity {
+    Dense,
+    Declared(SymbolicSparseRowMat<usize>),
+    Detect,
 }
 
 impl std::fmt::Debug for LeastSquares<'_> {
@@ -220,6 +230,7 @@ impl std::fmt::Debug for LeastSquares<'_> {
             .field("loss", &self.loss)
             .field("scale", &self.scale)
             .field("bounds", &self.bounds)
+            .field("sparsity", &self.sparsity)
             .finish()
     }
 }
@@ -239,6 +250,7 @@ impl<'a> LeastSquares<'a> {
             loss: Loss::Linear,
             scale: 1.0,
             bounds: None,
+            sparsity: Sparsity::Dense,
         }
     }
 
@@ -293,6 +305,82 @@ impl<'a> LeastSquares<'a> {
     pub fn bounds(mut self, lower: &[f64], upper: &[f64]) -> Self {
         self.bounds = Some((lower.to_vec(), upper.to_vec()));
         self
+    }
+
+    /// The Jacobian's sparsity pattern ($m \times n$, row-major): which
+    /// $\partial r_i / \partial x_k$ can be nonzero. Without a Jacobian,
+    /// the differences then perturb a whole Curtis-Powell-Reid group of
+    /// structurally orthogonal columns at once ([`ColumnGroups`]): one
+    /// residual evaluation per group (forward; two, central) instead of
+    /// one per parameter. With a Jacobian, only its entries in the pattern
+    /// are read. The pattern must not leave out an entry that can be
+    /// nonzero.
+    pub fn pattern(mut self, pattern: SymbolicSparseRowMat<usize>) -> Self {
+        self.sparsity = Sparsity::Declared(pattern);
+        self
+    }
+
+    /// Finds the pattern by probing, before the solve: each parameter is
+    /// moved alone at the start and at a second point near it, and the
+    /// residuals that change are marked ($2(n + 1)$ residual evaluations,
+    /// counted in [`LeastSquaresFit::evals`]); then as
+    /// [`pattern`](Self::pattern). An entry that happens to vanish at both
+    /// points is missed: declare the pattern where it is known.
+    pub fn detect_pattern(mut self) -> Self {
+        self.sparsity = Sparsity::Detect;
+        self
+    }
+
+    /// The pattern at `x0`: declared (checked), probed, or dense; and the
+    /// residual evaluations the probing spent.
+    fn resolve_pattern(&self, x0: &[f64]) -> Result<(SymbolicSparseRowMat<usize>, usize)> {
+        let (m, n) = (self.m, x0.len());
+        match &self.sparsity {
+            Sparsity::Dense => Ok((dense_pattern(m, n), 0)),
+            Sparsity::Declared(p) if p.nrows() == m && p.ncols() == n => Ok((p.clone(), 0)),
+            Sparsity::Declared(p) => Err(TrajoptError::InvalidParameter {
+                name: "pattern",
+                reason: format!("is {} x {}, the problem is {m} x {n}", p.nrows(), p.ncols()),
+            }),
+            Sparsity::Detect => {
+                let mut seen = vec![false; m * n];
+                let (mut base, mut moved) = (vec![0.0; m], vec![0.0; m]);
+                // the start, and a point near it off any symmetry of the start
+                let near: Vec<f64> = x0
+                    .iter()
+                    .enumerate()
+                    .map(|(k, &v)| v + 1e-3 * v.abs().max(1.0) * (0.37 + 0.11 * (k % 5) as f64))
+                    .collect();
+                for point in [x0, near.as_slice()] {
+                    (self.residuals)(point, &mut base);
+                    let mut p = point.to_vec();
+                    for k in 0..n {
+                        let h = f64::EPSILON.sqrt() * point[k].abs().max(1.0);
+                        p[k] = point[k] + h;
+                        (self.residuals)(&p, &mut moved);
+                        p[k] = point[k];
+                        for i in 0..m {
+                            // a change, or a value that is not finite at one of the two
+                            if moved[i] != base[i] || !moved[i].is_finite() {
+                                seen[i * n + k] = true;
+                            }
+                        }
+                    }
+                }
+                let row_ptr = std::iter::once(0)
+                    .chain((0..m).scan(0, |acc, i| {
+                        *acc += seen[i * n..(i + 1) * n].iter().filter(|&&b| b).count();
+                        Some(*acc)
+                    }))
+                    .collect();
+                let seen = &seen;
+                let col_idx = (0..m).flat_map(|i| (0..n).filter(move |&k| seen[i * n + k])).collect();
+                Ok((
+                    SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, col_idx),
+                    2 * (n + 1),
+                ))
+            }
+        }
     }
 
     /// Checks the sizes, the loss scale and the bounds against `x0`;
@@ -367,17 +455,30 @@ impl<'a> LeastSquares<'a> {
     pub fn solve(&self, x0: &[f64]) -> Result<LeastSquaresFit> {
         let bounds = self.check(x0)?;
         let (m, n) = (self.m, x0.len());
+        let (pattern, probing) = self.resolve_pattern(x0)?;
+        let groups = ColumnGroups::new(pattern.as_ref());
+        let mut entries_of = vec![Vec::new(); n];
+        let mut e = 0;
+        for i in 0..m {
+            for &k in pattern.col_idx_of_row_raw(i) {
+                entries_of[k].push((i, e));
+                e += 1;
+            }
+        }
         let problem = Closures {
             spec: self,
             n,
             bounds,
-            differencing_evals: std::cell::Cell::new(0),
+            differencing_evals: std::cell::Cell::new(probing),
+            pattern,
+            groups,
+            entries_of,
         };
         let (x, initial_cost, status, iterations, evals, jacobian_evals, solve_time) = match self.method {
             Method::GaussNewton => {
                 let r = GaussNewton::new(self.settings.clone())?.solve(&problem, x0)?;
                 let (evals, jacobian_evals) = match &self.jacobian {
-                    Some(_) => (r.evals, r.jacobian_evals),
+                    Some(_) => (r.evals + probing, r.jacobian_evals),
                     None => (r.evals + problem.differencing_evals.get(), 0),
                 };
                 let status = FitStatus::GaussNewton(r.status);
@@ -408,7 +509,15 @@ impl<'a> LeastSquares<'a> {
                 };
                 let r = DerivativeFree::new(settings)?.solve(&problem, x0)?;
                 let status = FitStatus::GaussNewton(r.status);
-                (r.x, r.initial_cost, status, r.iterations, r.evals, 0, r.solve_time)
+                (
+                    r.x,
+                    r.initial_cost,
+                    status,
+                    r.iterations,
+                    r.evals + probing,
+                    0,
+                    r.solve_time,
+                )
             }
             Method::Powell => {
                 let settings = PowellSettings {
@@ -424,7 +533,15 @@ impl<'a> LeastSquares<'a> {
                 };
                 let r = Powell::new(settings)?.solve(&objective, x0)?;
                 let status = FitStatus::Powell(r.status);
-                (r.x, r.initial_cost, status, r.iterations, r.evals, 0, r.solve_time)
+                (
+                    r.x,
+                    r.initial_cost,
+                    status,
+                    r.iterations,
+                    r.evals + probing,
+                    0,
+                    r.solve_time,
+                )
             }
         };
         let mut residuals = vec![0.0; m];
@@ -459,49 +576,95 @@ struct Closures<'s, 'a> {
     spec: &'s LeastSquares<'a>,
     n: usize,
     bounds: Option<LinearBounds>,
-    /// Residual evaluations made by the differences.
+    /// Residual evaluations made by the differences (and the probing).
     differencing_evals: std::cell::Cell<usize>,
+    /// The Jacobian's pattern (dense unless declared or probed).
+    pattern: SymbolicSparseRowMat<usize>,
+    /// Its columns in structurally orthogonal groups.
+    groups: ColumnGroups,
+    /// Each column's entries: (row, index in the pattern's values).
+    entries_of: Vec<Vec<(usize, usize)>>,
 }
 
 impl Closures<'_, '_> {
-    /// $J = \partial r / \partial x$ at `x`: the user's, or differences
-    /// of the residuals (central: steps $h_k = \epsilon^{1/3} \max(1,
-    /// |x_k|)$, two evaluations per parameter; forward: $h_k =
-    /// \epsilon^{1/2} \max(1, |x_k|)$, one, and one at `x`), scipy's steps.
-    fn outer_jacobian(&self, x: &[f64]) -> Vec<f64> {
+    /// $J = \partial r / \partial x$ at `x` in the pattern's order
+    /// (row-major over its entries): the user's (read at the pattern's
+    /// entries), or differences of the residuals, a group of structurally
+    /// orthogonal columns per evaluation (central: steps $h_k =
+    /// \epsilon^{1/3} \max(1, |x_k|)$, two evaluations per group; forward:
+    /// $h_k = \epsilon^{1/2} \max(1, |x_k|)$, one, and one at `x`),
+    /// scipy's steps.
+    fn sparse_jacobian(&self, x: &[f64]) -> Vec<f64> {
         let (m, n) = (self.spec.m, self.n);
-        let mut j = vec![0.0; m * n];
+        let pattern = &self.pattern;
+        let mut values = vec![0.0; pattern.compute_nnz()];
         if let Some(jac) = &self.spec.jacobian {
+            let mut j = vec![0.0; m * n];
             jac(x, &mut j);
-            return j;
+            let mut e = 0;
+            for i in 0..m {
+                for &k in pattern.col_idx_of_row_raw(i) {
+                    values[e] = j[i * n + k];
+                    e += 1;
+                }
+            }
+            return values;
         }
         let central = self.spec.difference == Difference::Central;
         let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
         if !central {
             (self.spec.residuals)(x, &mut minus);
         }
-        let mut p = x.to_vec();
-        for k in 0..n {
+        let step = |k: usize| {
             let scale = x[k].abs().max(1.0);
-            let h = if central {
-                f64::EPSILON.cbrt()
+            if central {
+                f64::EPSILON.cbrt() * scale
             } else {
-                f64::EPSILON.sqrt()
-            } * scale;
-            p[k] = x[k] + h;
+                f64::EPSILON.sqrt() * scale
+            }
+        };
+        let mut p = x.to_vec();
+        for members in self.groups.members() {
+            for &k in members {
+                p[k] = x[k] + step(k);
+            }
             (self.spec.residuals)(&p, &mut plus);
             if central {
-                p[k] = x[k] - h;
+                for &k in members {
+                    p[k] = x[k] - step(k);
+                }
                 (self.spec.residuals)(&p, &mut minus);
             }
-            p[k] = x[k];
-            let width = if central { 2.0 * h } else { h };
-            for i in 0..m {
-                j[i * n + k] = (plus[i] - minus[i]) / width;
+            for &k in members {
+                p[k] = x[k];
+            }
+            // each row meets at most one column of the group
+            for &k in members {
+                let width = if central { 2.0 * step(k) } else { step(k) };
+                for &(i, e) in &self.entries_of[k] {
+                    values[e] = (plus[i] - minus[i]) / width;
+                }
             }
         }
-        let calls = if central { 2 * n } else { n + 1 };
+        let groups = self.groups.n_groups();
+        let calls = if central { 2 * groups } else { groups + 1 };
         self.differencing_evals.set(self.differencing_evals.get() + calls);
+        values
+    }
+
+    /// [`sparse_jacobian`](Self::sparse_jacobian), dense ($m \times n$,
+    /// row-major).
+    fn outer_jacobian(&self, x: &[f64]) -> Vec<f64> {
+        let (m, n) = (self.spec.m, self.n);
+        let values = self.sparse_jacobian(x);
+        let mut j = vec![0.0; m * n];
+        let mut e = 0;
+        for i in 0..m {
+            for &k in self.pattern.col_idx_of_row_raw(i) {
+                j[i * n + k] = values[e];
+                e += 1;
+            }
+        }
         j
     }
 }
@@ -524,23 +687,24 @@ impl LeastSquaresProblem for Closures<'_, '_> {
     }
 
     fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
-        dense_pattern(self.spec.m, self.n)
+        self.pattern.clone()
     }
 
     /// The user's Jacobian or the residuals' differences, its rows scaled
     /// by the loss's $d\tilde r_i / dr_i$ (the differences are of the
     /// smooth raw residuals, never of the transformed ones).
     fn jacobian_values(&self, x: &[f64], values: &mut [f64]) -> Result<()> {
-        let (m, n) = (self.spec.m, self.n);
-        let j = self.outer_jacobian(x);
-        let mut r = vec![0.0; m];
-        if self.spec.loss != Loss::Linear {
-            (self.spec.residuals)(x, &mut r);
+        let m = self.spec.m;
+        values.copy_from_slice(&self.sparse_jacobian(x));
+        if self.spec.loss == Loss::Linear {
+            return Ok(());
         }
-        for i in 0..m {
-            let w = self.spec.loss.transform(r[i], self.spec.scale).1;
-            for k in 0..n {
-                values[i * n + k] = w * j[i * n + k];
+        let mut r = vec![0.0; m];
+        (self.spec.residuals)(x, &mut r);
+        for (i, &ri) in r.iter().enumerate() {
+            let w = self.spec.loss.transform(ri, self.spec.scale).1;
+            for v in &mut values[self.pattern.row_range(i)] {
+                *v *= w;
             }
         }
         Ok(())
@@ -566,7 +730,8 @@ pub struct LeastSquaresFit {
     pub status: FitStatus,
     /// Iterations.
     pub iterations: usize,
-    /// Residual evaluations (the differences' included).
+    /// Residual evaluations (the differences' and a pattern probing's
+    /// included).
     pub evals: usize,
     /// Calls of the user's Jacobian (0 when differenced).
     pub jacobian_evals: usize,
@@ -709,6 +874,117 @@ mod tests {
             serde_json::from_str::<DerivativeFreeSettings>(&serde_json::to_string(&dfo).expect("json")).expect("read"),
             dfo
         );
+    }
+
+    /// Broyden's tridiagonal function (MGH 30) of `n` parameters.
+    fn broyden<'a>(n: usize) -> LeastSquares<'a> {
+        LeastSquares::new(n, move |x: &[f64], r: &mut [f64]| {
+            for i in 0..n {
+                let left = if i > 0 { x[i - 1] } else { 0.0 };
+                let right = if i + 1 < n { x[i + 1] } else { 0.0 };
+                r[i] = (3.0 - 2.0 * x[i]) * x[i] - left - 2.0 * right + 1.0;
+            }
+        })
+    }
+
+    /// The tridiagonal pattern of [`broyden`].
+    fn tridiagonal(n: usize) -> SymbolicSparseRowMat<usize> {
+        let mut row_ptr = vec![0];
+        let mut col_idx = Vec::new();
+        for i in 0..n {
+            col_idx.extend(i.saturating_sub(1)..(i + 2).min(n));
+            row_ptr.push(col_idx.len());
+        }
+        SymbolicSparseRowMat::new_checked(n, n, row_ptr, None, col_idx)
+    }
+
+    /// A sparse problem through the front door: the pattern declared or
+    /// probed gives 3 groups, so each differenced Jacobian costs 3
+    /// evaluations (central: 6) instead of n (2n); the same optimum as the
+    /// dense differences, with or without the Jacobian, in every mode.
+    #[test]
+    fn a_declared_or_probed_pattern_differences_by_groups() {
+        let n = 60;
+        let x0 = vec![-1.0; n];
+        let dense = broyden(n).solve(&x0).expect("dense");
+        assert!(
+            dense.status.is_converged() && dense.cost < 1e-20,
+            "{:?} {}",
+            dense.status,
+            dense.cost
+        );
+        for (label, fit) in [
+            (
+                "declared",
+                broyden(n).pattern(tridiagonal(n)).solve(&x0).expect("declared"),
+            ),
+            ("probed", broyden(n).detect_pattern().solve(&x0).expect("probed")),
+            (
+                "probed, derivative-free",
+                broyden(n)
+                    .detect_pattern()
+                    .method(Method::DerivativeFree)
+                    .solve(&x0)
+                    .expect("derivative-free"),
+            ),
+        ] {
+            assert!(
+                fit.status.is_converged() && fit.cost < 1e-20,
+                "{label}: {:?} {}",
+                fit.status,
+                fit.cost
+            );
+            for k in 0..n {
+                assert!(
+                    (fit.x[k] - dense.x[k]).abs() < 1e-8,
+                    "{label}: x[{k}] {} vs {}",
+                    fit.x[k],
+                    dense.x[k]
+                );
+            }
+            // 3 groups against n columns: far fewer residual evaluations,
+            // the probing's 2 (n + 1) included
+            let probing = if label.starts_with("probed") { 2 * (n + 1) } else { 0 };
+            assert!(
+                5 * (fit.evals - probing) < dense.evals,
+                "{label}: {} vs dense {}",
+                fit.evals,
+                dense.evals
+            );
+        }
+        // the probed pattern is the tridiagonal one: 3n - 2 entries, and the
+        // Jacobian at the answer has exactly their values
+        let probed = broyden(n).detect_pattern().solve(&x0).expect("probed");
+        let nonzeros = probed.jacobian.iter().filter(|v| **v != 0.0).count();
+        assert_eq!(nonzeros, 3 * n - 2);
+        for i in 0..n {
+            let want = 3.0 - 4.0 * probed.x[i];
+            assert!((probed.jacobian[i * n + i] - want).abs() < 1e-6, "J[{i}][{i}]");
+        }
+        // with the Jacobian, only the pattern's entries are read
+        let exact = broyden(n)
+            .pattern(tridiagonal(n))
+            .jacobian(move |x: &[f64], j: &mut [f64]| {
+                j.fill(f64::NAN); // outside the pattern: never read
+                for i in 0..n {
+                    j[i * n + i] = 3.0 - 4.0 * x[i];
+                    if i > 0 {
+                        j[i * n + i - 1] = -1.0;
+                    }
+                    if i + 1 < n {
+                        j[i * n + i + 1] = -2.0;
+                    }
+                }
+            })
+            .solve(&x0)
+            .expect("exact");
+        assert!(exact.status.is_converged() && exact.cost < 1e-20, "{:?}", exact.status);
+        let e = broyden(n)
+            .pattern(tridiagonal(n + 1))
+            .solve(&x0)
+            .expect_err("wrong size")
+            .to_string();
+        assert!(e.contains("pattern") && e.contains("61 x 61"), "{e}");
     }
 
     /// Every method from one setting: the derivative-free mode reaches
