@@ -53,10 +53,10 @@ pub fn plan_with<G: PendulumRegression>(
 ) -> crate::Result<PlanSummary> {
     let n = demo.horizon();
     let warm = previous.filter(|p| cfg.planner.warm_start && p.states.len() == n + 1 && p.controls.len() == n);
+    // DDP plans the model as a hard constraint; every other solver plans
+    // Eq. 3 (a solver added to the Eq. 3 planner needs no arm here)
     match cfg.planner.solver {
-        Solver::GaussNewton | Solver::Powell | Solver::DerivativeFree => {
-            eq3::plan_from(cfg, demo, model, support, warm)
-        }
         Solver::Ddp => ddp::plan_ddp(cfg, demo, model),
+        _ => eq3::plan_from(cfg, demo, model, support, warm),
     }
 }
