@@ -1,5 +1,5 @@
 //! Your own least-squares solver in `nprl-bench`, beside the built-in
-//! ones: a textbook Levenberg-Marquardt of about 40 lines, and 9 lines of
+//! ones: a textbook Levenberg-Marquardt of 50 lines, and 8 lines of
 //! glue that run it and `gauss-newton` on a set and write the same
 //! records, tables, performance profiles (evaluations and time) and data
 //! profiles as `nprl-bench` does.
