@@ -87,6 +87,7 @@ impl solve::Status for DdpStatus {
 /// that pass was impossible (statuses `InitialRolloutDiverged`,
 /// `NotPositiveDefinite`, `NonFiniteDerivatives`).
 #[derive(Debug, Clone, PartialEq)]
+#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
 pub struct DdpResult {
     /// States $x^*_0, \dots, x^*_N$ (fewer only with `InitialRolloutDiverged`).
     pub states: Vec<Vec<f64>>,
@@ -95,12 +96,14 @@ pub struct DdpResult {
     /// Feedforward terms $k_t$ of the last backward pass (near zero at convergence).
     pub feedforward: Vec<Vec<f64>>,
     /// Feedback gains $K_t$ ($m \times n$): $u = u^*_t + K_t (x - x^*_t)$.
+    #[cfg_attr(feature = "serde", serde(with = "matrices"))]
     pub gains: Vec<Mat<f64>>,
     /// Cost-to-go $V_0(t) = \sum_{j \ge t} \ell(x^*_j, u^*_j, j) + \ell_f(x^*_N)$, $t = 0..N$.
     pub value: Vec<f64>,
     /// $V_x(t)$, $t = 0..N$.
     pub value_gradient: Vec<Vec<f64>>,
     /// $V_{xx}(t)$ ($n \times n$), $t = 0..N$.
+    #[cfg_attr(feature = "serde", serde(with = "matrices"))]
     pub value_hessian: Vec<Mat<f64>>,
     /// Final cost $J$ (infinite only with `InitialRolloutDiverged`).
     pub cost: f64,
@@ -165,5 +168,37 @@ impl DdpResult {
             v += vx[i] * d[i] + 0.5 * d[i] * (0..n).map(|j| vxx[(i, j)] * d[j]).sum::<f64>();
         }
         Some(v)
+    }
+}
+
+/// faer matrices as lists of rows, for serde (feature `serde`).
+#[cfg(feature = "serde")]
+mod matrices {
+    use faer::Mat;
+    use serde::{Deserialize, Deserializer, Serialize, Serializer};
+
+    pub(super) fn serialize<S: Serializer>(mats: &[Mat<f64>], s: S) -> Result<S::Ok, S::Error> {
+        let rows: Vec<Vec<Vec<f64>>> = mats
+            .iter()
+            .map(|m| {
+                (0..m.nrows())
+                    .map(|i| (0..m.ncols()).map(|j| m[(i, j)]).collect())
+                    .collect()
+            })
+            .collect();
+        rows.serialize(s)
+    }
+
+    pub(super) fn deserialize<'de, D: Deserializer<'de>>(d: D) -> Result<Vec<Mat<f64>>, D::Error> {
+        let rows = Vec::<Vec<Vec<f64>>>::deserialize(d)?;
+        rows.into_iter()
+            .map(|m| {
+                let ncols = m.first().map_or(0, Vec::len);
+                if m.iter().any(|row| row.len() != ncols) {
+                    return Err(serde::de::Error::custom("a matrix's rows differ in length"));
+                }
+                Ok(Mat::from_fn(m.len(), ncols, |i, j| m[i][j]))
+            })
+            .collect()
     }
 }

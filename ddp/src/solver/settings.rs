@@ -181,6 +181,40 @@ mod tests {
             serde_json::to_string(&DdpStatus::Converged).expect("json"),
             "\"Converged\""
         );
+        // a whole result, its gains and value Hessians (faer matrices) as rows
+        let problem = crate::DdpProblem::new(
+            crate::Pendulum::default(),
+            crate::QuadraticCost::diagonal(&[1.0, 0.1], &[0.01], &[100.0, 10.0])
+                .and_then(|c| c.with_state_target(&[std::f64::consts::PI, 0.0]))
+                .expect("cost"),
+            &[0.0, 0.0],
+            50,
+        )
+        .expect("problem");
+        let result = Ddp::new(settings).expect("settings").solve(&problem).expect("solves");
+        let json = serde_json::to_string(&result).expect("json");
+        let back: crate::DdpResult = serde_json::from_str(&json).expect("read");
+        // (serde_json's default float parsing may differ in the last bit)
+        let same = |a: &[faer::Mat<f64>], b: &[faer::Mat<f64>]| {
+            a.len() == b.len()
+                && a.iter().zip(b).all(|(x, y)| {
+                    x.shape() == y.shape()
+                        && (0..x.nrows()).all(|i| {
+                            (0..x.ncols()).all(|j| (x[(i, j)] - y[(i, j)]).abs() <= 1e-14 * (1.0 + y[(i, j)].abs()))
+                        })
+                })
+        };
+        assert!(same(&back.gains, &result.gains) && !result.gains.is_empty());
+        assert!(same(&back.value_hessian, &result.value_hessian) && !result.value_hessian.is_empty());
+        assert_eq!(
+            (back.cost, back.status, back.states.len()),
+            (result.cost, result.status, 51)
+        );
+        // a matrix whose rows differ in length is refused
+        assert!(
+            serde_json::from_str::<crate::DdpResult>(&json.replacen("\"gains\":[[[", "\"gains\":[[[1.0],[", 1))
+                .is_err()
+        );
     }
 
     #[test]
