@@ -85,6 +85,48 @@ pub struct DdpProblem<D, C> {
     limits: Option<(Vec<f64>, Vec<f64>)>,
 }
 
+impl<D: Dynamics, S: systems::StageCost> DdpProblem<D, crate::ResidualCost<S>> {
+    /// A problem whose cost is a stage cost in residual form
+    /// ([`systems::StageCost`], the one Eq. 3 plans too), wrapped in a
+    /// [`ResidualCost`](crate::ResidualCost) sized by `dynamics` and
+    /// `horizon`; otherwise as [`new`](Self::new).
+    ///
+    /// ```
+    /// use ddp::{Ddp, DdpProblem, DdpSettings, Pendulum};
+    /// use systems::{ModelResult, StageCost};
+    ///
+    /// // the control's effort while running; the state's error at the end
+    /// struct Effort;
+    /// impl StageCost for Effort {
+    ///     fn n_residuals(&self) -> usize { 1 }
+    ///     fn n_terminal_residuals(&self) -> usize { 2 }
+    ///     fn residuals(&self, _k: usize, x: &[f64], u: Option<&[f64]>, r: &mut [f64]) -> ModelResult<()> {
+    ///         match u {
+    ///             Some(u) => r[0] = 0.1 * u[0],
+    ///             None => r.copy_from_slice(&[10.0 * (x[0] - std::f64::consts::PI), 3.0 * x[1]]),
+    ///         }
+    ///         Ok(())
+    ///     }
+    /// }
+    /// let problem = DdpProblem::with_stage_cost(Pendulum::default(), Effort, &[0.0, 0.0], 100)?;
+    /// let plan = Ddp::new(DdpSettings::default())?.solve(&problem)?;
+    /// assert!(plan.status.is_converged());
+    /// # Ok::<(), ddp::DdpError>(())
+    /// ```
+    ///
+    /// # Errors
+    /// As [`new`](Self::new).
+    pub fn with_stage_cost(dynamics: D, stage: S, initial_state: &[f64], horizon: usize) -> Result<Self> {
+        let (n, m) = (dynamics.state_dim(), dynamics.control_dim());
+        Self::new(
+            dynamics,
+            crate::ResidualCost::new(stage, n, m, horizon),
+            initial_state,
+            horizon,
+        )
+    }
+}
+
 impl<D: Dynamics, C: Cost> DdpProblem<D, C> {
     /// A problem over `horizon` steps from `initial_state`, warm-started with
     /// zero controls.

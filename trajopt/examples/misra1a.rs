@@ -28,7 +28,7 @@ fn main() -> Result<(), trajopt::TrajoptError> {
     };
     for start in [[500.0, 1e-4], [250.0, 5e-4]] {
         let fit = trajopt::LeastSquares::new(x.len(), model).solve(&start)?;
-        println!("{:?} +- {:?} ({:?})", fit.x, fit.standard_errors()?, fit.status);
+        println!("{:?} +- {:?} ({})", fit.x, fit.standard_errors()?, fit.status);
     }
     Ok(())
 }

@@ -185,6 +185,16 @@ impl FitStatus {
     }
 }
 
+/// The solver's status's name (`ConvergedCost`).
+impl std::fmt::Display for FitStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        match self {
+            Self::GaussNewton(s) => s.fmt(f),
+            Self::Powell(s) => s.fmt(f),
+        }
+    }
+}
+
 impl solve::Status for FitStatus {
     fn termination(&self) -> solve::Termination {
         match self {
@@ -859,6 +869,38 @@ mod tests {
             serde_json::to_value(GaussNewtonStatus::ConvergedCost).expect("json"),
             serde_json::json!("ConvergedCost")
         );
+        // Display is the name serde writes, for every status
+        for status in [
+            GaussNewtonStatus::ConvergedGradient,
+            GaussNewtonStatus::ConvergedStep,
+            GaussNewtonStatus::ConvergedCost,
+            GaussNewtonStatus::MaxIterations,
+            GaussNewtonStatus::MaxEvaluations,
+            GaussNewtonStatus::Stalled,
+            GaussNewtonStatus::NumericalError,
+            GaussNewtonStatus::TimeLimit,
+            GaussNewtonStatus::Stopped,
+        ] {
+            let fit_status = FitStatus::GaussNewton(status);
+            assert_eq!(
+                serde_json::json!(fit_status.to_string()),
+                serde_json::to_value(status).expect("json")
+            );
+        }
+        for status in [
+            PowellStatus::ConvergedCost,
+            PowellStatus::ConvergedStep,
+            PowellStatus::MaxIterations,
+            PowellStatus::MaxEvaluations,
+            PowellStatus::TimeLimit,
+            PowellStatus::Stopped,
+            PowellStatus::ReachedStopCost,
+        ] {
+            assert_eq!(
+                serde_json::json!(status.to_string()),
+                serde_json::to_value(status).expect("json")
+            );
+        }
         let gn = GaussNewtonSettings::default();
         assert_eq!(
             serde_json::from_str::<GaussNewtonSettings>(&serde_json::to_string(&gn).expect("json")).expect("read"),

@@ -51,6 +51,23 @@ impl solve::Status for GaussNewtonStatus {
     }
 }
 
+/// The variant's name (`ConvergedGradient`), as serde writes it.
+impl std::fmt::Display for GaussNewtonStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::ConvergedGradient => "ConvergedGradient",
+            Self::ConvergedStep => "ConvergedStep",
+            Self::ConvergedCost => "ConvergedCost",
+            Self::MaxIterations => "MaxIterations",
+            Self::MaxEvaluations => "MaxEvaluations",
+            Self::Stalled => "Stalled",
+            Self::NumericalError => "NumericalError",
+            Self::TimeLimit => "TimeLimit",
+            Self::Stopped => "Stopped",
+        })
+    }
+}
+
 impl GaussNewtonStatus {
     /// Whether this is one of the converged statuses.
     pub fn is_converged(self) -> bool {

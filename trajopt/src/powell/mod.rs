@@ -459,6 +459,21 @@ pub enum PowellStatus {
     ReachedStopCost,
 }
 
+/// The variant's name (`ConvergedCost`), as serde writes it.
+impl std::fmt::Display for PowellStatus {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(match self {
+            Self::ConvergedCost => "ConvergedCost",
+            Self::ConvergedStep => "ConvergedStep",
+            Self::MaxIterations => "MaxIterations",
+            Self::MaxEvaluations => "MaxEvaluations",
+            Self::TimeLimit => "TimeLimit",
+            Self::Stopped => "Stopped",
+            Self::ReachedStopCost => "ReachedStopCost",
+        })
+    }
+}
+
 impl PowellStatus {
     /// True for the converged statuses.
     pub fn is_converged(self) -> bool {
