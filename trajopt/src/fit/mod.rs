@@ -48,95 +48,26 @@
 //! # Ok::<(), trajopt::TrajoptError>(())
 //! ```
 
-use std::time::Duration;
-
 use faer::sparse::SymbolicSparseRowMat;
 
-use crate::derivative_free::{ColumnGroups, DerivativeFree, DerivativeFreeSettings, Difference};
+use crate::derivative_free::{DerivativeFree, DerivativeFreeSettings, Difference};
 use crate::error::{Result, TrajoptError};
 use crate::gauss_newton::{GaussNewton, GaussNewtonSettings, GaussNewtonStatus};
 use crate::least_squares::{LeastSquaresProblem, LinearBounds};
 use crate::powell::{Powell, PowellSettings, PowellStatus};
 
+mod loss;
+mod problem;
+mod result;
+
+pub use loss::Loss;
+use problem::Closures;
+pub use problem::dense_pattern;
+pub use result::LeastSquaresFit;
+
 /// A closure writing $m$ values for a point (residuals, or a Jacobian's
 /// $m n$ entries row-major).
 type Closure<'a> = Box<dyn Fn(&[f64], &mut [f64]) + 'a>;
-
-/// The pattern of a dense $m \times n$ Jacobian, row-major: every entry
-/// (for [`LeastSquaresProblem::jacobian_pattern`] of a small dense problem).
-pub fn dense_pattern(m: usize, n: usize) -> SymbolicSparseRowMat<usize> {
-    let row_ptr = (0..=m).map(|i| i * n).collect();
-    let col_idx = (0..m).flat_map(|_| 0..n).collect();
-    SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, col_idx)
-}
-
-/// A robust loss $\rho$ applied to each squared residual, with scipy's
-/// names and definitions: with $z = (r / C)^2$ ($C$ the scale,
-/// [`LeastSquares::loss`]) the cost is $\sum_i C^2 \rho(z_i)$.
-///
-/// | loss | $\rho(z)$ |
-/// |---|---|
-/// | `Linear` | $z$ (plain least squares) |
-/// | `SoftL1` | $2(\sqrt{1 + z} - 1)$ |
-/// | `Huber` | $z$ for $z \le 1$, $2\sqrt z - 1$ beyond |
-/// | `Cauchy` | $\ln(1 + z)$ |
-/// | `Arctan` | $\arctan z$ |
-///
-/// The solvers minimise it as the plain sum of squares of the
-/// transformed residuals $\tilde r_i = \operatorname{sign}(r_i) C
-/// \sqrt{\rho(z_i)}$ (so $\sum \tilde r_i^2$ is the robust cost and its
-/// stationary points are the robust cost's), with the Jacobian's rows
-/// scaled by $d\tilde r_i / dr_i = \rho'(z_i) |r_i| / (C \sqrt{\rho(z_i)})$.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Default)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-#[non_exhaustive]
-pub enum Loss {
-    /// $\rho(z) = z$.
-    #[default]
-    Linear,
-    /// $\rho(z) = 2(\sqrt{1 + z} - 1)$.
-    SoftL1,
-    /// $\rho(z) = z$ for $z \le 1$, $2\sqrt z - 1$ beyond.
-    Huber,
-    /// $\rho(z) = \ln(1 + z)$.
-    Cauchy,
-    /// $\rho(z) = \arctan z$.
-    Arctan,
-}
-
-impl Loss {
-    /// $\rho(z)$ and $\rho'(z)$.
-    pub fn rho(self, z: f64) -> (f64, f64) {
-        match self {
-            Self::Linear => (z, 1.0),
-            Self::SoftL1 => {
-                // 2 (s - 1) as 2 z / (s + 1): no cancellation for small z
-                let s = (1.0 + z).sqrt();
-                (2.0 * z / (s + 1.0), 1.0 / s)
-            }
-            Self::Huber if z <= 1.0 => (z, 1.0),
-            Self::Huber => {
-                let s = z.sqrt();
-                (2.0 * s - 1.0, 1.0 / s)
-            }
-            Self::Cauchy => (z.ln_1p(), 1.0 / (1.0 + z)),
-            Self::Arctan => (z.atan(), 1.0 / (1.0 + z * z)),
-        }
-    }
-
-    /// The transformed residual $\tilde r$ of `r` at scale `c`, and
-    /// $d\tilde r / dr$.
-    fn transform(self, r: f64, c: f64) -> (f64, f64) {
-        if self == Self::Linear {
-            return (r, 1.0);
-        }
-        let z = (r / c).powi(2);
-        let (rho, drho) = self.rho(z);
-        let root = rho.max(0.0).sqrt();
-        let slope = if root > 0.0 { drho * r.abs() / (c * root) } else { 1.0 };
-        (r.signum() * c * root, slope)
-    }
-}
 
 /// Which solver [`LeastSquares::solve`] runs: every least-squares mode
 /// of the crate, one setting away.
@@ -320,7 +251,7 @@ impl<'a> LeastSquares<'a> {
     /// The Jacobian's sparsity pattern ($m \times n$, row-major): which
     /// $\partial r_i / \partial x_k$ can be nonzero. Without a Jacobian,
     /// the differences then perturb a whole Curtis-Powell-Reid group of
-    /// structurally orthogonal columns at once ([`ColumnGroups`]): one
+    /// structurally orthogonal columns at once ([`ColumnGroups`](crate::derivative_free::ColumnGroups)): one
     /// residual evaluation per group (forward; two, central) instead of
     /// one per parameter. With a Jacobian, only its entries in the pattern
     /// are read. The pattern must not leave out an entry that can be
@@ -339,58 +270,6 @@ impl<'a> LeastSquares<'a> {
     pub fn detect_pattern(mut self) -> Self {
         self.sparsity = Sparsity::Detect;
         self
-    }
-
-    /// The pattern at `x0`: declared (checked), probed, or dense; and the
-    /// residual evaluations the probing spent.
-    fn resolve_pattern(&self, x0: &[f64]) -> Result<(SymbolicSparseRowMat<usize>, usize)> {
-        let (m, n) = (self.m, x0.len());
-        match &self.sparsity {
-            Sparsity::Dense => Ok((dense_pattern(m, n), 0)),
-            Sparsity::Declared(p) if p.nrows() == m && p.ncols() == n => Ok((p.clone(), 0)),
-            Sparsity::Declared(p) => Err(TrajoptError::InvalidParameter {
-                name: "pattern",
-                reason: format!("is {} x {}, the problem is {m} x {n}", p.nrows(), p.ncols()),
-            }),
-            Sparsity::Detect => {
-                let mut seen = vec![false; m * n];
-                let (mut base, mut moved) = (vec![0.0; m], vec![0.0; m]);
-                // the start, and a point near it off any symmetry of the start
-                let near: Vec<f64> = x0
-                    .iter()
-                    .enumerate()
-                    .map(|(k, &v)| v + 1e-3 * v.abs().max(1.0) * (0.37 + 0.11 * (k % 5) as f64))
-                    .collect();
-                for point in [x0, near.as_slice()] {
-                    (self.residuals)(point, &mut base);
-                    let mut p = point.to_vec();
-                    for k in 0..n {
-                        let h = f64::EPSILON.sqrt() * point[k].abs().max(1.0);
-                        p[k] = point[k] + h;
-                        (self.residuals)(&p, &mut moved);
-                        p[k] = point[k];
-                        for i in 0..m {
-                            // a change, or a value that is not finite at one of the two
-                            if moved[i] != base[i] || !moved[i].is_finite() {
-                                seen[i * n + k] = true;
-                            }
-                        }
-                    }
-                }
-                let row_ptr = std::iter::once(0)
-                    .chain((0..m).scan(0, |acc, i| {
-                        *acc += seen[i * n..(i + 1) * n].iter().filter(|&&b| b).count();
-                        Some(*acc)
-                    }))
-                    .collect();
-                let seen = &seen;
-                let col_idx = (0..m).flat_map(|i| (0..n).filter(move |&k| seen[i * n + k])).collect();
-                Ok((
-                    SymbolicSparseRowMat::new_checked(m, n, row_ptr, None, col_idx),
-                    2 * (n + 1),
-                ))
-            }
-        }
     }
 
     /// Checks the sizes, the loss scale and the bounds against `x0`;
@@ -464,26 +343,9 @@ impl<'a> LeastSquares<'a> {
     /// status, not an error).
     pub fn solve(&self, x0: &[f64]) -> Result<LeastSquaresFit> {
         let bounds = self.check(x0)?;
-        let (m, n) = (self.m, x0.len());
-        let (pattern, probing) = self.resolve_pattern(x0)?;
-        let groups = ColumnGroups::new(pattern.as_ref());
-        let mut entries_of = vec![Vec::new(); n];
-        let mut e = 0;
-        for i in 0..m {
-            for &k in pattern.col_idx_of_row_raw(i) {
-                entries_of[k].push((i, e));
-                e += 1;
-            }
-        }
-        let problem = Closures {
-            spec: self,
-            n,
-            bounds,
-            differencing_evals: std::cell::Cell::new(probing),
-            pattern,
-            groups,
-            entries_of,
-        };
+        let m = self.m;
+        let problem = Closures::new(self, x0, bounds)?;
+        let probing = problem.differencing_evals.get();
         let (x, initial_cost, status, iterations, evals, jacobian_evals, solve_time) = match self.method {
             Method::GaussNewton => {
                 let r = GaussNewton::new(self.settings.clone())?.solve(&problem, x0)?;
@@ -577,249 +439,6 @@ impl<'a> LeastSquares<'a> {
             jacobian,
             weights,
         })
-    }
-}
-
-/// [`LeastSquares`] as a [`LeastSquaresProblem`] of `n` parameters, its
-/// residuals transformed by its loss.
-struct Closures<'s, 'a> {
-    spec: &'s LeastSquares<'a>,
-    n: usize,
-    bounds: Option<LinearBounds>,
-    /// Residual evaluations made by the differences (and the probing).
-    differencing_evals: std::cell::Cell<usize>,
-    /// The Jacobian's pattern (dense unless declared or probed).
-    pattern: SymbolicSparseRowMat<usize>,
-    /// Its columns in structurally orthogonal groups.
-    groups: ColumnGroups,
-    /// Each column's entries: (row, index in the pattern's values).
-    entries_of: Vec<Vec<(usize, usize)>>,
-}
-
-impl Closures<'_, '_> {
-    /// $J = \partial r / \partial x$ at `x` in the pattern's order
-    /// (row-major over its entries): the user's (read at the pattern's
-    /// entries), or differences of the residuals, a group of structurally
-    /// orthogonal columns per evaluation (central: steps $h_k =
-    /// \epsilon^{1/3} \max(1, |x_k|)$, two evaluations per group; forward:
-    /// $h_k = \epsilon^{1/2} \max(1, |x_k|)$, one, and one at `x`),
-    /// scipy's steps.
-    fn sparse_jacobian(&self, x: &[f64]) -> Vec<f64> {
-        let (m, n) = (self.spec.m, self.n);
-        let pattern = &self.pattern;
-        let mut values = vec![0.0; pattern.compute_nnz()];
-        if let Some(jac) = &self.spec.jacobian {
-            let mut j = vec![0.0; m * n];
-            jac(x, &mut j);
-            let mut e = 0;
-            for i in 0..m {
-                for &k in pattern.col_idx_of_row_raw(i) {
-                    values[e] = j[i * n + k];
-                    e += 1;
-                }
-            }
-            return values;
-        }
-        let central = self.spec.difference == Difference::Central;
-        let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
-        if !central {
-            (self.spec.residuals)(x, &mut minus);
-        }
-        let step = |k: usize| {
-            let scale = x[k].abs().max(1.0);
-            if central {
-                f64::EPSILON.cbrt() * scale
-            } else {
-                f64::EPSILON.sqrt() * scale
-            }
-        };
-        let mut p = x.to_vec();
-        for members in self.groups.members() {
-            for &k in members {
-                p[k] = x[k] + step(k);
-            }
-            (self.spec.residuals)(&p, &mut plus);
-            if central {
-                for &k in members {
-                    p[k] = x[k] - step(k);
-                }
-                (self.spec.residuals)(&p, &mut minus);
-            }
-            for &k in members {
-                p[k] = x[k];
-            }
-            // each row meets at most one column of the group
-            for &k in members {
-                let width = if central { 2.0 * step(k) } else { step(k) };
-                for &(i, e) in &self.entries_of[k] {
-                    values[e] = (plus[i] - minus[i]) / width;
-                }
-            }
-        }
-        let groups = self.groups.n_groups();
-        let calls = if central { 2 * groups } else { groups + 1 };
-        self.differencing_evals.set(self.differencing_evals.get() + calls);
-        values
-    }
-
-    /// [`sparse_jacobian`](Self::sparse_jacobian), dense ($m \times n$,
-    /// row-major).
-    fn outer_jacobian(&self, x: &[f64]) -> Vec<f64> {
-        let (m, n) = (self.spec.m, self.n);
-        let values = self.sparse_jacobian(x);
-        let mut j = vec![0.0; m * n];
-        let mut e = 0;
-        for i in 0..m {
-            for &k in self.pattern.col_idx_of_row_raw(i) {
-                j[i * n + k] = values[e];
-                e += 1;
-            }
-        }
-        j
-    }
-}
-
-impl LeastSquaresProblem for Closures<'_, '_> {
-    fn n_params(&self) -> usize {
-        self.n
-    }
-
-    fn n_residuals(&self) -> usize {
-        self.spec.m
-    }
-
-    fn residuals(&self, x: &[f64], r: &mut [f64]) -> Result<()> {
-        (self.spec.residuals)(x, r);
-        for ri in r.iter_mut() {
-            *ri = self.spec.loss.transform(*ri, self.spec.scale).0;
-        }
-        Ok(())
-    }
-
-    fn jacobian_pattern(&self) -> SymbolicSparseRowMat<usize> {
-        self.pattern.clone()
-    }
-
-    /// The user's Jacobian or the residuals' differences, its rows scaled
-    /// by the loss's $d\tilde r_i / dr_i$ (the differences are of the
-    /// smooth raw residuals, never of the transformed ones).
-    fn jacobian_values(&self, x: &[f64], values: &mut [f64]) -> Result<()> {
-        let m = self.spec.m;
-        values.copy_from_slice(&self.sparse_jacobian(x));
-        if self.spec.loss == Loss::Linear {
-            return Ok(());
-        }
-        let mut r = vec![0.0; m];
-        (self.spec.residuals)(x, &mut r);
-        for (i, &ri) in r.iter().enumerate() {
-            let w = self.spec.loss.transform(ri, self.spec.scale).1;
-            for v in &mut values[self.pattern.row_range(i)] {
-                *v *= w;
-            }
-        }
-        Ok(())
-    }
-
-    fn bounds(&self) -> Option<&LinearBounds> {
-        self.bounds.as_ref()
-    }
-}
-
-/// What [`LeastSquares::solve`] returns.
-#[derive(Debug, Clone)]
-#[cfg_attr(feature = "serde", derive(serde::Serialize, serde::Deserialize))]
-pub struct LeastSquaresFit {
-    /// The best point found.
-    pub x: Vec<f64>,
-    /// $F = \lVert r \rVert^2$ at `x`, or $\sum_i C^2 \rho(z_i)$ with a
-    /// robust [`Loss`] (scipy's `cost` is half of it).
-    pub cost: f64,
-    /// $F$ at the start.
-    pub initial_cost: f64,
-    /// Why the iteration stopped ([`FitStatus::is_converged`]).
-    pub status: FitStatus,
-    /// Iterations.
-    pub iterations: usize,
-    /// Residual evaluations (the differences' and a pattern probing's
-    /// included).
-    pub evals: usize,
-    /// Calls of the user's Jacobian (0 when differenced).
-    pub jacobian_evals: usize,
-    /// Wall time of the solve.
-    pub solve_time: Duration,
-    /// $r$ at `x`.
-    pub residuals: Vec<f64>,
-    /// $J = \partial r / \partial x$ at `x`, $m \times n$ row-major (the
-    /// user's, or central differences).
-    pub jacobian: Vec<f64>,
-    /// $d\tilde r_i / dr_i$ of the loss at `x` (all 1 for the squared loss).
-    weights: Vec<f64>,
-}
-
-impl LeastSquaresFit {
-    /// The covariance of the estimate, $\hat\sigma^2 (J^\top J)^{-1}$ with
-    /// $\hat\sigma^2 = F / (m - n)$, $n \times n$ row-major (NIST's and
-    /// scipy `curve_fit`'s definition); with a robust [`Loss`], $J$'s rows
-    /// are scaled by $d\tilde r_i / dr_i$ (the weights of the last
-    /// reweighted step). $J^\top J$ is factored with its columns scaled to
-    /// unit norm, so that parameters of very different magnitudes lose no
-    /// accuracy.
-    ///
-    /// # Errors
-    /// No more residuals than parameters ($m \le n$), or $J$ of deficient
-    /// rank at `x` ([`TrajoptError::InvalidParameter`] saying which).
-    pub fn covariance(&self) -> Result<Vec<f64>> {
-        let (m, n) = (self.residuals.len(), self.x.len());
-        if m <= n {
-            return Err(TrajoptError::InvalidParameter {
-                name: "covariance",
-                reason: format!("needs more residuals than parameters, got m = {m}, n = {n}"),
-            });
-        }
-        let j: Vec<f64> = (0..m * n).map(|e| self.weights[e / n] * self.jacobian[e]).collect();
-        let norms: Vec<f64> = (0..n)
-            .map(|k| (0..m).map(|i| j[i * n + k].powi(2)).sum::<f64>().sqrt())
-            .collect();
-        let deficient = || TrajoptError::InvalidParameter {
-            name: "covariance",
-            reason: "the Jacobian at the solution does not have full column rank".into(),
-        };
-        if norms.iter().any(|&s| !(s > 0.0 && s.is_finite())) {
-            return Err(deficient());
-        }
-        // D J^T J D with D = diag(1 / |J_k|)
-        let mut a = vec![0.0; n * n];
-        for p in 0..n {
-            for q in 0..=p {
-                let v = (0..m).map(|i| j[i * n + p] * j[i * n + q]).sum::<f64>() / (norms[p] * norms[q]);
-                a[p * n + q] = v;
-                a[q * n + p] = v;
-            }
-        }
-        solve::dense::cholesky(&mut a, n).ok_or_else(deficient)?;
-        let sigma2 = self.cost / (m - n) as f64;
-        let mut cov = vec![0.0; n * n];
-        let mut e = vec![0.0; n];
-        for q in 0..n {
-            e.fill(0.0);
-            e[q] = 1.0;
-            solve::dense::cholesky_solve(&a, n, &mut e);
-            for p in 0..n {
-                cov[p * n + q] = sigma2 * e[p] / (norms[p] * norms[q]);
-            }
-        }
-        Ok(cov)
-    }
-
-    /// The standard errors of the estimate: the square roots of the
-    /// [`covariance`](Self::covariance)'s diagonal.
-    ///
-    /// # Errors
-    /// As [`covariance`](Self::covariance).
-    pub fn standard_errors(&self) -> Result<Vec<f64>> {
-        let n = self.x.len();
-        let cov = self.covariance()?;
-        Ok((0..n).map(|k| cov[k * n + k].sqrt()).collect())
     }
 }
 
