@@ -45,7 +45,7 @@ use trajopt::LeastSquaresProblem;
 
 use crate::error::{BenchError, Result};
 use crate::instance::{finite, rollout_cost, start_cost};
-use crate::problems::{BUDGET_SPENT, Budget, Counted, Instance};
+use crate::problems::{Budget, Counted, Instance};
 use crate::record::{RunRecord, thin_trace};
 
 /// A solver the runner can run: yours, a closure ([`from_fn`]), a program
@@ -290,7 +290,8 @@ impl Problem<'_> {
     fn eval_error(&self, e: &trajopt::TrajoptError) -> EvalError {
         EvalError {
             message: e.to_string(),
-            spent: self.counted.spent() || e.to_string().contains(BUDGET_SPENT),
+            // the counter marks itself spent when it refuses an evaluation
+            spent: self.counted.spent(),
         }
     }
 }
@@ -517,4 +518,31 @@ pub fn end_trace(f0: f64, f: f64, evals: u64) -> Vec<(u64, f64)> {
         trace.push((evals.max(1), f));
     }
     trace
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A refused evaluation says whether the budget is spent (the cue a
+    /// solver stops on); a wrong length is refused without spending it.
+    #[test]
+    fn evaluations_past_the_budget_say_so() {
+        // one simplex gradient: n + 1 = 3 evaluation equivalents
+        let (inst, budget) = crate::problems::tests::rosenbrock(1);
+        let counted = Counted::new(&inst, &budget);
+        let problem = Problem {
+            counted: &counted,
+            instance: &inst,
+        };
+        let mut r = vec![0.0; problem.m()];
+        let e = problem.residuals(&[1.0], &mut r).expect_err("wrong length");
+        assert!(!e.budget_spent() && e.to_string().contains("x has 1 entries"), "{e}");
+        let mut jac = vec![0.0; problem.m() * problem.n()];
+        problem.residuals(problem.x0(), &mut r).expect("1 of 3");
+        problem.jacobian(problem.x0(), &mut jac).expect("3 of 3");
+        let e = problem.residuals(problem.x0(), &mut r).expect_err("past the budget");
+        assert!(e.budget_spent(), "{e}");
+        assert_eq!(problem.evals(), 3);
+    }
 }

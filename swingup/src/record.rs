@@ -99,13 +99,15 @@ impl From<DdpStatus> for PlanStatus {
 /// `InitialRolloutDiverged (step 3)`).
 impl std::fmt::Display for PlanStatus {
     fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
-        if let Self::Ddp(DdpStatus::InitialRolloutDiverged { step }) = self {
-            return write!(f, "InitialRolloutDiverged (step {step})");
-        }
-        match serde_json::to_value(self) {
-            Ok(serde_json::Value::String(name)) => f.write_str(&name),
-            Ok(other) => write!(f, "{other}"),
-            Err(_) => f.write_str("unknown"),
+        match self {
+            Self::GaussNewton(s) => s.fmt(f),
+            Self::Powell(s) => s.fmt(f),
+            Self::Ddp(DdpStatus::InitialRolloutDiverged { step }) => write!(f, "InitialRolloutDiverged (step {step})"),
+            // DDP's other statuses are unit variants: serde writes their names
+            Self::Ddp(s) => match serde_json::to_value(s) {
+                Ok(serde_json::Value::String(name)) => f.write_str(&name),
+                _ => f.write_str("unknown"),
+            },
         }
     }
 }
