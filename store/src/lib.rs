@@ -8,6 +8,7 @@
 //! | [`replace_file`] | a file holds its old or its new contents, never a mix: a uniquely named temporary file, synced, renamed, the directory synced; permissions kept; a symbolic link, device, FIFO, socket or directory at the path is refused, never written through or replaced |
 //! | [`check_output`], [`remove_output`], [`create_output_dir`], [`remove_stale_temporaries`], [`DirLock`] | the rules of every output ([`output`]): no link followed, nothing but a regular file replaced, `--force` deletes links instead of writing through them, a killed writer's temporaries cleaned, one writer per directory |
 //! | [`Manifest`] | a directory records the program, task and settings that made it, once; a program reopening it with another task or other settings is refused, naming the keys |
+//! | [`Shard`] | one part of a grid for N machines or a Slurm job array (`--shard K/N`, or the array's variables), the contract `swingup experiments` and `nprl-bench` share |
 //! | [`ScratchDir`] | a unique temporary directory removed on drop, for tests and examples |
 //! | [`fault`] | tests fail the Nth open, write, sync, rename, ... of the crate ([`FaultPlan`]), from any crate |
 //!
@@ -50,6 +51,7 @@ mod manifest;
 pub mod output;
 mod replace;
 mod scratch;
+pub mod shard;
 
 pub use append::{AppendLog, LogContents, TornTail, read_log};
 pub use block::with_block;
@@ -61,6 +63,7 @@ pub use output::{
 };
 pub use replace::{is_temporary, replace_file};
 pub use scratch::{ScratchDir, Sentinel, SmallDisk, output_within};
+pub use shard::{Shard, ShardError};
 
 /// The commit the workspace's code was built from, as results name it:
 /// `commit <hash>` (7 hex digits), with `-dirty` when a tracked code file

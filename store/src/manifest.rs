@@ -24,6 +24,12 @@ pub struct Manifest {
     /// The code that created the directory (a commit), for provenance
     /// only: it is not compared.
     pub created_by_commit: String,
+    /// What part of the task the records cover (a shard of a grid, the
+    /// runs it plans), when the directory holds one part of several; not
+    /// compared by [`Manifest::check_against`]. Absent from manifests
+    /// written without one, which read back as `None`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub scope: Option<serde_json::Value>,
 }
 
 /// What [`Manifest::create_or_check`] found.
@@ -56,6 +62,7 @@ impl Manifest {
                 message: e.to_string(),
             })?,
             created_by_commit: created_by_commit.into(),
+            scope: None,
         })
     }
 

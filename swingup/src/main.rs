@@ -66,6 +66,21 @@ enum Command {
     Basin(BasinArgs),
 }
 
+/// What `swingup experiments` does instead of running a grid.
+#[derive(Debug, Clone, Subcommand)]
+enum ExperimentsAction {
+    /// Merge a grid's shards (each `settings-K-of-N.json` with its
+    /// `runs-K-of-N.jsonl`, gathered in DIR) and write the grid's reports
+    /// (experiments.json, experiments.md, the figures). The settings and
+    /// experiments are read from the shards. Refused, naming them, when
+    /// shards are missing or unfinished, of other settings or another
+    /// build, or hold two different records of one run.
+    Merge {
+        /// The directory holding every shard's files (the grid's --out).
+        dir: PathBuf,
+    },
+}
+
 #[derive(Debug, Clone, clap::Args)]
 struct BasinArgs {
     /// A configuration file (the robot, its noise, the balancing phase and
@@ -178,7 +193,11 @@ struct LearnArgs {
 }
 
 #[derive(Debug, Clone, clap::Args)]
+#[command(args_conflicts_with_subcommands = true)]
 struct ExperimentsArgs {
+    /// Merge the shards of a grid (`merge DIR`) instead of running one.
+    #[command(subcommand)]
+    action: Option<ExperimentsAction>,
     /// Experiments to run (all when none is given).
     #[arg(value_enum)]
     which: Vec<Experiment>,
@@ -218,8 +237,14 @@ struct ExperimentsArgs {
     #[arg(long, requires = "resume")]
     report_only: bool,
     /// Run only part K of N of the grid (e.g. `--shard 2/4`), for N machines
-    /// or a batch scheduler's job array; the part's runs go to
-    /// `runs-K-of-N.jsonl`, its settings to `settings-K-of-N.json`.
+    /// or a batch scheduler's job array. Without it, inside a Slurm job
+    /// array (`sbatch --array=0-3`), the part is the task's:
+    /// SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN + 1 of SLURM_ARRAY_TASK_COUNT.
+    /// A part writes only its own files, `settings-K-of-N.json` and
+    /// `runs-K-of-N.jsonl` (use --resume so a resubmitted task continues);
+    /// `swingup experiments merge OUT` writes the reports once every part is
+    /// done. Threads per task: RAYON_NUM_THREADS (the job's
+    /// SLURM_CPUS_PER_TASK in scripts/slurm/experiments.sbatch).
     #[arg(long)]
     shard: Option<swingup::experiments::Shard>,
     /// Run only the variants whose name starts with this (repeatable; e.g.
@@ -629,6 +654,9 @@ impl swingup::learn::Progress for SaveAndShow<'_> {
 }
 
 fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
+    if let Some(ExperimentsAction::Merge { dir }) = &args.action {
+        return experiments_merge(dir);
+    }
     let mut settings = if args.quick {
         ExperimentSettings::quick()
     } else {
@@ -687,6 +715,15 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
             run_report::with_markers(readme, "<!-- mpc:start -->", "<!-- mpc:end -->", "")?;
         }
     }
+    // --shard, or the Slurm array task's part
+    let shard = swingup::experiments::Shard::resolve(args.shard)?;
+    if let (Some(s), None) = (shard, args.shard) {
+        say!("shard {s} of the grid, from the Slurm job array's SLURM_ARRAY_TASK_* variables");
+    }
+    anyhow::ensure!(
+        shard.is_none() || args.update_readme.is_none() || args.report_only,
+        "--update-readme takes a whole grid's claims: run it with `experiments merge` done,          as `--resume --report-only --update-readme FILE`, not in a shard"
+    );
     let out = &args.out;
     let mode = match (args.resume, args.report_only) {
         (true, true) => GridMode::ReportOnly,
@@ -718,7 +755,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         settings,
         out: out.clone(),
         mode,
-        shard: args.shard,
+        shard,
         variants: args.variants.clone(),
     };
     let report = swingup::output::grid::run_grid(&options, &|event| match event {
@@ -748,6 +785,16 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     });
     bar.finish_and_clear();
     let report = report?;
+    if let Some(s) = shard.filter(|_| mode != GridMode::ReportOnly) {
+        say!(
+            "shard {s}: its {} run(s) are saved in {}; once every shard is done, `swingup experiments merge {}` \
+             writes the grid's reports",
+            report.runs.len(),
+            out.join(swingup::output::grid::runs_file_name(Some(s))).display(),
+            out.display()
+        );
+        return Ok(());
+    }
     let table = swingup::output::grid_report::claims_table(&report.claims);
     // the paper's claims come from its experiments; `mpc` has its own tables
     let paper = which.iter().any(|e| *e != Experiment::Mpc);
@@ -774,6 +821,28 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
         out.join("experiments.json").display(),
         out.join("experiments.md").display(),
         report.seconds
+    );
+    Ok(())
+}
+
+/// `swingup experiments merge DIR`.
+fn experiments_merge(dir: &Path) -> anyhow::Result<()> {
+    say!("merging the shards of the grid in {}", dir.display());
+    let report = swingup::output::grid::merge_grid(dir, &|event| match event {
+        GridEvent::Warning(w) => note!("warning: {w}"),
+        GridEvent::KeptWallTime(None, s) => say!("kept the wall time measured when these runs were made ({s:.0} s)"),
+        _ => {}
+    })?;
+    if report.experiments.iter().any(|e| *e != Experiment::Mpc) {
+        say!("\n{}", swingup::output::grid_report::claims_table(&report.claims));
+    } else {
+        say!("\n{}", swingup::output::grid_report::mpc_readme_block(&report));
+    }
+    say!(
+        "merged {} runs; wrote {}, {} and the figures (.svg and .png)",
+        report.runs.len(),
+        dir.join("experiments.json").display(),
+        dir.join("experiments.md").display()
     );
     Ok(())
 }

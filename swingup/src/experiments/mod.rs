@@ -47,7 +47,7 @@ pub use summary::{
 };
 
 /// Which experiments to run.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize, clap::ValueEnum)]
+#[derive(Debug, Clone, Copy, PartialEq, Eq, PartialOrd, Ord, Serialize, Deserialize, clap::ValueEnum)]
 #[serde(rename_all = "kebab-case")]
 pub enum Experiment {
     /// LWR + Eq. 3 over seeds, both solvers and both bases (C1, C2, C7, C8).
@@ -281,41 +281,18 @@ impl Job {
     }
 }
 
-/// One of `count` parts of a grid (`index` from 1 to `count`): the runs
-/// whose position in the grid's fixed order is `index - 1` modulo `count`,
-/// so that `count` machines (or a batch scheduler's job array) can share a
-/// grid, each part about equally long.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, Serialize, Deserialize)]
-pub struct Shard {
-    /// This part, from 1.
-    pub index: usize,
-    /// Number of parts.
-    pub count: usize,
-}
+/// One part of a grid, for N machines or a Slurm job array: the contract
+/// `swingup experiments` shares with `nprl-bench` ([`store::Shard`]).
+pub use store::Shard;
 
-impl Shard {
-    /// Whether the run at `position` of the grid's order belongs to this part.
-    pub fn contains(&self, position: usize) -> bool {
-        position % self.count == self.index - 1
-    }
-}
-
-impl std::str::FromStr for Shard {
-    type Err = String;
-
-    /// `K/N` with $1 \le K \le N$.
-    fn from_str(text: &str) -> Result<Self, Self::Err> {
-        let bad = || format!("a shard is K/N with 1 <= K <= N (e.g. 2/4), got {text:?}");
-        let (k, n) = text.split_once('/').ok_or_else(bad)?;
-        let (index, count): (usize, usize) = (
-            k.trim().parse().map_err(|_| bad())?,
-            n.trim().parse().map_err(|_| bad())?,
-        );
-        if index == 0 || index > count {
-            return Err(bad());
-        }
-        Ok(Self { index, count })
-    }
+/// The runs of the grid `settings` for the experiments `which`, in the
+/// grid's fixed order (a run's index is its position, which
+/// [`Shard::contains`] splits by): (experiment, variant, seed).
+pub fn grid_runs(which: &[Experiment], settings: &ExperimentSettings) -> Vec<(String, String, u64)> {
+    jobs(which, settings)
+        .into_iter()
+        .map(|j| (j.experiment.to_string(), j.variant, j.seed))
+        .collect()
 }
 
 /// The variants of the experiments `which` on the grid `settings`, in the

@@ -359,6 +359,199 @@ pub fn open_grid(
     })
 }
 
+/// What a part of a grid runs, beyond its settings: recorded in the
+/// part's manifest ([`store::Manifest::scope`]) so that a merge needs no
+/// options repeated.
+#[derive(Debug, Clone, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PartScope {
+    /// The experiments the part runs.
+    pub experiments: Vec<Experiment>,
+    /// The variant prefixes it is limited to (`--variant`; empty: all).
+    #[serde(default)]
+    pub variants: Vec<String>,
+    /// Its shard, `None` for the grid's own part.
+    pub shard: Option<Shard>,
+}
+
+impl PartScope {
+    /// Whether the run `(experiment, variant)` at `position` of the grid is
+    /// this part's to run.
+    fn covers(&self, position: usize, variant: &str) -> bool {
+        self.shard.is_none_or(|s| s.contains(position))
+            && (self.variants.is_empty() || self.variants.iter().any(|v| variant.starts_with(v.as_str())))
+    }
+}
+
+/// Records `scope` in the part manifest `path` (written by [`open_grid`]
+/// just before), replacing it only when it changes.
+fn record_scope(path: &Path, scope: &PartScope) -> crate::Result<()> {
+    let value = serde_json::to_value(scope)?;
+    // a directory saved before manifests keeps its bare settings
+    let Ok(Some(mut manifest)) = Manifest::read(path) else {
+        return Ok(());
+    };
+    if manifest.scope.as_ref() != Some(&value) {
+        manifest.scope = Some(value);
+        manifest.write(path)?;
+    }
+    Ok(())
+}
+
+/// Merges the parts of a grid run as shards (on N machines, or as a Slurm
+/// job array, each writing `settings-K-of-N.json` and `runs-K-of-N.jsonl`
+/// into `dir`) and writes the grid's reports once ([`run_grid`]'s files),
+/// reading the settings and the experiments from the parts themselves.
+///
+/// Refused, naming the files, shards or runs, before anything is written:
+/// parts of other settings or made by other code (commits), a shard
+/// missing (`settings-K-of-N.json` absent, by index), a shard that did not
+/// finish (its runs missing, by shard and run), two different records of
+/// one run, a part written before parts recorded their experiments.
+///
+/// # Errors
+/// A refusal as above, or a file that cannot be read or written.
+pub fn merge_grid(dir: &Path, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> crate::Result<ExperimentsReport> {
+    let parts = declared_parts(dir)?;
+    crate::error::ensure_refused!(
+        !parts.is_empty(),
+        "{} holds no part of a grid (no {} or settings-K-of-N.json); run the grid's shards into it first",
+        dir.display(),
+        SETTINGS_FILE
+    );
+    // the first part is the reference every other is checked against
+    let mut reference: Option<(PathBuf, Manifest)> = None;
+    let mut scopes: Vec<(&Part, PartScope)> = Vec::new();
+    for part in &parts {
+        let manifest = Manifest::read(&part.settings)?.ok_or_else(|| {
+            crate::Error::Refused(format!(
+                "{} has no {}: its runs cannot be checked against the grid's settings",
+                part.runs.display(),
+                part.settings.display()
+            ))
+        })?;
+        if (manifest.program.as_str(), manifest.task.as_str()) != (PROGRAM, TASK) {
+            return Err(store::StoreError::TaskMismatch {
+                path: part.settings.clone(),
+                saved_program: manifest.program,
+                saved_task: manifest.task,
+                program: PROGRAM.into(),
+                task: TASK.into(),
+            }
+            .into());
+        }
+        let scope: PartScope = match &manifest.scope {
+            Some(v) => serde_json::from_value(v.clone())
+                .map_err(|e| crate::Error::parse(&part.settings, None, format_args!("not a part's scope: {e}")))?,
+            None => {
+                return Err(crate::Error::Refused(format!(
+                    "{} records no experiments (it was written before shards recorded them); write the report \
+                     with `swingup experiments --resume --report-only` and the grid's options instead",
+                    part.settings.display()
+                )));
+            }
+        };
+        if let Some((first_path, first)) = &reference {
+            let differ = store::differing_keys(&first.settings, &manifest.settings);
+            crate::error::ensure_refused!(
+                differ.is_empty(),
+                "{} and {} record other settings ({} differ{}): they are parts of two different grids",
+                first_path.display(),
+                part.settings.display(),
+                differ.join(", "),
+                if differ.len() == 1 { "s" } else { "" }
+            );
+            crate::error::ensure_refused!(
+                first.created_by_commit == manifest.created_by_commit,
+                "{} was made by {} and {} by {}: one grid's parts are run by one build",
+                first_path.display(),
+                first.created_by_commit,
+                part.settings.display(),
+                manifest.created_by_commit
+            );
+        } else {
+            reference = Some((part.settings.clone(), manifest.clone()));
+        }
+        scopes.push((part, scope));
+    }
+    let Some((first_path, first)) = reference else {
+        return Err(crate::Error::Refused(format!(
+            "{} holds no part of a grid",
+            dir.display()
+        )));
+    };
+    let settings: ExperimentSettings = serde_json::from_value(first.settings)
+        .map_err(|e| crate::Error::parse(&first_path, None, format_args!("not a grid's settings: {e}")))?;
+    // every shard of each count is there
+    let shards: Vec<Shard> = parts.iter().filter_map(|p| p.shard).collect();
+    let missing_shards: Vec<String> = Shard::missing(&shards)
+        .into_iter()
+        .map(|(n, ks)| {
+            let names: Vec<String> = ks
+                .iter()
+                .map(|&k| settings_file_name(Some(Shard { index: k, count: n })))
+                .collect();
+            format!(
+                "shard{} {} of {n} ({} absent)",
+                if ks.len() == 1 { "" } else { "s" },
+                ks.iter().map(ToString::to_string).collect::<Vec<_>>().join(", "),
+                names.join(", ")
+            )
+        })
+        .collect();
+    crate::error::ensure_refused!(
+        missing_shards.is_empty(),
+        "{} lacks {}: run the missing shards into it (the same command with --shard K/N, or the array's \
+         tasks), then merge again",
+        dir.display(),
+        missing_shards.join("; ")
+    );
+    // every run each part was to make is saved in some part
+    let mut which: Vec<Experiment> = scopes.iter().flat_map(|(_, s)| s.experiments.clone()).collect();
+    which.sort_unstable();
+    which.dedup();
+    let mut saved = std::collections::BTreeSet::new();
+    for part in &parts {
+        for r in store::read_log::<RunSummary>(&part.runs)?.records {
+            saved.insert((r.experiment, r.variant, r.seed));
+        }
+    }
+    let mut unfinished: Vec<String> = Vec::new();
+    for (part, scope) in &scopes {
+        let lacking: Vec<String> = crate::experiments::grid_runs(&scope.experiments, &settings)
+            .into_iter()
+            .enumerate()
+            .filter(|(p, (_, v, _))| scope.covers(*p, v))
+            .filter(|(_, run)| !saved.contains(run))
+            .map(|(_, (e, v, seed))| format!("{e} {v} seed {seed}"))
+            .collect();
+        if let Some(first_missing) = lacking.first() {
+            unfinished.push(format!(
+                "{} ({}) lacks {} of its runs, {}{}",
+                part.shard
+                    .map_or("the unsharded part".to_string(), |s| format!("shard {s}")),
+                part.runs.display(),
+                lacking.len(),
+                first_missing,
+                if lacking.len() > 1 { " and more" } else { "" }
+            ));
+        }
+    }
+    crate::error::ensure_refused!(
+        unfinished.is_empty(),
+        "the grid in {} is not finished: {}; rerun those shards (with --resume they run only their missing \
+         runs), or write a report of the saved runs alone with --resume --report-only",
+        dir.display(),
+        unfinished.join("; ")
+    );
+    // the runs, each once (two different records of one run are refused)
+    let grid = open_grid(dir, &settings, None, GridMode::ReportOnly)?;
+    for w in &grid.warnings {
+        show(GridEvent::Warning(w));
+    }
+    let report = run_experiments(&which, &settings, grid.previous, false, None, &[], &|_, _, _| Ok(()))?;
+    write_reports(dir, report, show)
+}
+
 /// A grid to run ([`run_grid`]), as `swingup experiments` takes it.
 #[derive(Debug, Clone)]
 pub struct GridOptions {
@@ -408,6 +601,14 @@ pub fn run_grid(opts: &GridOptions, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> cr
     // one program at a time per runs file (shards of one grid may share the directory)
     let _lock = crate::output::rundir::lock_dir(out, &format!(".{log_name}.lock"))?;
     let grid = open_grid(out, &opts.settings, opts.shard, opts.mode)?;
+    if opts.mode != GridMode::ReportOnly {
+        let scope = PartScope {
+            experiments: opts.which.clone(),
+            variants: opts.variants.clone(),
+            shard: opts.shard,
+        };
+        record_scope(&out.join(settings_file_name(opts.shard)), &scope)?;
+    }
     for w in &grid.warnings {
         show(GridEvent::Warning(w));
     }
@@ -446,6 +647,22 @@ pub fn run_grid(opts: &GridOptions, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> cr
             Ok(())
         },
     )?;
+    // a shard writes only its own files: the reports are the merge's
+    // (`swingup experiments merge`), written once from every shard
+    if opts.shard.is_some() && opts.mode != GridMode::ReportOnly {
+        return Ok(report);
+    }
+    write_reports(out, report, show)
+}
+
+/// Writes a grid's reports into `out`: `experiments.json`,
+/// `experiments.md` and the figures, each replaced atomically. A report
+/// rewritten from saved runs keeps the grid's measured wall time.
+fn write_reports(
+    out: &Path,
+    report: ExperimentsReport,
+    show: &(dyn Fn(GridEvent<'_>) + Sync),
+) -> crate::Result<ExperimentsReport> {
     let mut report = report;
     // a report rewritten from saved runs keeps the grid's measured wall
     // time, and each task whose runs it did not change keeps its own
