@@ -98,6 +98,14 @@ pub enum BenchError {
     /// A file that could not be replaced whole (the storage layer names it).
     #[error(transparent)]
     Store(#[from] store::StoreError),
+    /// Shards of a benchmark that cannot be run or merged as they are.
+    #[error("{}: {reason}", dir.display())]
+    Shards {
+        /// The benchmark's directory.
+        dir: std::path::PathBuf,
+        /// What is wrong, naming the shards, files or runs.
+        reason: String,
+    },
     /// A `--filter` that matches no instance of the set (refused before
     /// any run, so that no saved runs are replaced by none).
     #[error("--filter `{filter}` matches no instance of the {set} set")]

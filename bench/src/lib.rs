@@ -42,6 +42,7 @@ pub mod profiles;
 pub mod record;
 pub mod report;
 pub mod runner;
+pub mod shard;
 pub mod solvers;
 pub mod trajectory;
 

@@ -16,7 +16,11 @@ use clap::Parser;
 /// and data profiles (JSON, CSV, SVG, PNG), the goals and the summary.
 #[derive(Debug, Parser)]
 #[command(name = "nprl-bench", version = store::program_version(env!("CARGO_PKG_VERSION")))]
+#[command(args_conflicts_with_subcommands = true)]
 struct Cli {
+    /// Merge a benchmark's shards (`merge DIR`) instead of running.
+    #[command(subcommand)]
+    action: Option<Action>,
     /// Problem set: mgh (the Moré-Garbow-Hillstrom problems), nist (the
     /// NIST StRD nonlinear regression problems) or trajectory (the
     /// swing-ups in Eq. 3 and DDP form and the learned-LWR plan).
@@ -78,6 +82,38 @@ struct Cli {
     /// `<!-- benchmarks:start -->` and `<!-- benchmarks:end -->` lines.
     #[arg(long)]
     update_readme: Option<PathBuf>,
+    /// Run only part K of N of the benchmark's runs (e.g. `--shard 2/4`),
+    /// for N machines or a batch scheduler's job array. Without it, inside
+    /// a Slurm job array (`sbatch --array=0-3`), the part is the task's:
+    /// SLURM_ARRAY_TASK_ID - SLURM_ARRAY_TASK_MIN + 1 of
+    /// SLURM_ARRAY_TASK_COUNT. A part writes only OUT/shard-K-of-N.json and
+    /// OUT/runs-K-of-N.jsonl (each run appended as it finishes; started
+    /// again, it makes only its missing runs); `nprl-bench merge OUT` writes
+    /// runs.json and the reports once every part is done.
+    #[arg(long, conflicts_with_all = ["reuse", "compare_to", "update_readme"])]
+    shard: Option<store::Shard>,
+}
+
+/// What `nprl-bench` does instead of running a benchmark.
+#[derive(Debug, clap::Subcommand)]
+enum Action {
+    /// Merge a benchmark's shards (each shard-K-of-N.json with its
+    /// runs-K-of-N.jsonl, gathered in DIR): writes DIR/runs.json, the
+    /// tables, profiles and figures, and the reports, as one run would.
+    /// The settings are read from the shards. Refused, naming them, when
+    /// shards are missing or unfinished, of other settings or another
+    /// build, or hold two different records of one run.
+    Merge {
+        /// The directory holding every shard's files (the shards' --out).
+        dir: PathBuf,
+        /// Directory of benchmarks.md, benchmarks.json,
+        /// benchmarks_summary.md; default DIR.
+        #[arg(long)]
+        report_dir: Option<PathBuf>,
+        /// More outside record files to merge.
+        #[arg(long)]
+        outside: Vec<PathBuf>,
+    },
 }
 
 fn main() -> ExitCode {
@@ -106,6 +142,23 @@ fn say(text: &str) -> bench::Result<()> {
 }
 
 fn run(cli: Cli) -> bench::Result<()> {
+    if let Some(Action::Merge {
+        dir,
+        report_dir,
+        outside,
+    }) = cli.action
+    {
+        let report_dir = report_dir.unwrap_or_else(|| dir.clone());
+        let (analysis, stamp) = bench::shard::merge(&dir, report_dir.clone(), outside)?;
+        return say(&format!(
+            "merged {} runs on {} instances made at {}; wrote {} and {}",
+            stamp.runs,
+            analysis.instances.len(),
+            stamp.commit,
+            dir.display(),
+            report_dir.display()
+        ));
+    }
     if !(cli.time_limit > 0.0 && cli.time_limit <= MAX_TIME_LIMIT_S) {
         return Err(bench::BenchError::InvalidSetting {
             name: "time_limit",
@@ -157,6 +210,28 @@ fn run(cli: Cli) -> bench::Result<()> {
         reuse: cli.reuse,
         force: cli.force,
     };
+    // --shard, or the Slurm array task's part
+    let shard = store::Shard::resolve(cli.shard).map_err(|e| bench::BenchError::InvalidSetting {
+        name: "shard",
+        reason: e.to_string(),
+    })?;
+    if let Some(shard) = shard {
+        if cli.shard.is_none() {
+            say(&format!(
+                "shard {shard} of the benchmark, from the Slurm job array's SLURM_ARRAY_TASK_* variables"
+            ))?;
+        }
+        let outcome = bench::shard::run_shard(&settings, shard)?;
+        return say(&format!(
+            "shard {shard}: {} of its {} runs made now, {} found saved, in {}; once every shard is done, \
+             `nprl-bench merge {}` writes runs.json and the reports",
+            outcome.ran,
+            outcome.planned,
+            outcome.resumed,
+            outcome.runs_file.display(),
+            settings.out.display()
+        ));
+    }
     // a README without its markers, or a reference that names no records,
     // is refused before anything runs
     if let Some(path) = &cli.update_readme {

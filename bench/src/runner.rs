@@ -31,6 +31,7 @@ use serde_json::json;
 
 use crate::analysis::{Analysis, Criterion};
 use crate::error::{BenchError, Result};
+use crate::instance::Instance;
 use crate::minima::{self, Reference};
 use crate::open::BenchSolver;
 use crate::plot::ProfileFigure;
@@ -146,6 +147,12 @@ impl RunnerSettings {
 /// Bad settings, an unreadable or malformed records file (naming it), or a
 /// file that cannot be written.
 pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
+    execute_with(settings, None)
+}
+
+/// [`execute`], with the runs `given` (a merge of shards' records and
+/// their wall time, seconds) in place of running the solvers.
+pub(crate) fn execute_with(settings: &RunnerSettings, given: Option<(RecordFile, f64)>) -> Result<(Analysis, Stamp)> {
     settings.validate()?;
     // a filter that matches nothing is refused before anything is written
     // (issue 37, case 5: a typo replaced the saved runs by none)
@@ -174,6 +181,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         ));
     }
     let started = std::time::Instant::now();
+    let given_seconds = given.as_ref().map(|(_, s)| *s);
     let mut whole_set = true;
     let ours = if settings.reuse {
         if store::check_output(&runs_path)?.is_none() {
@@ -187,7 +195,10 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
         }
         RecordFile::load(&runs_path)?
     } else {
-        let runs = run_all(settings)?;
+        let runs = match &given {
+            Some((file, _)) => file.runs.clone(),
+            None => run_all(settings)?,
+        };
         if runs.is_empty() {
             return Err(BenchError::NoRuns {
                 solvers: settings.solver_names().join(", "),
@@ -198,19 +209,25 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
                     .map_or("any instance".into(), |f| format!("the instances matching `{f}`")),
             });
         }
-        let mut file = RecordFile::new(
-            format!(
-                "nprl-bench {} ({:.1} s for the runs)",
-                env!("CARGO_PKG_VERSION"),
-                started.elapsed().as_secs_f64()
-            ),
-            runs,
-        );
-        file.made_by = Some(MadeBy {
-            code_version: store::code_version().to_string(),
-            budget_simplex_gradients: settings.budget.simplex_gradients,
-            budget_time_s: settings.budget.time.as_secs_f64(),
-        });
+        let file = match given {
+            Some((file, _)) => file,
+            None => {
+                let mut file = RecordFile::new(
+                    format!(
+                        "nprl-bench {} ({:.1} s for the runs)",
+                        env!("CARGO_PKG_VERSION"),
+                        started.elapsed().as_secs_f64()
+                    ),
+                    runs,
+                );
+                file.made_by = Some(MadeBy {
+                    code_version: store::code_version().to_string(),
+                    budget_simplex_gradients: settings.budget.simplex_gradients,
+                    budget_time_s: settings.budget.time.as_secs_f64(),
+                });
+                file
+            }
+        };
         let saved = match store::check_output(&runs_path)? {
             Some(_) => Some(RecordFile::load(&runs_path)?),
             None => None,
@@ -242,7 +259,7 @@ pub fn execute(settings: &RunnerSettings) -> Result<(Analysis, Stamp)> {
     let elapsed_s = if settings.reuse {
         0.0
     } else {
-        started.elapsed().as_secs_f64()
+        given_seconds.unwrap_or_else(|| started.elapsed().as_secs_f64())
     };
     let repeats = ours.runs.first().map_or(settings.repeats, |r| r.repeats);
     // a subset merged into a saved set is judged with the whole set, every
@@ -330,7 +347,7 @@ fn begin_generation(marker: &Path) -> Result<()> {
 
 /// Says `text` on standard error; a closed stderr loses the line, never
 /// the work.
-fn note(text: &str) {
+pub(crate) fn note(text: &str) {
     use std::io::Write as _;
     let _ = writeln!(std::io::stderr(), "nprl-bench: {text}");
 }
@@ -502,11 +519,58 @@ pub fn analyse(
 /// Every solver on every instance, one at a time (so that the timings do
 /// not share the cores), with progress on stderr.
 fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
-    let instances = settings.set.instances(settings.filter.as_deref())?;
     let mut runs = Vec::new();
+    run_jobs(settings, &|_, _| true, &mut |run| {
+        runs.push(run);
+        Ok(())
+    })?;
+    Ok(runs)
+}
+
+/// The key of the run of `solver` on `instance`.
+pub(crate) fn job_key(instance: &Instance, solver: &dyn BenchSolver) -> RunKey {
+    (
+        instance.set.to_string(),
+        instance.problem.clone(),
+        instance.scale.to_bits(),
+        solver.name().to_string(),
+    )
+}
+
+/// The runs of `settings` in their fixed order (instance by instance, the
+/// solvers in the settings' order, those that apply): position and key.
+pub(crate) fn planned_runs(settings: &RunnerSettings) -> Result<Vec<RunKey>> {
+    let instances = settings.set.instances(settings.filter.as_deref())?;
+    Ok(instances
+        .iter()
+        .flat_map(|i| {
+            settings
+                .solvers
+                .iter()
+                .filter(|s| s.applies_to(i))
+                .map(|s| job_key(i, s.as_ref()))
+                .collect::<Vec<_>>()
+        })
+        .collect())
+}
+
+/// Runs, one at a time, the runs of [`planned_runs`] for which `wanted`
+/// (position, key) holds, handing each to `each` as it finishes (which may
+/// save it, and stop the loop with an error).
+pub(crate) fn run_jobs(
+    settings: &RunnerSettings,
+    wanted: &dyn Fn(usize, &RunKey) -> bool,
+    each: &mut dyn FnMut(RunRecord) -> Result<()>,
+) -> Result<()> {
+    let instances = settings.set.instances(settings.filter.as_deref())?;
+    let mut position = 0;
     for (k, instance) in instances.iter().enumerate() {
         for solver in &settings.solvers {
             if !solver.applies_to(instance) {
+                continue;
+            }
+            position += 1;
+            if !wanted(position - 1, &job_key(instance, solver.as_ref())) {
                 continue;
             }
             let run = solver.run(instance, &settings.budget, settings.repeats)?;
@@ -521,10 +585,10 @@ fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
                 run.time_s,
                 run.status
             ));
-            runs.push(run);
+            each(run)?;
         }
     }
-    Ok(runs)
+    Ok(())
 }
 
 /// A progress line on standard error; a closed stderr loses it, never
