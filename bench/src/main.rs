@@ -217,6 +217,12 @@ fn run(cli: Cli) -> bench::Result<()> {
     })?;
     if let Some(shard) = shard {
         if cli.shard.is_none() {
+            shard
+                .check_count_in(&settings.out, "shard", ".json")
+                .map_err(|e| bench::BenchError::InvalidSetting {
+                    name: "shard",
+                    reason: e.to_string(),
+                })?;
             say(&format!(
                 "shard {shard} of the benchmark, from the Slurm job array's SLURM_ARRAY_TASK_* variables"
             ))?;

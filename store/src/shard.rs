@@ -149,6 +149,49 @@ impl Shard {
         }))
     }
 
+    /// The shards whose files (`STEM-K-of-N.EXT`) are in `dir`, in name
+    /// order; none when `dir` cannot be listed.
+    pub fn found_in(dir: &std::path::Path, stem: &str, ext: &str) -> Vec<Shard> {
+        let mut found: Vec<Shard> = std::fs::read_dir(dir)
+            .into_iter()
+            .flatten()
+            .filter_map(|e| {
+                let name = e.ok()?.file_name().into_string().ok()?;
+                Shard::from_file_suffix(name.strip_prefix(stem)?.strip_suffix(ext)?)
+            })
+            .collect();
+        found.sort_unstable();
+        found
+    }
+
+    /// Refuses a shard taken from a Slurm array (`from_env`) whose count
+    /// differs from the shards already in `dir` (`STEM-K-of-N.EXT`): a
+    /// single task submitted again as `--array=K` is shard 1 of 1 by the
+    /// array's variables, and would run the whole grid beside the others.
+    ///
+    /// # Errors
+    /// The counts differ; the message says to pass `--shard K/N`.
+    pub fn check_count_in(self, dir: &std::path::Path, stem: &str, ext: &str) -> Result<(), ShardError> {
+        match Self::found_in(dir, stem, ext)
+            .into_iter()
+            .find(|s| s.count != self.count)
+        {
+            None => Ok(()),
+            Some(other) => Err(ShardError {
+                origin: "SLURM_ARRAY_TASK_COUNT".into(),
+                message: format!(
+                    "this task is shard {self} by the array's variables, but {} holds shards of {} (e.g. \
+                     {stem}{}{ext}): a task submitted again alone (--array=K) cannot tell the array's size; \
+                     pass --shard K/{}, or submit the whole array again (finished shards end at once)",
+                    dir.display(),
+                    other.count,
+                    other.file_suffix(),
+                    other.count
+                ),
+            }),
+        }
+    }
+
     /// The shards missing from `present` for each count it holds: `(N,
     /// [K, ...])` for every N with a part of N absent, in order.
     pub fn missing(present: &[Shard]) -> Vec<(usize, Vec<usize>)> {
@@ -252,6 +295,22 @@ mod tests {
             assert!(bad.parse::<Shard>().is_err(), "{bad}");
         }
         let s = |k, n| Shard { index: k, count: n };
+        let dir = crate::ScratchDir::new("shard-found").expect("scratch");
+        for name in [
+            "runs-2-of-4.jsonl",
+            "runs-1-of-4.jsonl",
+            "runs.jsonl",
+            "runs-9-of-4.jsonl",
+            "other-3-of-4.jsonl",
+        ] {
+            std::fs::write(dir.path().join(name), "").expect("write");
+        }
+        assert_eq!(Shard::found_in(dir.path(), "runs", ".jsonl"), vec![s(1, 4), s(2, 4)]);
+        assert!(s(3, 4).check_count_in(dir.path(), "runs", ".jsonl").is_ok());
+        let e = s(1, 1)
+            .check_count_in(dir.path(), "runs", ".jsonl")
+            .expect_err("refused");
+        assert!(e.message.contains("--shard K/4"), "{e}");
         assert_eq!(Shard::missing(&[s(1, 4), s(3, 4), s(1, 1)]), vec![(4, vec![2, 4])]);
         assert!(Shard::missing(&[s(2, 2), s(1, 2)]).is_empty());
     }

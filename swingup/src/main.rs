@@ -718,6 +718,7 @@ fn experiments(args: &ExperimentsArgs) -> anyhow::Result<()> {
     // --shard, or the Slurm array task's part
     let shard = swingup::experiments::Shard::resolve(args.shard)?;
     if let (Some(s), None) = (shard, args.shard) {
+        s.check_count_in(&args.out, "settings", ".json")?;
         say!("shard {s} of the grid, from the Slurm job array's SLURM_ARRAY_TASK_* variables");
     }
     anyhow::ensure!(

@@ -612,8 +612,25 @@ pub fn run_grid(opts: &GridOptions, show: &(dyn Fn(GridEvent<'_>) + Sync)) -> cr
     for w in &grid.warnings {
         show(GridEvent::Warning(w));
     }
-    if !grid.previous.is_empty() {
-        show(GridEvent::Resumed(grid.previous.len()));
+    // the saved runs of this part (a shard reads its siblings' too)
+    let own: usize = match opts.shard {
+        None => grid.previous.len(),
+        Some(s) => {
+            let mine: std::collections::BTreeSet<(String, String, u64)> =
+                crate::experiments::grid_runs(&opts.which, &opts.settings)
+                    .into_iter()
+                    .enumerate()
+                    .filter(|(p, _)| s.contains(*p))
+                    .map(|(_, run)| run)
+                    .collect();
+            grid.previous
+                .iter()
+                .filter(|r| mine.contains(&(r.experiment.clone(), r.variant.clone(), r.seed)))
+                .count()
+        }
+    };
+    if own > 0 {
+        show(GridEvent::Resumed(own));
     }
     let log = std::sync::Mutex::new(grid.log);
     let saved = std::sync::atomic::AtomicUsize::new(0);
