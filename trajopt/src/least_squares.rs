@@ -354,6 +354,31 @@ impl LinearBounds {
             .collect()
     }
 
+    /// The bounds as a box on the parameters, $lo_k \le \theta_k \le hi_k$
+    /// (infinite where a parameter is unbounded), when they are one:
+    /// every row of $A$ a single positive entry, each parameter in at
+    /// most one row. `n` is the number of parameters. A box is kept by
+    /// Gauss-Newton's projected Newton steps ([`crate::gauss_newton`]),
+    /// without a QP solver.
+    pub fn as_box(&self, n: usize) -> Option<(Vec<f64>, Vec<f64>)> {
+        if self.a.ncols() != n {
+            return None;
+        }
+        let (mut lo, mut hi) = (vec![f64::NEG_INFINITY; n], vec![f64::INFINITY; n]);
+        let mut seen = vec![false; n];
+        for i in 0..self.a.nrows() {
+            let (cols, vals) = (self.a.symbolic().col_idx_of_row_raw(i), self.a.val_of_row(i));
+            let [(&k, &v)] = cols.iter().zip(vals).collect::<Vec<_>>()[..] else {
+                return None;
+            };
+            if !(v > 0.0 && v.is_finite()) || std::mem::replace(&mut seen[k], true) {
+                return None;
+            }
+            (lo[k], hi[k]) = (self.lower[i] / v, self.upper[i] / v);
+        }
+        Some((lo, hi))
+    }
+
     /// The largest violation $\max_i \max(\ell_i - (A\theta)_i, (A\theta)_i - u_i, 0)$.
     pub fn violation(&self, theta: &[f64]) -> f64 {
         self.apply(theta)

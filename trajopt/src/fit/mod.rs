@@ -239,9 +239,9 @@ impl<'a> LeastSquares<'a> {
     }
 
     /// Box bounds $l_k \le x_k \le u_k$ (infinite for none), kept by each
-    /// step of the iteration (Gauss-Newton: a small QP per step,
-    /// [`LinearBounds`] with the identity's rows, needing the `bounds`
-    /// feature, on by default; Powell: by its line searches); the start
+    /// step of the iteration, with no QP solver (Gauss-Newton and the
+    /// derivative-free mode: projected Newton steps on the damped model,
+    /// [`crate::gauss_newton`]; Powell: by its line searches); the start
     /// must lie within them.
     pub fn bounds(mut self, lower: &[f64], upper: &[f64]) -> Self {
         self.bounds = Some((lower.to_vec(), upper.to_vec()));
@@ -914,7 +914,7 @@ mod tests {
     /// one-parameter fit's with the other held at its bound; one-sided
     /// bounds, the user's Jacobian and a robust loss go through the same
     /// change of variables.
-    #[cfg(feature = "bounds")]
+    // no `bounds` feature needed: CI runs it without clarabel too
     #[test]
     fn box_bounds_keep_the_answer_inside_them() {
         let inside = misra1a()

@@ -20,6 +20,12 @@ pub(super) struct Iteration<'a, P: LeastSquaresProblem + ?Sized> {
     pub(super) problem: &'a P,
     pub(super) settings: &'a GaussNewtonSettings,
     pub(super) bounds: Option<&'a LinearBounds>,
+    /// The bounds as a box on the parameters, when they are one: kept by
+    /// projected Newton steps ([`super::box_qp`]) instead of a QP.
+    box_bounds: Option<(Vec<f64>, Vec<f64>)>,
+    /// The box relative to the current point, $l - \theta$ and $u - \theta$.
+    box_lo: Vec<f64>,
+    box_hi: Vec<f64>,
     /// The band form and its layout, kept to go on with one thread when the
     /// helpers wait for cores.
     pub(super) band_layout: Option<(&'a dyn BandForm, BandLayout)>,
@@ -86,6 +92,7 @@ impl<'a, P: LeastSquaresProblem + ?Sized> Iteration<'a, P> {
         let s = start.settings;
         let bounds = start.problem.bounds();
         let adaptive = s.adaptive() && bounds.is_none();
+        let box_bounds = bounds.and_then(|b| b.as_box(n_p));
         let (r_plus, r_minus) = if adaptive {
             (vec![0.0; n_r], vec![0.0; n_r])
         } else {
@@ -95,6 +102,17 @@ impl<'a, P: LeastSquaresProblem + ?Sized> Iteration<'a, P> {
             problem: start.problem,
             settings: s,
             bounds,
+            box_lo: if box_bounds.is_some() {
+                vec![0.0; n_p]
+            } else {
+                Vec::new()
+            },
+            box_hi: if box_bounds.is_some() {
+                vec![0.0; n_p]
+            } else {
+                Vec::new()
+            },
+            box_bounds,
             band_layout: start.band_layout,
             evaluations: start.evaluations,
             system: start.system,
@@ -193,13 +211,24 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 total: if newton { self.mu + self.shift } else { self.mu },
                 scale: &self.scale,
             };
-            let solved = match bounds {
-                // bounded: the damped model minimised subject to the bounds (a QP)
-                Some(b) => self
+            let solved = match (bounds, &self.box_bounds) {
+                // a box: the damped model minimised in it by projected Newton steps
+                (Some(_), Some((lower, upper))) => {
+                    for k in 0..n_p {
+                        self.box_lo[k] = (lower[k] - self.theta[k]).min(0.0);
+                        self.box_hi[k] = (upper[k] - self.theta[k]).max(0.0);
+                    }
+                    self.factorizations += 1;
+                    self.system.as_sparse().is_some_and(|sparse| {
+                        sparse.box_step(damping, &self.grad, &self.box_lo, &self.box_hi, &mut self.step)
+                    })
+                }
+                // general linear bounds: the damped model minimised subject to them (a QP)
+                (Some(b), None) => self
                     .system
                     .as_sparse()
                     .is_some_and(|sparse| sparse.bounded_step(damping, &self.grad, b, &self.theta, &mut self.step)),
-                None => {
+                (None, _) => {
                     self.factorizations += 1;
                     for (d, g) in self.step.iter_mut().zip(&self.grad) {
                         *d = -g;
@@ -260,6 +289,12 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
             }
             for j in 0..n_p {
                 self.trial[j] = self.theta[j] + self.step[j];
+            }
+            if let Some((lower, upper)) = &self.box_bounds {
+                // theta + (l - theta) may round past l
+                for j in 0..n_p {
+                    self.trial[j] = self.trial[j].max(lower[j]).min(upper[j]);
+                }
             }
             self.system.residuals(problem, &self.trial, &mut self.r_trial)?;
             self.residual_evals += 1;

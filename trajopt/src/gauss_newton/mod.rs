@@ -20,8 +20,13 @@
 //!
 //! With [bounds](LeastSquaresProblem::bounds) $\ell \le A\theta \le u$, the
 //! step instead minimises the same damped model subject to
-//! $\ell \le A(\theta + \delta) \le u$, a sparse convex QP solved by clarabel's
-//! interior-point method; an infeasible start is first moved to the nearest
+//! $\ell \le A(\theta + \delta) \le u$. A box on the parameters (each row
+//! of $A$ one positive entry, as [`crate::LeastSquares::bounds`] and the
+//! control bounds give) takes projected Newton steps (Bertsekas 1982): a
+//! few factorisations in the unbounded step's sparse pattern, no QP solver,
+//! and no `bounds` feature needed. Other linear bounds make the step a
+//! sparse convex QP solved by clarabel's interior-point method (the
+//! `bounds` feature). An infeasible start is first moved to the nearest
 //! feasible point (the cost comparison starts there).
 //!
 //! For Eq. 3 ([`Eq3Problem`](crate::Eq3Problem)) every residual touches the
@@ -103,6 +108,7 @@
 // equations, their two-thread split, the helper threads, and the bounded
 // steps' QP
 pub(crate) mod band_model;
+pub(crate) mod box_qp;
 pub(crate) mod parallel;
 #[cfg(feature = "bounds")]
 pub(crate) mod qp;
@@ -394,10 +400,12 @@ impl GaussNewton {
         let mut residual_evals = 1;
         let bounds = problem.bounds();
         if let Some(b) = bounds {
-            if !cfg!(feature = "bounds") {
+            let box_bounds = b.as_box(n_p);
+            if !cfg!(feature = "bounds") && box_bounds.is_none() {
                 return Err(TrajoptError::InvalidParameter {
                     name: "bounds",
-                    reason: "a bounded problem needs trajopt's `bounds` feature (its QP steps are solved by clarabel)"
+                    reason: "linear bounds other than a box on the parameters need trajopt's `bounds` feature (their \
+                             QP steps are solved by clarabel)"
                         .into(),
                 });
             }
@@ -411,9 +419,19 @@ impl GaussNewton {
             }
             // an infeasible start is first moved to the nearest feasible point
             if b.violation(&theta) > 1e-9 {
-                let delta = crate::gauss_newton::qp::projection(b, &theta).ok_or(TrajoptError::InfeasibleBounds)?;
-                for (t, d) in theta.iter_mut().zip(delta) {
-                    *t += d;
+                match &box_bounds {
+                    Some((lower, upper)) => {
+                        for ((t, l), u) in theta.iter_mut().zip(lower).zip(upper) {
+                            *t = t.max(*l).min(*u);
+                        }
+                    }
+                    None => {
+                        let delta =
+                            crate::gauss_newton::qp::projection(b, &theta).ok_or(TrajoptError::InfeasibleBounds)?;
+                        for (t, d) in theta.iter_mut().zip(delta) {
+                            *t += d;
+                        }
+                    }
                 }
                 problem.residuals(&theta, &mut r)?;
                 residual_evals += 1;

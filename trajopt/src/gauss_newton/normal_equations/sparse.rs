@@ -108,6 +108,31 @@ impl SparseSystem {
         }
     }
 
+    /// The damped model minimised in the box $lo \le \delta \le hi$ by
+    /// projected Newton steps ([`crate::gauss_newton::box_qp`]), each a
+    /// factorisation in the unbounded step's pattern: `step` gets the
+    /// step; false if a reduced matrix is not positive definite.
+    pub(crate) fn box_step(
+        &mut self,
+        damping: Damping<'_>,
+        grad: &[f64],
+        lo: &[f64],
+        hi: &[f64],
+        step: &mut [f64],
+    ) -> bool {
+        self.damp(damping.newton, damping.total, damping.scale);
+        let n = grad.len();
+        let factor = &mut self.factor;
+        crate::gauss_newton::box_qp::box_step(
+            &self.h_damped,
+            grad,
+            lo,
+            hi,
+            &mut |m, rhs| factor.solve(m.as_ref(), MatMut::from_column_major_slice_mut(rhs, n, 1)),
+            step,
+        )
+    }
+
     /// The damped model minimised subject to the bounds (a QP): `step`
     /// gets the step; false if the QP has no solution.
     pub(crate) fn bounded_step(
