@@ -425,7 +425,11 @@ impl<'a> LeastSquares<'a> {
                 t.iter().map(|&(_, w)| w).collect(),
             )
         };
+        let differenced_before = problem.differencing_evals.get();
         let jacobian = problem.outer_jacobian(&x);
+        // the answer's residuals and Jacobian are calls of the user's too
+        let evals = evals + 1 + (problem.differencing_evals.get() - differenced_before);
+        let jacobian_evals = jacobian_evals + usize::from(self.jacobian.is_some());
         Ok(LeastSquaresFit {
             x,
             cost,
@@ -470,6 +474,45 @@ mod tests {
                 r[i] = Y[i] - b[0] * (1.0 - (-b[1] * X[i]).exp());
             }
         })
+    }
+
+    /// `evals` and `jacobian_evals` are every call of the user's
+    /// functions, those at the answer included, for every method.
+    #[test]
+    fn evaluation_counts_are_the_users_calls() {
+        for (method, with_jacobian) in [
+            (Method::GaussNewton, false),
+            (Method::GaussNewton, true),
+            (Method::DerivativeFree, false),
+            (Method::Powell, false),
+            (Method::Powell, true),
+        ] {
+            let (calls, jacobian_calls) = (std::cell::Cell::new(0), std::cell::Cell::new(0));
+            let mut fit = LeastSquares::new(X.len(), |b: &[f64], r: &mut [f64]| {
+                calls.set(calls.get() + 1);
+                for i in 0..X.len() {
+                    r[i] = Y[i] - b[0] * (1.0 - (-b[1] * X[i]).exp());
+                }
+            })
+            .method(method);
+            if with_jacobian {
+                fit = fit.jacobian(|b: &[f64], j: &mut [f64]| {
+                    jacobian_calls.set(jacobian_calls.get() + 1);
+                    for i in 0..X.len() {
+                        let e = (-b[1] * X[i]).exp();
+                        j[2 * i] = -(1.0 - e);
+                        j[2 * i + 1] = -b[0] * X[i] * e;
+                    }
+                });
+            }
+            let fit = fit.solve(&[250.0, 5e-4]).expect("solves");
+            assert_eq!(fit.evals, calls.get(), "{method:?}, jacobian {with_jacobian}");
+            assert_eq!(
+                fit.jacobian_evals,
+                jacobian_calls.get(),
+                "{method:?}, jacobian {with_jacobian}"
+            );
+        }
     }
 
     /// Feature `serde`: a fit, its status and every solver's settings

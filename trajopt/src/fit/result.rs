@@ -21,10 +21,13 @@ pub struct LeastSquaresFit {
     pub status: FitStatus,
     /// Iterations.
     pub iterations: usize,
-    /// Residual evaluations (the differences' and a pattern probing's
-    /// included).
+    /// Calls of the user's residual function: the solve's (the
+    /// differences' and a pattern probing's included) and those at the
+    /// answer (its residuals, and its Jacobian's differences when there
+    /// is no Jacobian).
     pub evals: usize,
-    /// Calls of the user's Jacobian (0 when differenced).
+    /// Calls of the user's Jacobian, the one at the answer included (0
+    /// when differenced).
     pub jacobian_evals: usize,
     /// Wall time of the solve.
     pub solve_time: Duration,
