@@ -326,6 +326,7 @@ pub fn merge(dir: &Path, report_dir: PathBuf, outside: Vec<PathBuf>) -> Result<(
     }
     let counts: Vec<usize> = {
         let mut c: Vec<usize> = found.iter().map(|f| f.shard.count).collect();
+        c.sort_unstable();
         c.dedup();
         c
     };

@@ -141,6 +141,14 @@ fn missing_unfinished_or_mismatched_shards_are_refused_by_name() {
     std::fs::write(&log, &text).expect("restore");
     merge(dir.path(), dir.path().to_path_buf(), vec![]).expect("merge once whole");
 
+    // a shard of the same benchmark split another way
+    let split = ScratchDir::new("bench-shards-split").expect("scratch");
+    run_shard(&settings(split.path()), shard(1, 3)).expect("1 of 3");
+    run_shard(&settings(split.path()), shard(2, 2)).expect("2 of 2");
+    run_shard(&settings(split.path()), shard(2, 3)).expect("2 of 3");
+    let e = refusal(split.path());
+    assert!(e.contains("holds shards of 2 counts (of 2, of 3)"), "{e}");
+
     // a shard of another benchmark copied in
     let elsewhere = ScratchDir::new("bench-shards-other").expect("scratch");
     let mut other = settings(elsewhere.path());
