@@ -31,7 +31,6 @@ use serde_json::json;
 
 use crate::analysis::{Analysis, Criterion};
 use crate::error::{BenchError, Result};
-use crate::instance::Instance;
 use crate::minima::{self, Reference};
 use crate::open::BenchSolver;
 use crate::plot::ProfileFigure;
@@ -197,7 +196,7 @@ pub(crate) fn execute_with(settings: &RunnerSettings, given: Option<(RecordFile,
     } else {
         let runs = match &given {
             Some((file, _)) => file.runs.clone(),
-            None => run_all(settings)?,
+            None => crate::jobs::run_all(settings)?,
         };
         if runs.is_empty() {
             return Err(BenchError::NoRuns {
@@ -514,88 +513,6 @@ pub fn analyse(
         .with_references(|key| references.get(key).cloned());
     analysis.discrepancies = discrepancies;
     Ok((analysis, sources))
-}
-
-/// Every solver on every instance, one at a time (so that the timings do
-/// not share the cores), with progress on stderr.
-fn run_all(settings: &RunnerSettings) -> Result<Vec<RunRecord>> {
-    let mut runs = Vec::new();
-    run_jobs(settings, &|_, _| true, &mut |run| {
-        runs.push(run);
-        Ok(())
-    })?;
-    Ok(runs)
-}
-
-/// The key of the run of `solver` on `instance`.
-pub(crate) fn job_key(instance: &Instance, solver: &dyn BenchSolver) -> RunKey {
-    (
-        instance.set.to_string(),
-        instance.problem.clone(),
-        instance.scale.to_bits(),
-        solver.name().to_string(),
-    )
-}
-
-/// The runs of `settings` in their fixed order (instance by instance, the
-/// solvers in the settings' order, those that apply): position and key.
-pub(crate) fn planned_runs(settings: &RunnerSettings) -> Result<Vec<RunKey>> {
-    let instances = settings.set.instances(settings.filter.as_deref())?;
-    Ok(instances
-        .iter()
-        .flat_map(|i| {
-            settings
-                .solvers
-                .iter()
-                .filter(|s| s.applies_to(i))
-                .map(|s| job_key(i, s.as_ref()))
-                .collect::<Vec<_>>()
-        })
-        .collect())
-}
-
-/// Runs, one at a time, the runs of [`planned_runs`] for which `wanted`
-/// (position, key) holds, handing each to `each` as it finishes (which may
-/// save it, and stop the loop with an error).
-pub(crate) fn run_jobs(
-    settings: &RunnerSettings,
-    wanted: &dyn Fn(usize, &RunKey) -> bool,
-    each: &mut dyn FnMut(RunRecord) -> Result<()>,
-) -> Result<()> {
-    let instances = settings.set.instances(settings.filter.as_deref())?;
-    let mut position = 0;
-    for (k, instance) in instances.iter().enumerate() {
-        for solver in &settings.solvers {
-            if !solver.applies_to(instance) {
-                continue;
-            }
-            position += 1;
-            if !wanted(position - 1, &job_key(instance, solver.as_ref())) {
-                continue;
-            }
-            let run = solver.run(instance, &settings.budget, settings.repeats)?;
-            progress(format_args!(
-                "[{}/{}] {:?} {:<20} f = {:.6e} evals = {:>7} {:.2e} s {}",
-                k + 1,
-                instances.len(),
-                instance,
-                run.solver,
-                run.f,
-                run.evals,
-                run.time_s,
-                run.status
-            ));
-            each(run)?;
-        }
-    }
-    Ok(())
-}
-
-/// A progress line on standard error; a closed stderr loses it, never
-/// the work.
-fn progress(line: std::fmt::Arguments<'_>) {
-    use std::io::Write as _;
-    let _ = writeln!(std::io::stderr(), "{line}");
 }
 
 /// `dir/*.json` in name order (none if `dir` does not exist), then `extra`.
