@@ -19,14 +19,9 @@ use swingup::output::grid::{GridEvent, GridMode, GridOptions, run_grid};
 mod common;
 use common::scratch;
 
-/// The smallest grid: three lambdas, one seed, one trial (the imitation).
+/// The smallest grid ([`common::smallest_grid`]).
 fn settings() -> ExperimentSettings {
-    ExperimentSettings {
-        seeds: 1,
-        learning_seeds: 1,
-        max_trials: 1,
-        ..ExperimentSettings::quick()
-    }
+    common::smallest_grid()
 }
 
 fn options(dir: &Path, mode: GridMode) -> GridOptions {

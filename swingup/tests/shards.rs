@@ -11,14 +11,9 @@ use swingup::output::grid::{GridEvent, GridMode, GridOptions, merge_grid, run_gr
 mod common;
 use common::scratch;
 
-/// The smallest grid: three lambdas, one seed, one trial (the imitation).
+/// The smallest grid ([`common::smallest_grid`]).
 fn settings() -> ExperimentSettings {
-    ExperimentSettings {
-        seeds: 1,
-        learning_seeds: 1,
-        max_trials: 1,
-        ..ExperimentSettings::quick()
-    }
+    common::smallest_grid()
 }
 
 fn options(dir: &Path, shard: Option<Shard>) -> GridOptions {
