@@ -96,8 +96,9 @@ pub(crate) fn box_step(
         }
         // the Newton step on the free components, in H's own pattern
         for j in 0..n {
-            let rows = reduced.symbolic().row_idx_of_col_raw(j).to_vec();
-            for ((i, v), &h_ij) in rows.into_iter().zip(reduced.val_of_col_mut(j)).zip(h.val_of_col(j)) {
+            // `reduced` has `h`'s pattern: its rows are read from `h`
+            let rows = h.symbolic().row_idx_of_col_raw(j);
+            for ((&i, v), &h_ij) in rows.iter().zip(reduced.val_of_col_mut(j)).zip(h.val_of_col(j)) {
                 *v = if binding[i] || binding[j] {
                     if i == j { 1.0 } else { 0.0 }
                 } else {
