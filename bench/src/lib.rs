@@ -31,7 +31,6 @@ pub mod compare;
 pub mod error;
 pub mod files;
 pub mod instance;
-pub(crate) mod jobs;
 pub mod lwr_instance;
 pub mod minima;
 pub mod nist;

@@ -27,10 +27,10 @@ use store::{AppendLog, Manifest, ManifestStatus, Shard};
 
 use crate::analysis::Analysis;
 use crate::error::{BenchError, Result};
-use crate::jobs::{planned_runs, run_jobs};
 use crate::problems::{Budget, ProblemSet};
 use crate::record::{MadeBy, RecordFile, RunKey, RunRecord};
 use crate::report::Stamp;
+use crate::runner::jobs::{planned_runs, run_jobs};
 use crate::runner::{RunnerSettings, execute_with};
 
 /// The program a shard's manifest records.

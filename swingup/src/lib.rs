@@ -26,6 +26,7 @@
 //! | learning | [`learn`], [`diagnostics`], [`cartpole`] | the trial loop; each plan against what the robot then did; the cart-pole swing-up learned from scratch by MPC |
 //! | experiments | [`experiments`] ([`experiments::claims`], [`experiments::sensitivity`]) | the grid behind the paper's claims, and how much model error an open-loop swing-up tolerates |
 //! | output | [`output`] ([`output::run_report`], [`output::plot`], [`output::grid_report`], [`output::rundir`], [`output::grid`]) | what a run leaves on disk (figures as SVG and PNG), and the rules that keep runs from overwriting or mixing |
+//! | program | `cli` of the `swingup` binary (`src/cli/`, beside `main.rs`) | the subcommands' arguments and handlers (`swingup experiments`, its shards and `merge`) |
 //!
 //! [`fit_cmd`] is the `swingup fit` subcommand (locally weighted regression
 //! on a CSV file), an alias of `lwr`'s CSV fit tool [`lwr::csv_fit`] (also

@@ -3,11 +3,11 @@
 //! so that the timings do not share the cores: all of them
 //! ([`crate::runner::execute`]) or a shard's ([`crate::shard`]).
 
+use super::RunnerSettings;
 use crate::error::Result;
 use crate::instance::Instance;
 use crate::open::BenchSolver;
 use crate::record::{RunKey, RunRecord};
-use crate::runner::RunnerSettings;
 
 /// The key of the run of `solver` on `instance`.
 fn job_key(instance: &Instance, solver: &dyn BenchSolver) -> RunKey {

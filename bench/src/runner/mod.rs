@@ -39,6 +39,8 @@ use crate::record::{MadeBy, RecordFile, RunKey, RunRecord};
 use crate::report::{self, Stamp};
 use crate::solvers::Solver;
 
+pub(crate) mod jobs;
+
 /// What [`execute`] does.
 #[derive(Debug, Clone)]
 pub struct RunnerSettings {
@@ -196,7 +198,7 @@ pub(crate) fn execute_with(settings: &RunnerSettings, given: Option<(RecordFile,
     } else {
         let runs = match &given {
             Some((file, _)) => file.runs.clone(),
-            None => crate::jobs::run_all(settings)?,
+            None => jobs::run_all(settings)?,
         };
         if runs.is_empty() {
             return Err(BenchError::NoRuns {
