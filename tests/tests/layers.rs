@@ -253,3 +253,29 @@ fn no_library_crate_depends_on_the_program() {
         }
     }
 }
+
+/// The Python bindings live in their own crate (`python/`, its own
+/// workspace): no crate of the Rust workspace depends on PyO3 or numpy.
+#[test]
+fn no_workspace_crate_depends_on_python() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR")).join("..");
+    let workspace: toml::Table = fs::read_to_string(root.join("Cargo.toml"))
+        .expect("the workspace's Cargo.toml")
+        .parse()
+        .expect("valid TOML");
+    let members = workspace["workspace"]["members"].as_array().expect("members");
+    assert!(!members.iter().any(|m| m.as_str() == Some("python")));
+    for member in members.iter().filter_map(toml::Value::as_str) {
+        let text = fs::read_to_string(root.join(member).join("Cargo.toml")).expect("a member's Cargo.toml");
+        let value: toml::Table = text.parse().expect("valid TOML");
+        for table in ["dependencies", "dev-dependencies", "build-dependencies"] {
+            let deps = value.get(table).and_then(toml::Value::as_table);
+            for python in ["pyo3", "numpy"] {
+                assert!(
+                    !deps.is_some_and(|d| d.contains_key(python)),
+                    "{member}'s [{table}] names {python}"
+                );
+            }
+        }
+    }
+}
