@@ -345,24 +345,11 @@ impl<'a> LeastSquares<'a> {
         let bounds = self.check(x0)?;
         let m = self.m;
         let problem = Closures::new(self, x0, bounds)?;
-        let probing = problem.differencing_evals.get();
-        let (x, initial_cost, status, iterations, evals, jacobian_evals, solve_time) = match self.method {
+        let (x, initial_cost, status, iterations, solve_time) = match self.method {
             Method::GaussNewton => {
                 let r = GaussNewton::new(self.settings.clone())?.solve(&problem, x0)?;
-                let (evals, jacobian_evals) = match &self.jacobian {
-                    Some(_) => (r.evals + probing, r.jacobian_evals),
-                    None => (r.evals + problem.differencing_evals.get(), 0),
-                };
                 let status = FitStatus::GaussNewton(r.status);
-                (
-                    r.x,
-                    r.initial_cost,
-                    status,
-                    r.iterations,
-                    evals,
-                    jacobian_evals,
-                    r.solve_time,
-                )
+                (r.x, r.initial_cost, status, r.iterations, r.solve_time)
             }
             Method::DerivativeFree => {
                 if self.loss != Loss::Linear {
@@ -381,15 +368,7 @@ impl<'a> LeastSquares<'a> {
                 };
                 let r = DerivativeFree::new(settings)?.solve(&problem, x0)?;
                 let status = FitStatus::GaussNewton(r.status);
-                (
-                    r.x,
-                    r.initial_cost,
-                    status,
-                    r.iterations,
-                    r.evals + probing,
-                    0,
-                    r.solve_time,
-                )
+                (r.x, r.initial_cost, status, r.iterations, r.solve_time)
             }
             Method::Powell => {
                 let settings = PowellSettings {
@@ -405,19 +384,11 @@ impl<'a> LeastSquares<'a> {
                 };
                 let r = Powell::new(settings)?.solve(&objective, x0)?;
                 let status = FitStatus::Powell(r.status);
-                (
-                    r.x,
-                    r.initial_cost,
-                    status,
-                    r.iterations,
-                    r.evals + probing,
-                    0,
-                    r.solve_time,
-                )
+                (r.x, r.initial_cost, status, r.iterations, r.solve_time)
             }
         };
         let mut residuals = vec![0.0; m];
-        (self.residuals)(&x, &mut residuals);
+        problem.raw_residuals(&x, &mut residuals);
         let (cost, weights): (f64, Vec<f64>) = {
             let t: Vec<(f64, f64)> = residuals.iter().map(|&r| self.loss.transform(r, self.scale)).collect();
             (
@@ -425,11 +396,12 @@ impl<'a> LeastSquares<'a> {
                 t.iter().map(|&(_, w)| w).collect(),
             )
         };
-        let differenced_before = problem.differencing_evals.get();
         let jacobian = problem.outer_jacobian(&x);
-        // the answer's residuals and Jacobian are calls of the user's too
-        let evals = evals + 1 + (problem.differencing_evals.get() - differenced_before);
-        let jacobian_evals = jacobian_evals + usize::from(self.jacobian.is_some());
+        // the user's calls, counted where they are made (the solvers count
+        // their requests, some of which the last residuals or Jacobian
+        // answer): the answer's residuals and Jacobian included
+        let evals = problem.residual_calls.get();
+        let jacobian_evals = problem.jacobian_calls.get();
         Ok(LeastSquaresFit {
             x,
             cost,

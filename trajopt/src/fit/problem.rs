@@ -2,6 +2,8 @@
 //! (dense, declared or probed), the differences by Curtis-Powell-Reid
 //! groups of columns, and the rows scaled by the robust loss.
 
+use std::cell::{Cell, RefCell};
+
 use faer::sparse::SymbolicSparseRowMat;
 
 use super::{LeastSquares, Loss, Sparsity};
@@ -77,8 +79,18 @@ pub(super) struct Closures<'s, 'a> {
     spec: &'s LeastSquares<'a>,
     n: usize,
     bounds: Option<LinearBounds>,
-    /// Residual evaluations made by the differences (and the probing).
-    pub(super) differencing_evals: std::cell::Cell<usize>,
+    /// Calls of the user's residual function: the probing's, the solver's,
+    /// the differences' and the answer's (a call the cache answers is none).
+    pub(super) residual_calls: Cell<usize>,
+    /// Calls of the user's Jacobian.
+    pub(super) jacobian_calls: Cell<usize>,
+    /// The last raw residuals the solver asked for, and their point: the
+    /// forward differences' base, the loss's weights and the answer's
+    /// residuals are usually at that point, and cost no call.
+    last_residuals: RefCell<Option<(Vec<f64>, Vec<f64>)>>,
+    /// The last Jacobian (the pattern's values, raw) and its point: the
+    /// answer's Jacobian is usually the last iteration's.
+    last_jacobian: RefCell<Option<(Vec<f64>, Vec<f64>)>>,
     /// The Jacobian's pattern (dense unless declared or probed).
     pattern: SymbolicSparseRowMat<usize>,
     /// Its columns in structurally orthogonal groups.
@@ -106,7 +118,10 @@ impl<'s, 'a> Closures<'s, 'a> {
             spec,
             n: x0.len(),
             bounds,
-            differencing_evals: std::cell::Cell::new(probing),
+            residual_calls: Cell::new(probing),
+            jacobian_calls: Cell::new(0),
+            last_residuals: RefCell::new(None),
+            last_jacobian: RefCell::new(None),
             pattern,
             groups,
             entries_of,
@@ -121,11 +136,48 @@ impl<'s, 'a> Closures<'s, 'a> {
     /// $h_k = \epsilon^{1/2} \max(1, |x_k|)$, one, and one at `x`),
     /// scipy's steps.
     fn sparse_jacobian(&self, x: &[f64]) -> Vec<f64> {
+        if let Some((_, values)) = self
+            .last_jacobian
+            .borrow()
+            .as_ref()
+            .filter(|(at, _)| at.as_slice() == x)
+        {
+            return values.clone();
+        }
+        let values = self.sparse_jacobian_uncached(x);
+        *self.last_jacobian.borrow_mut() = Some((x.to_vec(), values.clone()));
+        values
+    }
+
+    /// The user's raw residuals at `x` into `r`: the last ones asked for
+    /// if they were at `x`, else a call (counted and remembered).
+    pub(super) fn raw_residuals(&self, x: &[f64], r: &mut [f64]) {
+        if let Some((_, last)) = self
+            .last_residuals
+            .borrow()
+            .as_ref()
+            .filter(|(at, _)| at.as_slice() == x)
+        {
+            r.copy_from_slice(last);
+            return;
+        }
+        self.call(x, r);
+        *self.last_residuals.borrow_mut() = Some((x.to_vec(), r.to_vec()));
+    }
+
+    /// One counted call of the user's residual function.
+    fn call(&self, x: &[f64], r: &mut [f64]) {
+        self.residual_calls.set(self.residual_calls.get() + 1);
+        (self.spec.residuals)(x, r);
+    }
+
+    fn sparse_jacobian_uncached(&self, x: &[f64]) -> Vec<f64> {
         let (m, n) = (self.spec.m, self.n);
         let pattern = &self.pattern;
         let mut values = vec![0.0; pattern.compute_nnz()];
         if let Some(jac) = &self.spec.jacobian {
             let mut j = vec![0.0; m * n];
+            self.jacobian_calls.set(self.jacobian_calls.get() + 1);
             jac(x, &mut j);
             let mut e = 0;
             for i in 0..m {
@@ -139,7 +191,7 @@ impl<'s, 'a> Closures<'s, 'a> {
         let central = self.spec.difference == Difference::Central;
         let (mut plus, mut minus) = (vec![0.0; m], vec![0.0; m]);
         if !central {
-            (self.spec.residuals)(x, &mut minus);
+            self.raw_residuals(x, &mut minus);
         }
         let step = |k: usize| {
             let scale = x[k].abs().max(1.0);
@@ -154,12 +206,12 @@ impl<'s, 'a> Closures<'s, 'a> {
             for &k in members {
                 p[k] = x[k] + step(k);
             }
-            (self.spec.residuals)(&p, &mut plus);
+            self.call(&p, &mut plus);
             if central {
                 for &k in members {
                     p[k] = x[k] - step(k);
                 }
-                (self.spec.residuals)(&p, &mut minus);
+                self.call(&p, &mut minus);
             }
             for &k in members {
                 p[k] = x[k];
@@ -172,9 +224,6 @@ impl<'s, 'a> Closures<'s, 'a> {
                 }
             }
         }
-        let groups = self.groups.n_groups();
-        let calls = if central { 2 * groups } else { groups + 1 };
-        self.differencing_evals.set(self.differencing_evals.get() + calls);
         values
     }
 
@@ -205,7 +254,7 @@ impl LeastSquaresProblem for Closures<'_, '_> {
     }
 
     fn residuals(&self, x: &[f64], r: &mut [f64]) -> Result<()> {
-        (self.spec.residuals)(x, r);
+        self.raw_residuals(x, r);
         for ri in r.iter_mut() {
             *ri = self.spec.loss.transform(*ri, self.spec.scale).0;
         }
@@ -226,7 +275,7 @@ impl LeastSquaresProblem for Closures<'_, '_> {
             return Ok(());
         }
         let mut r = vec![0.0; m];
-        (self.spec.residuals)(x, &mut r);
+        self.raw_residuals(x, &mut r);
         for (i, &ri) in r.iter().enumerate() {
             let w = self.spec.loss.transform(ri, self.spec.scale).1;
             for v in &mut values[self.pattern.row_range(i)] {

@@ -282,11 +282,13 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 .zip(self.grad.iter().zip(&self.h_step))
                 .map(|(d, (g, hd))| d * (2.0 * g + hd))
                 .sum::<f64>();
-            if predicted >= 0.0 && predicted <= s.tol_cost * self.cost && self.mu < 1.0 {
-                // the (barely damped) model has nothing left to gain: further
-                // steps would only compare rounding errors
-                return Ok(Some(GaussNewtonStatus::ConvergedCost));
-            }
+            // the (barely damped) model has nothing left to gain: this step
+            // is the last (further ones would only compare rounding
+            // errors). It is still taken: a predicted gain of tol_cost F
+            // leaves the parameters about sqrt(tol_cost) from the minimum
+            // along a valley, and one more evaluation closes most of that
+            // (scipy's ftol, likewise, is tested after its step)
+            let last = predicted >= 0.0 && predicted <= s.tol_cost * self.cost && self.mu < 1.0;
             for j in 0..n_p {
                 self.trial[j] = self.theta[j] + self.step[j];
             }
@@ -352,7 +354,7 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 lower_damping(&mut self.mu, rho);
                 self.accurate = newton && (rho - 1.0).abs() < ACCURATE;
                 self.nu = 2.0;
-                if decrease <= s.tol_cost * self.cost {
+                if last || decrease <= s.tol_cost * self.cost {
                     return Ok(Some(GaussNewtonStatus::ConvergedCost));
                 }
                 return Ok(None);
@@ -361,10 +363,11 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
             // own rounding (n_r eps F bounds that of a sum of n_r
             // squares) cannot be told from noise: nothing is left to gain
             // (more damping would only shrink the step until it stalls)
-            if trial_cost.is_finite()
-                && predicted >= 0.0
-                && predicted <= n_r as f64 * f64::EPSILON * self.cost
-                && self.mu < 1.0
+            if last
+                || (trial_cost.is_finite()
+                    && predicted >= 0.0
+                    && predicted <= n_r as f64 * f64::EPSILON * self.cost
+                    && self.mu < 1.0)
             {
                 return Ok(Some(GaussNewtonStatus::ConvergedCost));
             }
