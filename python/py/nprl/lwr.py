@@ -19,9 +19,11 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
 
     ``fit`` sets each input's scale to 1 / its standard deviation (so the
     bandwidth is in standard deviations), then tunes the bandwidth and the
-    scales by leave-one-out cross-validation (scales that reach 0 drop an
-    input); ``tune_evals=0`` keeps the initial metric. Inputs constant over
-    the rows carry no information and are left out (their scale is 0).
+    scales by leave-one-out cross-validation (a scale that reaches 0 takes
+    its input out of the distance: the weights ignore it, the local model
+    stays linear in it); ``tune_evals=0`` keeps the initial metric. Inputs
+    constant over the rows carry no information and are left out of the
+    model (scale 0, derivative 0).
 
     Parameters
     ----------
@@ -47,7 +49,8 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
     bandwidth_ : float
         The tuned bandwidth.
     scales_ : ndarray of shape (n_features_in_,)
-        The tuned scale of each input (0: the input is not used).
+        The tuned scale of each input in the distance (0: not in the
+        distance).
     tune_evals_ : int
         Leave-one-out evaluations the tuning spent.
     loo_mse_ : float or None
