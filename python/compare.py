@@ -24,6 +24,7 @@ Run, with the package installed (python/ci.sh's venv, or `maturin develop`):
 """
 import argparse
 import json
+import os
 import pathlib
 import re
 import subprocess
@@ -215,8 +216,11 @@ def main():
     report["regression"] = regression(list(range(args.seeds)))
     out = pathlib.Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    (out / "comparison.json").write_text(json.dumps(report, indent=1))
-    (out / "comparison.md").write_text(markdown(report))
+    for name, text in (("comparison.json", json.dumps(report, indent=1)), ("comparison.md", markdown(report))):
+        # written beside and renamed over: a link at the name is replaced, never followed
+        tmp = out / f".{name}.tmp"
+        tmp.write_text(text)
+        os.replace(tmp, out / name)
     print(f"wrote {out / 'comparison.md'}")
 
 

@@ -41,8 +41,7 @@ impl<'py> Callback<'py> {
     }
 
     fn call(&self, x: &[f64], out: &mut [f64]) {
-        if let Some((x0, v0)) = self.cached.borrow_mut().take_if(|(x0, _)| x0.as_slice() == x) {
-            let _ = x0;
+        if let Some((_, v0)) = self.cached.borrow_mut().take_if(|(x0, _)| x0.as_slice() == x) {
             out.copy_from_slice(&v0);
             return;
         }

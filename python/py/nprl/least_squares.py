@@ -87,7 +87,9 @@ def least_squares(
     Returns
     -------
     OptimizeResult with scipy's fields ``x``, ``cost``, ``fun``, ``jac``,
-    ``grad``, ``optimality``, ``active_mask``, ``nfev`` (every call of
+    ``grad``, ``optimality``, ``active_mask`` (``grad`` is ``J^T f`` and
+    ``optimality`` its largest free component: with a robust loss, those of
+    the squared loss, not of the robust cost), ``nfev`` (every call of
     ``fun``, the differences' included), ``njev``, ``status``, ``message``,
     ``success``, and also ``nit``, ``solver_status`` (the Rust solver's
     status), ``standard_errors`` and ``covariance`` (of the estimate,
@@ -170,8 +172,6 @@ def least_squares(
     out["grad"] = grad
     out["optimality"] = float(np.max(np.abs(np.where(active == 0, grad, 0.0)))) if n else 0.0
     out["active_mask"] = active
-    if out["njev"] is None:
-        out["njev"] = None
     if verbose:
         print(f"{out['message']} nfev {out['nfev']}, cost {out['cost']:.6e}")
     return OptimizeResult(**out)

@@ -106,9 +106,9 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         tags.target_tags.single_output = True
         return tags
 
-    def _targets(self, y):
+    @staticmethod
+    def _targets(y):
         y = np.asarray(y, dtype=np.float64)
-        self._y_ndim = y.ndim
         return np.ascontiguousarray(y.reshape(len(y), -1))
 
     def fit(self, X, y):
@@ -131,6 +131,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         if not varies.any():
             raise ValueError("no input varies over the rows: every feature is constant")
         self.active_inputs_ = np.flatnonzero(varies)
+        self._y_ndim = np.ndim(y)
         Y = self._targets(y)
         self.model_ = _nprl.LwrCore.fit(
             self._active(X),
@@ -155,9 +156,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         if not hasattr(self, "model_"):
             return self.fit(X, y)
         X, y = validate_data(self, X, y, multi_output=True, y_numeric=True, dtype=np.float64, reset=False)
-        ndim = self._y_ndim
         Y = self._targets(y)
-        self._y_ndim = ndim
         if Y.shape[1] != self.model_.n_outputs:
             raise ValueError(f"y has {Y.shape[1]} outputs, but the model was fitted with {self.model_.n_outputs}")
         self.model_.insert(self._active(X), Y)

@@ -162,7 +162,14 @@ impl<'s, 'a> Closures<'s, 'a> {
             return;
         }
         self.call(x, r);
-        *self.last_residuals.borrow_mut() = Some((x.to_vec(), r.to_vec()));
+        // the buffers of the first call are reused: no allocation per evaluation
+        let mut last = self.last_residuals.borrow_mut();
+        if let Some((at, values)) = last.as_mut() {
+            at.copy_from_slice(x);
+            values.copy_from_slice(r);
+        } else {
+            *last = Some((x.to_vec(), r.to_vec()));
+        }
     }
 
     /// One counted call of the user's residual function.
