@@ -38,7 +38,7 @@ use argmin::solver::quasinewton::LBFGS;
 use ddp::{Ddp, DdpMethod, DdpSettings};
 use trajopt::{
     DampingScale, DerivativeFree, DerivativeFreeSettings, GaussNewton, GaussNewtonSettings, Powell, PowellSettings,
-    StepModel,
+    StepControl, StepModel,
 };
 
 use crate::error::{BenchError, Result};
@@ -59,6 +59,10 @@ pub enum Solver {
     Newton,
     /// trajopt's least squares in adaptive mode.
     Adaptive,
+    /// trajopt's Levenberg-Marquardt with a trust region in the
+    /// parameters' units (`StepControl::TrustRegion`, `DampingScale::Identity`:
+    /// Moré's step, as scipy's `trf` and `lm` with `x_scale=1`).
+    TrustRegion,
     /// trajopt's Powell.
     Powell,
     /// trajopt's derivative-free least squares (Levenberg-Marquardt on a
@@ -76,10 +80,11 @@ pub enum Solver {
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 9] = [
+    pub const ALL: [Self; 10] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
+        Self::TrustRegion,
         Self::Powell,
         Self::DfoLs,
         Self::NelderMead,
@@ -94,6 +99,7 @@ impl Solver {
             Self::GaussNewton => "gauss-newton",
             Self::Newton => "newton",
             Self::Adaptive => "adaptive",
+            Self::TrustRegion => "trust-region",
             Self::Powell => "powell",
             Self::DfoLs => "dfo-ls",
             Self::NelderMead => "argmin-nelder-mead",
@@ -221,13 +227,19 @@ impl Solver {
         let refused = |e: String| self.refused(instance, e);
         let x0 = instance.start.as_slice();
         Ok(match self {
-            Self::GaussNewton | Self::Newton | Self::Adaptive => {
+            Self::GaussNewton | Self::Newton | Self::Adaptive | Self::TrustRegion => {
                 let step_model = match self {
                     Self::Newton => StepModel::Newton,
                     Self::Adaptive => StepModel::Adaptive,
                     _ => StepModel::GaussNewton,
                 };
-                let solver = GaussNewton::new(gauss_newton_settings(step_model)).map_err(|e| refused(e.to_string()))?;
+                let mut settings = gauss_newton_settings(step_model);
+                if self == Self::TrustRegion {
+                    settings.step_control = StepControl::TrustRegion;
+                    // the region in the parameters' units, as scipy's trf and lm
+                    settings.damping_scale = DampingScale::Identity;
+                }
+                let solver = GaussNewton::new(settings).map_err(|e| refused(e.to_string()))?;
                 match solver.solve(counted, x0) {
                     Ok(r) => Outcome::typed(&r.status),
                     Err(e) => Outcome::Failed(e.to_string()),

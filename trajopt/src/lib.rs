@@ -30,7 +30,7 @@ pub use error::{Result, TrajoptError};
 pub use fit::{FitStatus, LeastSquares, LeastSquaresFit, Method, dense_pattern};
 pub use gauss_newton::{
     DampingScale, GaussNewton, GaussNewtonResult, GaussNewtonRun, GaussNewtonSettings, GaussNewtonStatus, LinearSolver,
-    MIN_PARALLEL_PARAMS, StepModel,
+    MIN_PARALLEL_PARAMS, StepControl, StepModel,
 };
 pub use least_squares::{
     BandForm, BandNormalEquations, LeastSquaresProblem, LinearBounds, LinearLeastSquares, Part, Point, SecondOrder,

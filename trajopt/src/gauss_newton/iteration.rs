@@ -9,6 +9,7 @@ use super::damping::{
     lower_damping, raise_damping,
 };
 use super::normal_equations::{BandSystem, Damping, NormalEquations, sum_sq};
+use super::trust_region::TrustRegion;
 use super::{DampingScale, EvalCount, GaussNewtonSettings, GaussNewtonStatus, NAME};
 use crate::error::{Result, TrajoptError};
 use crate::least_squares::{BandForm, LeastSquaresProblem, LinearBounds, Point};
@@ -47,6 +48,10 @@ pub(super) struct Iteration<'a, P: LeastSquaresProblem + ?Sized> {
     scale: Vec<f64>,
     /// The largest diag(J^T J) seen so far, per parameter.
     scale_max: Vec<f64>,
+    /// diag(J^T J) at the current point, when the scale may differ from it.
+    jtj_diag: Vec<f64>,
+    /// The trust region, when the steps are trust-region steps.
+    trust: Option<TrustRegion>,
     step: Vec<f64>,
     h_step: Vec<f64>,
     trial: Vec<f64>,
@@ -128,6 +133,8 @@ impl<'a, P: LeastSquaresProblem + ?Sized> Iteration<'a, P> {
             grad: vec![0.0; n_p],
             scale: vec![0.0; n_p],
             scale_max: vec![0.0; n_p],
+            jtj_diag: vec![0.0; n_p],
+            trust: (s.trust_region() && bounds.is_none()).then(|| TrustRegion::new(n_p)),
             step: vec![0.0; n_p],
             h_step: vec![0.0; n_p],
             trial: vec![0.0; n_p],
@@ -142,6 +149,32 @@ impl<'a, P: LeastSquaresProblem + ?Sized> Iteration<'a, P> {
             r_plus,
             r_minus,
         }
+    }
+}
+
+impl<P: LeastSquaresProblem + ?Sized> Iteration<'_, P> {
+    /// Whether the damping outweighs the model's curvature (then a
+    /// negligible step is a stall, not convergence): $\mu \ge 1$ relative
+    /// to $D = \operatorname{diag}(J^\top J)$, or, with another scale or a
+    /// trust region, $\mu D_j \ge (J^\top J)_{jj}$ for some $j$.
+    fn damping_dominates(&self) -> bool {
+        let mu = match &self.trust {
+            Some(trust) => trust.lambda,
+            None if self.settings.damping_scale != DampingScale::Identity => return self.mu >= 1.0,
+            None => self.mu,
+        };
+        let diag = if self.settings.damping_scale == DampingScale::Identity {
+            &self.jtj_diag
+        } else {
+            // the scale is diag(J^T J) or its running maximum
+            &self.scale
+        };
+        mu > 0.0
+            && self
+                .scale
+                .iter()
+                .zip(diag)
+                .any(|(d, a)| mu * d >= a.max(f64::MIN_POSITIVE))
     }
 }
 
@@ -186,6 +219,10 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
         self.system.jtj_diagonal(&mut self.scale);
         match s.damping_scale {
             DampingScale::RunningMax => damping::running_max_scale(&mut self.scale, &mut self.scale_max),
+            DampingScale::Identity => {
+                self.jtj_diag.copy_from_slice(&self.scale);
+                self.scale.fill(1.0);
+            }
             _ => {
                 for d in &mut self.scale {
                     *d = d.max(1e-12);
@@ -228,6 +265,15 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                     .system
                     .as_sparse()
                     .is_some_and(|sparse| sparse.bounded_step(damping, &self.grad, b, &self.theta, &mut self.step)),
+                (None, _) if self.trust.is_some() => {
+                    let trust = self.trust.as_mut().expect("checked");
+                    let spent = trust.step(&mut *self.system, &self.grad, &self.scale, &self.theta, &mut self.step);
+                    self.factorizations += spent.unwrap_or(1);
+                    if spent.is_none() {
+                        return Ok(Some(GaussNewtonStatus::NumericalError));
+                    }
+                    true
+                }
                 (None, _) => {
                     self.factorizations += 1;
                     for (d, g) in self.step.iter_mut().zip(&self.grad) {
@@ -267,7 +313,7 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 // a negligible step is convergence only if the damping did
                 // not force it: with mu >= 1 the damping term outweighs the
                 // curvature and the gradient is still large
-                return Ok(Some(if self.mu < 1.0 {
+                return Ok(Some(if !self.damping_dominates() {
                     GaussNewtonStatus::ConvergedStep
                 } else {
                     GaussNewtonStatus::Stalled
@@ -276,19 +322,15 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
             // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
             // (with S, the second-order Taylor model of F)
             self.system.model_mul(newton, &self.step, &mut self.h_step);
-            let predicted: f64 = -self
-                .step
-                .iter()
-                .zip(self.grad.iter().zip(&self.h_step))
-                .map(|(d, (g, hd))| d * (2.0 * g + hd))
-                .sum::<f64>();
+            let slope: f64 = self.step.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
+            let predicted: f64 = -2.0 * slope - self.step.iter().zip(&self.h_step).map(|(d, hd)| d * hd).sum::<f64>();
             // the (barely damped) model has nothing left to gain: this step
             // is the last (further ones would only compare rounding
             // errors). It is still taken: a predicted gain of tol_cost F
             // leaves the parameters about sqrt(tol_cost) from the minimum
             // along a valley, and one more evaluation closes most of that
             // (scipy's ftol, likewise, is tested after its step)
-            let last = predicted >= 0.0 && predicted <= s.tol_cost * self.cost && self.mu < 1.0;
+            let last = predicted >= 0.0 && predicted <= s.tol_cost * self.cost && !self.damping_dominates();
             for j in 0..n_p {
                 self.trial[j] = self.theta[j] + self.step[j];
             }
@@ -306,6 +348,10 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
             } else {
                 -1.0
             };
+            if let Some(trust) = &mut self.trust {
+                let length = TrustRegion::length(&self.step, &self.scale);
+                trust.update(rho, length, self.cost, trial_cost, slope);
+            }
             // whether `trial` was overwritten by curvature probes
             let mut probes_in_trial = false;
             if adaptive && self.s_seen && trial_cost.is_finite() {
@@ -351,7 +397,9 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 std::mem::swap(&mut self.r, &mut self.r_trial);
                 self.cost = trial_cost;
                 self.cost_history.push(self.cost);
-                lower_damping(&mut self.mu, rho);
+                if self.trust.is_none() {
+                    lower_damping(&mut self.mu, rho);
+                }
                 self.accurate = newton && (rho - 1.0).abs() < ACCURATE;
                 self.nu = 2.0;
                 if last || decrease <= s.tol_cost * self.cost {
@@ -367,14 +415,15 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 || (trial_cost.is_finite()
                     && predicted >= 0.0
                     && predicted <= n_r as f64 * f64::EPSILON * self.cost
-                    && self.mu < 1.0)
+                    && !self.damping_dominates())
             {
                 return Ok(Some(GaussNewtonStatus::ConvergedCost));
             }
             if let Some(why) = watch.out_of_time() {
                 return Ok(Some(why.into()));
             }
-            if !raise_damping(&mut self.mu, &mut self.nu) {
+            // the trust region has shrunk; the damping rule raises the damping
+            if self.trust.is_none() && !raise_damping(&mut self.mu, &mut self.nu) {
                 return Ok(Some(GaussNewtonStatus::NumericalError));
             }
         }

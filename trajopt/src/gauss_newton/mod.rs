@@ -139,6 +139,7 @@ mod normal_equations;
 pub mod result;
 pub mod settings;
 pub(crate) mod split;
+mod trust_region;
 
 use std::time::Instant;
 
@@ -153,7 +154,7 @@ use solve::{Finish as _, Watch};
 
 /// The solver's name in [`solve::Progress`].
 const NAME: &str = "gauss-newton";
-pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepModel};
+pub use settings::{DampingScale, GaussNewtonSettings, LinearSolver, StepControl, StepModel};
 
 /// Below this many parameters [`GaussNewton::solve_parallel`] runs on one
 /// thread: the hand-overs cost more than the parts save. The threshold
