@@ -63,6 +63,8 @@ pub enum Solver {
     /// parameters' units (`StepControl::TrustRegion`, `DampingScale::Identity`:
     /// Moré's step, as scipy's `trf` and `lm` with `x_scale=1`).
     TrustRegion,
+    /// [`TrustRegion`](Self::TrustRegion) with geodesic acceleration.
+    TrustRegionGeodesic,
     /// trajopt's Powell.
     Powell,
     /// trajopt's derivative-free least squares (Levenberg-Marquardt on a
@@ -80,11 +82,12 @@ pub enum Solver {
 
 impl Solver {
     /// Every solver, in the tables' order.
-    pub const ALL: [Self; 10] = [
+    pub const ALL: [Self; 11] = [
         Self::GaussNewton,
         Self::Newton,
         Self::Adaptive,
         Self::TrustRegion,
+        Self::TrustRegionGeodesic,
         Self::Powell,
         Self::DfoLs,
         Self::NelderMead,
@@ -100,6 +103,7 @@ impl Solver {
             Self::Newton => "newton",
             Self::Adaptive => "adaptive",
             Self::TrustRegion => "trust-region",
+            Self::TrustRegionGeodesic => "trust-region-geodesic",
             Self::Powell => "powell",
             Self::DfoLs => "dfo-ls",
             Self::NelderMead => "argmin-nelder-mead",
@@ -227,15 +231,16 @@ impl Solver {
         let refused = |e: String| self.refused(instance, e);
         let x0 = instance.start.as_slice();
         Ok(match self {
-            Self::GaussNewton | Self::Newton | Self::Adaptive | Self::TrustRegion => {
+            Self::GaussNewton | Self::Newton | Self::Adaptive | Self::TrustRegion | Self::TrustRegionGeodesic => {
                 let step_model = match self {
                     Self::Newton => StepModel::Newton,
                     Self::Adaptive => StepModel::Adaptive,
                     _ => StepModel::GaussNewton,
                 };
                 let mut settings = gauss_newton_settings(step_model);
-                if self == Self::TrustRegion {
+                if matches!(self, Self::TrustRegion | Self::TrustRegionGeodesic) {
                     settings.step_control = StepControl::TrustRegion;
+                    settings.geodesic_acceleration = self == Self::TrustRegionGeodesic;
                     // the region in the parameters' units, as scipy's trf and lm
                     settings.damping_scale = DampingScale::Identity;
                 }

@@ -1,8 +1,8 @@
 //! The trust-region step control ([`StepControl::TrustRegion`]) against the
 //! damping rule's optimum: random convex (linear) problems, random
 //! nonlinear problems with a known unique minimiser, and Rosenbrock-like
-//! problems from random starts (proptest); and MGH problems whose
-//! minimisers are published.
+//! problems from random starts (proptest), with and without geodesic
+//! acceleration; and MGH problems whose minimisers are published.
 
 use proptest::prelude::*;
 use trajopt::problems::mgh;
@@ -55,15 +55,30 @@ fn settings(step_control: StepControl, damping_scale: DampingScale) -> GaussNewt
     }
 }
 
+/// The trust region with geodesic acceleration, `D = I`.
+fn geodesic() -> GaussNewtonSettings {
+    GaussNewtonSettings {
+        geodesic_acceleration: true,
+        ..settings(StepControl::TrustRegion, DampingScale::Identity)
+    }
+}
+
+/// Every trust-region configuration meant for use: both scales, and `D = I`
+/// with geodesic acceleration.
+fn configurations() -> [GaussNewtonSettings; 3] {
+    [
+        settings(StepControl::TrustRegion, DampingScale::Identity),
+        settings(StepControl::TrustRegion, DampingScale::RunningMax),
+        geodesic(),
+    ]
+}
+
 fn solve<P: LeastSquaresProblem>(problem: &P, x0: &[f64], s: GaussNewtonSettings) -> GaussNewtonResult {
     GaussNewton::new(s)
         .expect("valid settings")
         .solve(problem, x0)
         .expect("solves")
 }
-
-/// Both scales a trust region is meant to run with.
-const SCALES: [DampingScale; 2] = [DampingScale::Identity, DampingScale::RunningMax];
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(48))]
@@ -74,8 +89,9 @@ proptest! {
     fn convex_problems_reach_the_damping_rules_optimum((problem, solution) in linear_least_squares(8)) {
         let x0 = vec![0.0; solution.len()];
         let damped = solve(&problem, &x0, settings(StepControl::Damping, DampingScale::Current));
-        for scale in SCALES {
-            let r = solve(&problem, &x0, settings(StepControl::TrustRegion, scale));
+        for config in configurations() {
+            let scale = (config.damping_scale, config.geodesic_acceleration);
+            let r = solve(&problem, &x0, config);
             prop_assert!(r.status.is_converged(), "{scale:?}: {:?}", r.status);
             prop_assert!(r.cost <= damped.cost.max(1e-20) * 10.0 + 1e-20, "{scale:?}: {} vs {}", r.cost, damped.cost);
             for (x, s) in r.x.iter().zip(&solution) {
@@ -88,8 +104,9 @@ proptest! {
     #[test]
     fn nonlinear_problems_reach_the_known_minimiser((problem, x_star, x0) in nonlinear_least_squares(6)) {
         let damped = solve(&problem, &x0, settings(StepControl::Damping, DampingScale::Current));
-        for scale in SCALES {
-            let r = solve(&problem, &x0, settings(StepControl::TrustRegion, scale));
+        for config in configurations() {
+            let scale = (config.damping_scale, config.geodesic_acceleration);
+            let r = solve(&problem, &x0, config);
             prop_assert!(r.status.is_converged(), "{scale:?}: {:?}", r.status);
             prop_assert!(r.cost <= 1e-16 && damped.cost <= 1e-16, "{} {}", r.cost, damped.cost);
             for ((x, d), s) in r.x.iter().zip(&damped.x).zip(&x_star) {
@@ -112,8 +129,9 @@ proptest! {
         let problem = Rosenbrock { n: 2 * half, c };
         let x0 = &start[..2 * half];
         let damped = solve(&problem, x0, settings(StepControl::Damping, DampingScale::Current));
-        for scale in SCALES {
-            let r = solve(&problem, x0, settings(StepControl::TrustRegion, scale));
+        for config in configurations() {
+            let scale = (config.damping_scale, config.geodesic_acceleration);
+            let r = solve(&problem, x0, config);
             prop_assert!(r.status.is_converged(), "{scale:?}: {:?}", r.status);
             prop_assert!(r.cost < 1e-14, "{scale:?}: {}", r.cost);
             prop_assert!(r.cost_history.windows(2).all(|w| w[1] <= w[0]));
@@ -123,6 +141,39 @@ proptest! {
             // the damping rule's optimum, where it gets there in its iterations
             prop_assert!(r.cost <= damped.cost.max(1e-14), "{scale:?}: {} vs {}", r.cost, damped.cost);
         }
+    }
+}
+
+/// On a linear problem the residuals have no curvature: geodesic
+/// acceleration leaves every step as it was (the same iterates to
+/// rounding), at one residual evaluation more per trial step.
+#[test]
+fn geodesic_acceleration_is_zero_without_curvature() {
+    use proptest::strategy::ValueTree;
+    let mut runner = proptest::test_runner::TestRunner::deterministic();
+    for _ in 0..20 {
+        let (problem, solution) = linear_least_squares(6)
+            .new_tree(&mut runner)
+            .expect("a problem")
+            .current();
+        let x0 = vec![10.0; solution.len()];
+        let plain = solve(
+            &problem,
+            &x0,
+            settings(StepControl::TrustRegion, DampingScale::Identity),
+        );
+        let accelerated = solve(&problem, &x0, geodesic());
+        assert_eq!(plain.iterations, accelerated.iterations);
+        for (a, b) in plain.x.iter().zip(&accelerated.x) {
+            assert!(
+                (a - b).abs() <= 1e-9 * (1.0 + a.abs()),
+                "{:?} vs {:?}",
+                plain.x,
+                accelerated.x
+            );
+        }
+        assert!(accelerated.evals > plain.evals);
+        assert!(accelerated.evals <= 2 * plain.evals);
     }
 }
 

@@ -8,6 +8,7 @@ use super::damping::{
     self, ACCURATE, PROBE, SHIFT_DECREASE, SHIFT_DECREASE_ACCURATE, SHIFT_INCREASE, SHIFT_MAX, SHIFT_MIN,
     lower_damping, raise_damping,
 };
+use super::geodesic::{Acceleration, Geodesic};
 use super::normal_equations::{BandSystem, Damping, NormalEquations, sum_sq};
 use super::trust_region::TrustRegion;
 use super::{DampingScale, EvalCount, GaussNewtonSettings, GaussNewtonStatus, NAME};
@@ -52,6 +53,8 @@ pub(super) struct Iteration<'a, P: LeastSquaresProblem + ?Sized> {
     jtj_diag: Vec<f64>,
     /// The trust region, when the steps are trust-region steps.
     trust: Option<TrustRegion>,
+    /// Geodesic acceleration's buffers, when the steps are accelerated.
+    geodesic: Option<Geodesic>,
     step: Vec<f64>,
     h_step: Vec<f64>,
     trial: Vec<f64>,
@@ -135,6 +138,8 @@ impl<'a, P: LeastSquaresProblem + ?Sized> Iteration<'a, P> {
             scale_max: vec![0.0; n_p],
             jtj_diag: vec![0.0; n_p],
             trust: (s.trust_region() && bounds.is_none()).then(|| TrustRegion::new(n_p)),
+            geodesic: (s.trust_region() && s.geodesic_acceleration && bounds.is_none())
+                .then(|| Geodesic::new(n_p, n_r)),
             step: vec![0.0; n_p],
             h_step: vec![0.0; n_p],
             trial: vec![0.0; n_p],
@@ -318,6 +323,29 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 } else {
                     GaussNewtonStatus::Stalled
                 }));
+            }
+            if let Some(geodesic) = &mut self.geodesic {
+                let lambda = self.trust.as_ref().map_or(self.mu, |t| t.lambda);
+                let at = Point {
+                    theta: &self.theta,
+                    r: &self.r,
+                };
+                let (outcome, spent) =
+                    geodesic.accelerate(&mut *self.system, problem, at, lambda, &self.scale, &mut self.step)?;
+                self.residual_evals += spent.residuals;
+                self.factorizations += spent.factorizations;
+                if outcome == Acceleration::Rejected {
+                    // the step bends too much for its model: a smaller region
+                    let length = TrustRegion::length(&self.step, &self.scale);
+                    let slope: f64 = self.step.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
+                    if let Some(trust) = &mut self.trust {
+                        trust.update(-1.0, length, self.cost, self.cost, slope);
+                    }
+                    if let Some(why) = watch.out_of_time() {
+                        return Ok(Some(why.into()));
+                    }
+                    continue;
+                }
             }
             // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
             // (with S, the second-order Taylor model of F)

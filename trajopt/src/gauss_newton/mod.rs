@@ -134,6 +134,7 @@ pub(crate) mod qp {
     }
 }
 mod damping;
+mod geodesic;
 mod iteration;
 mod normal_equations;
 pub mod result;

@@ -97,7 +97,8 @@ pub struct GaussNewtonResult {
     /// Jacobian evaluations.
     pub jacobian_evals: usize,
     /// Numerical Cholesky factorisations (one per trial step, more when
-    /// $J^\top J + S$ needs a shift).
+    /// $J^\top J + S$ needs a shift, and with the trust region's search for
+    /// its damping).
     pub factorizations: usize,
     /// Accepted cost after each iteration.
     pub cost_history: Vec<f64>,

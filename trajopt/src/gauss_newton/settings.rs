@@ -12,6 +12,7 @@
 //! | `linear_solver` | [`LinearSolver::Auto`] | | the band form of the normal equations when the problem has one |
 //! | `damping_scale` | [`DampingScale::Current`] | | the diagonal $D$ the damping $\mu D$ is scaled by |
 //! | `step_control` | [`StepControl::Damping`] | | how the step's length is controlled: the damping rule or a trust region |
+//! | `geodesic_acceleration` | false | | with the trust region, bend each step along the residuals' curvature |
 //! | `one_thread_fallback` | true | | [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel) goes on alone when its helpers answer late |
 
 use crate::error::{Result, TrajoptError, check_nonnegative};
@@ -172,6 +173,19 @@ pub struct GaussNewtonSettings {
     pub damping_scale: DampingScale,
     /// The damping rule or a trust region ([`StepControl`]).
     pub step_control: StepControl,
+    /// With [`StepControl::TrustRegion`], bend each step along the
+    /// residuals' curvature by geodesic acceleration (Transtrum and Sethna
+    /// 2012): one residual evaluation and one factorisation more per trial
+    /// step, steps rejected when the bend is large. Off by default; needs
+    /// the trust region (refused otherwise), unused on the band forms
+    /// (which hold no Jacobian) and with bounds.
+    ///
+    /// Measured (`nprl-bench --solvers trust-region,trust-region-geodesic`,
+    /// one run): on the MGH set it ends at the minimum on 86 of 103
+    /// instances instead of 83, but with about 1.7 times the evaluations
+    /// (median where both solve); on NIST StRD it reaches 4 digits on 52 of
+    /// 54 runs instead of 54.
+    pub geodesic_acceleration: bool,
     /// Let [`GaussNewton::solve_parallel`](crate::GaussNewton::solve_parallel)
     /// go on with one thread when its helpers do not start or answer in
     /// time (a busy machine), instead of waiting for them at every
@@ -193,6 +207,7 @@ impl Default for GaussNewtonSettings {
             linear_solver: LinearSolver::Auto,
             damping_scale: DampingScale::Current,
             step_control: StepControl::Damping,
+            geodesic_acceleration: false,
             one_thread_fallback: true,
         }
     }
@@ -207,6 +222,12 @@ impl GaussNewtonSettings {
             ("tol_cost", self.tol_cost),
             ("initial_damping", self.initial_damping),
         ])?;
+        if self.geodesic_acceleration && self.step_control != StepControl::TrustRegion {
+            return Err(TrajoptError::InvalidParameter {
+                name: "geodesic_acceleration",
+                reason: "geodesic acceleration needs step_control StepControl::TrustRegion".into(),
+            });
+        }
         if self.step_control == StepControl::TrustRegion && self.step_model != StepModel::GaussNewton {
             return Err(TrajoptError::InvalidParameter {
                 name: "step_control",
@@ -302,5 +323,13 @@ mod tests {
             ..GaussNewtonSettings::default()
         };
         assert!(s.validate().is_ok() && s.trust_region());
+        let geodesic_alone = GaussNewtonSettings {
+            geodesic_acceleration: true,
+            ..GaussNewtonSettings::default()
+        };
+        match geodesic_alone.validate() {
+            Err(TrajoptError::InvalidParameter { name, .. }) => assert_eq!(name, "geodesic_acceleration"),
+            other => panic!("{other:?}"),
+        }
     }
 }

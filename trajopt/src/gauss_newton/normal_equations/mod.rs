@@ -83,6 +83,21 @@ pub(super) trait NormalEquations<P: LeastSquaresProblem + ?Sized> {
 
     /// $H \delta$ with the undamped model matrix.
     fn model_mul(&mut self, newton: bool, step: &[f64], out: &mut [f64]);
+
+    /// $J v$ into `out` (one entry per residual) and true, when this form
+    /// holds the Jacobian itself; false by default (the band forms hold
+    /// only $J^\top J$).
+    fn jacobian_mul(&self, v: &[f64], out: &mut [f64]) -> bool {
+        let _ = (v, out);
+        false
+    }
+
+    /// $J^\top w$ into `out` and true, when this form holds the Jacobian
+    /// itself; false by default.
+    fn jacobian_transpose_mul(&self, w: &[f64], out: &mut [f64]) -> bool {
+        let _ = (w, out);
+        false
+    }
 }
 
 /// $\lVert v \rVert^2$.

@@ -186,6 +186,26 @@ impl<P: LeastSquaresProblem + ?Sized> NormalEquations<P> for SparseSystem {
         Ok(Some(newton))
     }
 
+    fn jacobian_mul(&self, v: &[f64], out: &mut [f64]) -> bool {
+        // the augmented rows past the residuals' are zero-valued and left out
+        for (i, o) in out.iter_mut().enumerate() {
+            let cols = self.jac.symbolic().col_idx_of_row_raw(i);
+            *o = cols.iter().zip(self.jac.val_of_row(i)).map(|(&c, &x)| x * v[c]).sum();
+        }
+        true
+    }
+
+    fn jacobian_transpose_mul(&self, w: &[f64], out: &mut [f64]) -> bool {
+        out.fill(0.0);
+        for (i, &wi) in w.iter().enumerate() {
+            let cols = self.jac.symbolic().col_idx_of_row_raw(i);
+            for (&c, &x) in cols.iter().zip(self.jac.val_of_row(i)) {
+                out[c] += x * wi;
+            }
+        }
+        true
+    }
+
     fn jtj_diagonal(&self, out: &mut [f64]) {
         for (o, &p) in out.iter_mut().zip(&self.diag_pos) {
             *o = self.h.val()[p];
