@@ -200,6 +200,51 @@ pub const ISSUE_33_REFERENCES: [&str; 4] = ["nlopt-praxis", "nlopt-newuoa", "pdf
 /// Our derivative-free solvers measured by issue 33's goal.
 pub const ISSUE_33_OURS: [&str; 2] = ["powell", "dfo-ls"];
 
+/// The outside least-squares solvers of issue 52: scipy's `trf` and
+/// MINPACK's `lm` (through scipy).
+pub const ISSUE_52_REFERENCES: [&str; 2] = ["scipy-trf", "scipy-lm"];
+
+/// Our least-squares solvers measured by issue 52's goal.
+pub const ISSUE_52_OURS: [&str; 3] = ["gauss-newton", "trust-region", "trust-region-geodesic"];
+
+/// Issue 52's goal on the MGH set: one of [`ISSUE_52_OURS`] solves at the
+/// minimum strictly more instances than each of [`ISSUE_52_REFERENCES`],
+/// with a median of evaluations no higher (pairwise, as
+/// [`issue_33_goal`]). The evidence lists every pair; not measured
+/// without a reference's records or any of ours.
+pub fn issue_52_goal(a: &Analysis) -> Goal {
+    let mut evidence = Vec::new();
+    let mut measured = ISSUE_52_REFERENCES.iter().all(|r| a.column(r).is_some());
+    let mut any_ours = false;
+    let mut met = false;
+    for ours in ISSUE_52_OURS {
+        if a.column(ours).is_none() {
+            continue;
+        }
+        any_ours = true;
+        let mut leads = true;
+        for reference in ISSUE_52_REFERENCES {
+            let solved = solved_counts(a, ours, reference, GOAL);
+            let evals = median_costs(a, ours, reference, GOAL, false);
+            leads &= solved.ours_value > solved.reference_value
+                && matches!((evals.ours_value, evals.reference_value), (Some(x), Some(y)) if x <= y);
+            evidence.push(solved);
+            evidence.push(evals);
+        }
+        met |= leads;
+    }
+    measured &= any_ours;
+    Goal {
+        goal: format!(
+            "(issue 52) one of {} solves at the minimum strictly more MGH instances than each of {}, with a median of evaluations no higher (pairwise: medians over the instances both solve)",
+            ISSUE_52_OURS.join(", "),
+            ISSUE_52_REFERENCES.join(", ")
+        ),
+        verdict: verdict(measured, met),
+        evidence,
+    }
+}
+
 fn verdict(measured: bool, met: bool) -> String {
     match (measured, met) {
         (false, _) => "not measured",
@@ -213,7 +258,8 @@ fn verdict(measured: bool, met: bool) -> String {
 /// more evaluations than PRAXIS (median ratio at most 1), and
 /// Gauss-Newton solves at least as many instances as MINPACK
 /// (`scipy-lm`) in less time (median time ratio below 1); then issue 33's
-/// goal for each of [`ISSUE_33_OURS`] ([`issue_33_goal`]).
+/// goal for each of [`ISSUE_33_OURS`] ([`issue_33_goal`]); then issue 52's
+/// ([`issue_52_goal`]).
 pub fn goals(a: &Analysis) -> Vec<Goal> {
     let powell = median_costs(a, "powell", "nlopt-praxis", GOAL, false);
     let powell_measured = powell.ratio.is_some();
@@ -235,6 +281,7 @@ pub fn goals(a: &Analysis) -> Vec<Goal> {
         },
     ];
     goals.extend(ISSUE_33_OURS.iter().map(|ours| issue_33_goal(a, ours)));
+    goals.push(issue_52_goal(a));
     goals
 }
 
@@ -272,8 +319,10 @@ pub fn issue_33_goal(a: &Analysis, ours: &str) -> Goal {
     }
 }
 
-/// The five rows of the summary: both goals' comparisons, Gauss-Newton's
-/// evaluations against MINPACK's, and Powell's solved count against PRAXIS's.
+/// The rows of the summary, each a solved count and a median of
+/// evaluations where both solve: Gauss-Newton against MINPACK (scipy `lm`),
+/// the trust region with and without geodesic acceleration against scipy's
+/// `trf`, Powell against PRAXIS, and the derivative-free mode against DFO-LS.
 ///
 /// No row compares time: the outside solvers run under Python (NumPy
 /// residuals, a Python callback per evaluation) and ours compiled, so a
@@ -283,6 +332,10 @@ pub fn summary(a: &Analysis) -> Vec<Comparison> {
     vec![
         solved_counts(a, "gauss-newton", "scipy-lm", GOAL),
         median_costs(a, "gauss-newton", "scipy-lm", GOAL, false),
+        solved_counts(a, "trust-region", "scipy-trf", GOAL),
+        median_costs(a, "trust-region", "scipy-trf", GOAL, false),
+        solved_counts(a, "trust-region-geodesic", "scipy-trf", GOAL),
+        median_costs(a, "trust-region-geodesic", "scipy-trf", GOAL, false),
         solved_counts(a, "powell", "nlopt-praxis", GOAL),
         median_costs(a, "powell", "nlopt-praxis", GOAL, false),
         solved_counts(a, "dfo-ls", "dfols", GOAL),
@@ -789,7 +842,7 @@ mod tests {
         let g = goals(&a);
         assert_eq!(g[0].verdict, "not measured");
         assert_eq!(g[1].verdict, "not met");
-        assert_eq!(summary(&a).len(), 6);
+        assert_eq!(summary(&a).len(), 10);
         let readme = format!("intro\n{README_START}old\n{README_END}\nrest\n");
         assert_eq!(
             with_readme_summary(&readme, "new\n").as_deref(),
@@ -909,5 +962,34 @@ mod tests {
             md.contains("| p | 2 | 0e0 | test |") && md.contains("Degenerate instances (0"),
             "{md}"
         );
+    }
+
+    /// Issue 52's goal by hand: `trust-region` solves p and q (10 and 30
+    /// evaluations), each reference solves p only, in `evals`.
+    #[test]
+    fn the_issue_52_goal_needs_one_solver_ahead_of_both_references() {
+        let with = |evals: [u64; 2], ours_q: f64| {
+            let mut runs = vec![run("trust-region", "p", 0.0, 10), run("trust-region", "q", ours_q, 30)];
+            for (name, e) in ISSUE_52_REFERENCES.iter().zip(evals) {
+                runs.push(run(name, "p", 0.0, e));
+                runs.push(run(name, "q", 1.0, 5));
+            }
+            Analysis::new(runs, &["trust-region".into()]).with_references(|_| {
+                Some(crate::minima::Reference {
+                    f0: 10.0,
+                    f_star: 0.0,
+                    source: "test".into(),
+                    degenerate: None,
+                    certified: None,
+                })
+            })
+        };
+        let met = issue_52_goal(&with([10, 12], 0.0));
+        assert_eq!(met.verdict, "met", "{met:?}");
+        assert_eq!(met.evidence.len(), 4);
+        // one reference needs fewer evaluations: not met
+        assert_eq!(issue_52_goal(&with([9, 12], 0.0)).verdict, "not met");
+        // a tie in instances solved is not strictly more
+        assert_eq!(issue_52_goal(&with([10, 12], 1.0)).verdict, "not met");
     }
 }

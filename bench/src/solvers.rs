@@ -119,11 +119,15 @@ impl Solver {
     }
 
     /// Whether it runs on `instance`: the DDP solvers where it has a DDP
-    /// form, Nelder-Mead off the trajectory set, the others everywhere.
+    /// form, Nelder-Mead and `trust-region-geodesic` off the trajectory
+    /// set, the others everywhere.
     pub fn applies_to(self, instance: &Instance) -> bool {
         match self {
             Self::Ilqr | Self::FullDdp => instance.rollout.is_some(),
-            Self::NelderMead => instance.set != TRAJECTORY_SET,
+            // the trajectory set's Eq. 3 problems are solved on their band
+            // form, which holds no Jacobian to accelerate with: the same
+            // iterates as `trust-region`
+            Self::NelderMead | Self::TrustRegionGeodesic => instance.set != TRAJECTORY_SET,
             _ => !instance.start.is_empty(),
         }
     }

@@ -10,7 +10,10 @@ use pyo3::types::PyDict;
 use trajopt::derivative_free::Difference;
 use trajopt::faer::sparse::SymbolicSparseRowMat;
 use trajopt::fit::Loss;
-use trajopt::{FitStatus, GaussNewtonSettings, GaussNewtonStatus, LeastSquares, Method, PowellSettings, PowellStatus};
+use trajopt::{
+    DampingScale, FitStatus, GaussNewtonSettings, GaussNewtonStatus, LeastSquares, Method, PowellSettings,
+    PowellStatus, StepControl,
+};
 
 use crate::errors::least_squares_error;
 
@@ -206,11 +209,21 @@ pub(crate) fn least_squares<'py>(
     let residuals = Callback::new(fun, m, "fun");
     *residuals.cached.borrow_mut() = Some((x0.clone(), f0.as_slice()?.to_vec()));
     let jacobian = jac.map(|j| Callback::new(j, m * n, "jac"));
-    let method = match method {
-        "lm" => Method::GaussNewton,
-        "derivative-free" => Method::DerivativeFree,
-        "powell" => Method::Powell,
+    // the trust region in the parameters' units (scipy's x_scale=1), or
+    // scaled by the Jacobian's running column norms (x_scale="jac")
+    let (method, step_control, damping_scale) = match method {
+        "trust-region" => (Method::GaussNewton, StepControl::TrustRegion, DampingScale::Identity),
+        "trust-region-jac" => (Method::GaussNewton, StepControl::TrustRegion, DampingScale::RunningMax),
+        "derivative-free" => (Method::DerivativeFree, StepControl::Damping, DampingScale::Current),
+        "powell" => (Method::Powell, StepControl::Damping, DampingScale::Current),
         other => return Err(PyValueError::new_err(format!("unknown method {other:?}"))),
+    };
+    // the trust region is for unbounded problems: with bounds, the damped
+    // steps that keep them, scaled by diag(J^T J) as before
+    let (step_control, damping_scale) = if lower.is_some() || upper.is_some() {
+        (StepControl::Damping, DampingScale::Current)
+    } else {
+        (step_control, damping_scale)
     };
     let mut problem = LeastSquares::new(m, |x: &[f64], r: &mut [f64]| residuals.call(x, r))
         .method(method)
@@ -224,6 +237,8 @@ pub(crate) fn least_squares<'py>(
             tol_cost: ftol,
             tol_step: xtol,
             tol_grad: gtol,
+            step_control,
+            damping_scale,
             ..GaussNewtonSettings::default()
         })
         .powell_settings(PowellSettings {

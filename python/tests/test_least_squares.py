@@ -36,6 +36,19 @@ def test_misra1a_reaches_nists_certified_values(method):
         np.testing.assert_allclose(r.standard_errors, MISRA_SE, rtol=1e-3)
 
 
+def test_the_trust_regions_scaling_follows_x_scale():
+    # "jac": scaled by the Jacobian's running column norms (MINPACK's), which
+    # on Misra1a's parameters (sizes 1e2 and 1e-4) takes another path to
+    # the same certified values
+    plain = nprl.least_squares(misra, [500.0, 1e-4], ftol=1e-12, xtol=1e-12, gtol=1e-12)
+    scaled = nprl.least_squares(misra, [500.0, 1e-4], x_scale="jac", ftol=1e-12, xtol=1e-12, gtol=1e-12)
+    assert plain.success and scaled.success
+    np.testing.assert_allclose(scaled.x, MISRA_B, rtol=1e-7)
+    assert scaled.nfev != plain.nfev
+    with pytest.raises(NotImplementedError):
+        nprl.least_squares(misra, [500.0, 1e-4], x_scale=[1.0, 1e-6])
+
+
 def test_an_analytic_jacobian_is_used_and_counted():
     r = nprl.least_squares(misra, [500.0, 1e-4], jac=misra_jac)
     assert r.success and r.njev >= 1

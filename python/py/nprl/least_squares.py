@@ -8,7 +8,13 @@ from scipy.optimize import Bounds, OptimizeResult
 
 from . import _nprl
 
-_METHODS = {"trf": "lm", "dogbox": "lm", "lm": "lm", "derivative-free": "derivative-free", "powell": "powell"}
+_METHODS = {
+    "trf": "trust-region",
+    "dogbox": "trust-region",
+    "lm": "trust-region",
+    "derivative-free": "derivative-free",
+    "powell": "powell",
+}
 
 
 def _bounds(bounds, n):
@@ -64,9 +70,11 @@ def least_squares(
     Parameters are scipy's; the differences:
 
     method : {"trf", "dogbox", "lm", "derivative-free", "powell"}
-        "trf", "dogbox" and "lm" all run the toolkit's Levenberg-Marquardt
-        (damped Gauss-Newton, the damping scaled by diag(J^T J)), which
-        keeps ``bounds`` by projected Newton steps (so "lm" accepts bounds);
+        "trf", "dogbox" and "lm" all run the toolkit's trust-region
+        Levenberg-Marquardt (Moré's step, as MINPACK's lmder; the region in
+        the parameters' units, or scaled by the Jacobian's column norms with
+        ``x_scale="jac"``); with ``bounds`` its damped Gauss-Newton, which
+        keeps them by projected Newton steps (so "lm" accepts bounds);
         "derivative-free" the derivative-free least-squares mode (residuals
         only; Curtis-Powell-Reid groups with ``jac_sparsity``);
         "powell" Powell's conjugate directions on the cost.
@@ -78,11 +86,15 @@ def least_squares(
         The relative cost-decrease, step and gradient tolerances.
     max_nfev : int or None
         For "powell", the cap on evaluations; for the other methods, the
-        cap on iterations (default 200).
-    x_scale, diff_step, tr_solver, tr_options, verbose
-        Accepted for compatibility; the scaling and the linear solver are
-        the solver's own (``x_scale`` other than None, 1.0 or "jac", and
-        ``diff_step``, raise NotImplementedError).
+        cap on iterations (default 100 n, as scipy's trf, whose ``nfev``
+        leaves out the differences' calls).
+    x_scale : None, 1.0 or "jac"
+        The trust region's scaling: the parameters' units (None, 1.0, as
+        scipy's default) or the Jacobian's running column norms ("jac");
+        other values raise NotImplementedError.
+    diff_step, tr_solver, tr_options, verbose
+        Accepted for compatibility; the linear solver is the solver's own
+        (``diff_step`` raises NotImplementedError).
 
     Returns
     -------
@@ -114,7 +126,7 @@ def least_squares(
     if method not in _METHODS:
         raise ValueError(f"`method` must be one of {sorted(_METHODS)}, got {method!r}.")
     if not (x_scale is None or (isinstance(x_scale, str) and x_scale == "jac") or np.all(np.asarray(x_scale) == 1.0)):
-        raise NotImplementedError("x_scale: the solver scales the damping by diag(J^T J) itself")
+        raise NotImplementedError("x_scale: give None, 1.0 or 'jac'")
     if diff_step is not None:
         raise NotImplementedError("diff_step: the differences use scipy's default relative steps")
     if not callable(jac) and jac not in ("2-point", "3-point"):
@@ -154,13 +166,13 @@ def least_squares(
         sparsity,
         None if lb is None else list(lb),
         None if ub is None else list(ub),
-        _METHODS[method],
+        _METHODS[method] + ("-jac" if isinstance(x_scale, str) and _METHODS[method] == "trust-region" else ""),
         loss,
         float(f_scale),
         float(ftol),
         float(xtol),
         float(gtol),
-        int(max_nfev) if (max_nfev is not None and method != "powell") else 200,
+        int(max_nfev) if (max_nfev is not None and method != "powell") else 100 * max(n, 1),
         None if max_nfev is None else int(max_nfev),
     )
     x, r, J = out["x"], out["fun"], out["jac"]
