@@ -27,8 +27,9 @@ struct Cli {
     #[arg(long, default_value = "mgh")]
     set: String,
     /// Built-in solvers: `all`, `none` or a comma-separated list of
-    /// gauss-newton, newton, adaptive, powell, dfo-ls, argmin-nelder-mead,
-    /// argmin-lbfgs, ddp-ilqr, ddp-full (each runs where it applies).
+    /// gauss-newton, newton, adaptive, trust-region, trust-region-geodesic,
+    /// powell, dfo-ls, argmin-nelder-mead, argmin-lbfgs, ddp-ilqr, ddp-full
+    /// (each runs where it applies).
     #[arg(long, default_value = "all")]
     solvers: String,
     /// A solver in another program (any language) that speaks the JSON-lines
@@ -329,4 +330,26 @@ fn readme_with_summary(path: &std::path::Path, summary: &str) -> bench::Result<S
     bench::report::with_readme_summary(&text, summary).ok_or_else(|| bench::BenchError::NoReadmeSection {
         path: path.to_path_buf(),
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use clap::CommandFactory;
+
+    use super::Cli;
+
+    /// `--solvers`' help names every built-in solver.
+    #[test]
+    fn the_help_names_every_solver() {
+        let command = Cli::command();
+        let help = command
+            .get_arguments()
+            .find(|a| a.get_id() == "solvers")
+            .and_then(|a| a.get_help())
+            .expect("--solvers has help")
+            .to_string();
+        for solver in bench::solvers::Solver::ALL {
+            assert!(help.contains(solver.name()), "{} missing from: {help}", solver.name());
+        }
+    }
 }
