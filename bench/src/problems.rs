@@ -342,7 +342,10 @@ impl LeastSquaresProblem for Counted<'_> {
         self.inner.residuals(theta, r)?;
         self.f_evals.set(self.f_evals.get() + 1);
         let f: f64 = r.iter().map(|v| v * v).sum();
-        if f < self.best.get() {
+        // a point with an infinite coordinate is no answer, even where f
+        // is finite there (Jennrich-Sampson at x = -inf): its record could
+        // hold no point to recompute f from
+        if f < self.best.get() && theta.iter().all(|v| v.is_finite()) {
             self.best.set(f);
             self.best_x.borrow_mut().copy_from_slice(theta);
             self.trace.borrow_mut().push((self.evals(), f));
@@ -526,6 +529,26 @@ pub(crate) mod tests {
         c.cost(&[1.0, 1.0]).expect("5");
         c.cost(&[1.0, 1.0]).expect("6");
         assert!(c.cost(&[1.0, 1.0]).is_err() && c.spent());
+    }
+
+    /// Jennrich-Sampson's residuals $2 + 2i - e^{i x_1} - e^{i x_2}$ are
+    /// finite at $x = -\infty$ (f = 2020): that evaluation counts, but it
+    /// is not the run's answer, which must be a point.
+    #[test]
+    fn a_point_with_an_infinite_coordinate_is_never_the_best() {
+        let inst = ProblemSet::Mgh.instances(Some("jennrich")).expect("mgh").swap_remove(0);
+        let budget = Budget {
+            simplex_gradients: 100,
+            time: Duration::from_secs(60),
+        };
+        let c = Counted::new(&inst, &budget);
+        let at_infinity = c.cost(&[f64::NEG_INFINITY; 2]).expect("cost");
+        assert_eq!(at_infinity, 2020.0);
+        assert_eq!(c.f_evals(), 1);
+        assert!(c.best().is_infinite() && c.best_point() == inst.start && c.trace().is_empty());
+        let f = c.cost(&[0.25, 0.25]).expect("cost");
+        assert!(f.is_finite());
+        assert_eq!((c.best(), c.best_point()), (f, vec![0.25, 0.25]));
     }
 
     #[test]
