@@ -350,8 +350,15 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
             // L(d) = |r + J d|^2 = F + 2 g.d + d.H.d: predicted reduction L(0) - L(d)
             // (with S, the second-order Taylor model of F)
             self.system.model_mul(newton, &self.step, &mut self.h_step);
-            let slope: f64 = self.step.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
-            let predicted: f64 = -2.0 * slope - self.step.iter().zip(&self.h_step).map(|(d, hd)| d * hd).sum::<f64>();
+            // (summed as d.(2g + Hd), term by term: the damping rule's
+            // iterates stay those of earlier versions bit for bit, which the
+            // seeded learning runs and the saved benchmark instance rely on)
+            let predicted: f64 = -self
+                .step
+                .iter()
+                .zip(self.grad.iter().zip(&self.h_step))
+                .map(|(d, (g, hd))| d * (2.0 * g + hd))
+                .sum::<f64>();
             // the (barely damped) model has nothing left to gain: this step
             // is the last (further ones would only compare rounding
             // errors). It is still taken: a predicted gain of tol_cost F
@@ -377,6 +384,8 @@ impl<P: LeastSquaresProblem + ?Sized> solve::Iterate for Iteration<'_, P> {
                 -1.0
             };
             if let Some(trust) = &mut self.trust {
+                // g.d, the slope along the step, for the radius's rule
+                let slope: f64 = self.step.iter().zip(&self.grad).map(|(d, g)| d * g).sum();
                 let length = TrustRegion::length(&self.step, &self.scale);
                 trust.update(rho, length, self.cost, trial_cost, slope);
             }
