@@ -38,9 +38,9 @@ struct Solver<'s, P: LeastSquaresProblem + ?Sized> {
     system: &'s mut dyn NormalEquations<P>,
     scale: &'s [f64],
     factorizations: usize,
-    minus_g: Vec<f64>,
+    minus_g: &'s mut [f64],
     /// $D\delta$.
-    scaled: Vec<f64>,
+    scaled: &'s mut [f64],
 }
 
 impl<P: LeastSquaresProblem + ?Sized> Solver<'_, P> {
@@ -48,7 +48,7 @@ impl<P: LeastSquaresProblem + ?Sized> Solver<'_, P> {
     /// if the matrix is not numerically positive definite or the step not
     /// finite.
     fn solve(&mut self, lambda: f64, out: &mut [f64]) -> bool {
-        out.copy_from_slice(&self.minus_g);
+        out.copy_from_slice(self.minus_g);
         self.damped(lambda, out)
     }
 
@@ -68,7 +68,7 @@ impl<P: LeastSquaresProblem + ?Sized> Solver<'_, P> {
         for ((s, x), w) in self.scaled.iter_mut().zip(d).zip(self.scale) {
             *s = w * x;
         }
-        work.copy_from_slice(&self.scaled);
+        work.copy_from_slice(self.scaled);
         // the system solves (H + lambda D) x = rhs with rhs given in `work`
         let ok = self.damped(lambda, work);
         ok.then(|| -self.scaled.iter().zip(work.iter()).map(|(a, b)| a * b).sum::<f64>() / norm)
@@ -84,6 +84,10 @@ pub(super) struct TrustRegion {
     pub(super) lambda: f64,
     /// $D \delta$, then $(J^\top J + \lambda D)^{-1} D \delta$ (for $\phi'$).
     work: Vec<f64>,
+    /// $-g$ and $D\delta$, the search's right-hand sides (kept: no
+    /// allocation per step).
+    minus_g: Vec<f64>,
+    scaled: Vec<f64>,
 }
 
 impl TrustRegion {
@@ -92,6 +96,8 @@ impl TrustRegion {
             radius: None,
             lambda: 0.0,
             work: vec![0.0; n_p],
+            minus_g: vec![0.0; n_p],
+            scaled: vec![0.0; n_p],
         }
     }
 
@@ -108,12 +114,15 @@ impl TrustRegion {
         theta: &[f64],
         step: &mut [f64],
     ) -> Option<usize> {
+        for (m, g) in self.minus_g.iter_mut().zip(grad) {
+            *m = -g;
+        }
         let mut solver = Solver {
             system,
             scale,
             factorizations: 0,
-            minus_g: grad.iter().map(|g| -g).collect(),
-            scaled: vec![0.0; grad.len()],
+            minus_g: &mut self.minus_g,
+            scaled: &mut self.scaled,
         };
         // the Gauss-Newton step, if J^T J is positive definite
         let gauss_newton = solver.solve(0.0, step);
@@ -328,7 +337,7 @@ mod tests {
         let fresh = |radius: f64, lambda: f64| TrustRegion {
             radius: Some(radius),
             lambda,
-            work: Vec::new(),
+            ..TrustRegion::new(0)
         };
         // a poor step that still lowered F: half the radius, twice the damping
         let mut t = fresh(1.0, 2.0);
