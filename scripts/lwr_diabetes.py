@@ -4,7 +4,7 @@ scikit-learn's KNeighborsRegressor (k by 5-fold GridSearchCV) and, with
 --kernelreg, statsmodels' KernelReg (local linear, bandwidths by cv_ls), in
 one run, on one 80/20 split.
 
-    python3 scripts/lwr_diabetes.py [--seed S] [--kernelreg] [--tune-evals N] [--tune-points P]
+    python3 scripts/lwr_diabetes.py [--seed S] [--kernelreg] [--compass] [--tune-evals N] [--tune-points P]
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
 on first use; NPRL_ANY_PYTHON=1 runs in the current Python instead (it needs
@@ -12,7 +12,8 @@ numpy, scikit-learn and, for --kernelreg, statsmodels). The data are
 scikit-learn's bundled copy (load_diabetes: 442 rows, 10 inputs, no download).
 
 lwr: `LwrModel::fit(&x, &y)` (scales 1/sd, the bandwidth and scales tuned by
-leave-one-out, 300 evaluations at most), then `predict_many`, timed in
+leave-one-out with Levenberg-Marquardt, 300 evaluations at most; with
+--compass also by the compass search), then `predict_many`, timed in
 `cargo run --release -p nprl-drivers --bin lwr_fit_timing`. Prints per method
 the test RMSE, the fit (tuning) time and the prediction time; lwr also the
 coverage of its 95 % prediction intervals.
@@ -42,12 +43,14 @@ def rmse(pred, y):
     return float(np.sqrt(np.mean((np.asarray(pred) - np.asarray(y)) ** 2)))
 
 
-def run_lwr(xtr, ytr, xte, yte, tune_evals=None, tune_points=None):
+def run_lwr(xtr, ytr, xte, yte, tune_evals=None, tune_points=None, method=None):
     with tempfile.NamedTemporaryFile("w", suffix=".json", delete=False) as f:
         json.dump({"train_x": xtr.tolist(), "train_y": ytr.tolist(), "test_x": xte.tolist(), "test_y": yte.tolist()}, f)
     cmd = ["cargo", "run", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_fit_timing", "--", f.name]
-    if tune_evals is not None:
-        cmd += [str(tune_evals), str(tune_points or 0)]
+    if tune_evals is not None or method is not None:
+        cmd += [str(300 if tune_evals is None else tune_evals), str(tune_points or 0)]
+    if method is not None:
+        cmd.append(method)
     out = subprocess.run(cmd, cwd=ROOT, check=True, capture_output=True, text=True).stdout
     pathlib.Path(f.name).unlink()
     return json.loads(out.strip().splitlines()[-1])
@@ -82,6 +85,7 @@ def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--kernelreg", action="store_true")
+    parser.add_argument("--compass", action="store_true", help="also lwr tuned by the compass search (TuneMethod::Compass)")
     parser.add_argument("--tune-evals", type=int, help="lwr's tuning evaluations (default: LwrModel::fit's)")
     parser.add_argument("--tune-points", type=int, default=0, help="lwr's points per evaluation (0: all)")
     args = parser.parse_args()
@@ -90,7 +94,10 @@ def main():
     subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_fit_timing"],
                    cwd=ROOT, check=True)
     label = "lwr (LwrModel::fit)" if args.tune_evals is None else f"lwr ({args.tune_evals} evaluations, {args.tune_points or 'all'} points)"
-    rows = [(label, run_lwr(xtr, ytr, xte, yte, args.tune_evals, args.tune_points)), ("KNN, k by GridSearchCV", run_knn(xtr, ytr, xte, yte))]
+    rows = [(label, run_lwr(xtr, ytr, xte, yte, args.tune_evals, args.tune_points))]
+    if args.compass:
+        rows.append(("lwr (compass search)", run_lwr(xtr, ytr, xte, yte, args.tune_evals, args.tune_points, "compass")))
+    rows.append(("KNN, k by GridSearchCV", run_knn(xtr, ytr, xte, yte)))
     if args.kernelreg:
         rows.append(("KernelReg ll, cv_ls", run_kernelreg(xtr, ytr, xte, yte)))
     commit = subprocess.run(["git", "rev-parse", "--short=7", "HEAD"], cwd=ROOT, capture_output=True, text=True).stdout.strip()
@@ -101,6 +108,8 @@ def main():
         notes = []
         if "coverage" in r:
             notes.append(f"95 % intervals cover {r['coverage']:.0%}")
+        if r.get("tune_evals") is not None:
+            notes.append(f"{r['tune_evals']} leave-one-out evaluations, LOO nMSE {r['loo']:.4f}")
         if "k" in r:
             notes.append(f"k = {r['k']}")
         print(f"| {name} | {r['rmse']:.2f} | {r['fit_s']:.3f} | {r['predict_s']:.4f} | {', '.join(notes)} |")

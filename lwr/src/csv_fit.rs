@@ -5,7 +5,7 @@
 //! ```text
 //! lwr-fit --train TRAIN.csv [--test TEST.csv] --target NAME [--target NAME ...]
 //!         [--out PRED.csv] [--json] [--kernel K] [--degree D] [--bandwidth H]
-//!         [--tune-evals N] [--level L]
+//!         [--tune-evals N] [--tune-points N] [--tune-method lm|compass] [--level L]
 //! ```
 //!
 //! The files are comma-separated numbers under a header row of column names,
@@ -14,7 +14,9 @@
 //! its standard deviation over the training rows, so that all inputs start
 //! equally important; [`LwrModel::tune`] then tunes the bandwidth $h$
 //! and every $m_j$ by minimising the leave-one-out error on the training
-//! data (a compass search in log space that can set $m_j = 0$).
+//! data (by default Levenberg-Marquardt on the leave-one-out residuals in
+//! log space, [`TuneMethod::LevenbergMarquardt`]; `--tune-method compass`
+//! the compass search; either can set $m_j = 0$).
 //!
 //! The summary ([`FitReport`], printed as text or with `--json` as JSON)
 //! gives the leave-one-out normalised MSE
@@ -63,7 +65,7 @@ use serde::Serialize;
 
 use estimate::{duration_words, estimate_loo_seconds, tuning_plan};
 
-use crate::{Degree, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneSettings, TuneStatus};
+use crate::{Degree, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneMethod, TuneSettings, TuneStatus};
 
 mod error;
 mod estimate;
@@ -122,6 +124,9 @@ pub struct FitArgs {
     /// option named when it would take more than an hour.
     #[arg(long, value_name = "N", default_value_t = 0)]
     pub tune_points: usize,
+    /// The tuning's search.
+    #[arg(long, value_enum, default_value_t = MethodArg::Lm)]
+    pub tune_method: MethodArg,
     /// Level of the prediction intervals written with `--out`.
     #[arg(long, value_name = "L", default_value_t = 0.95)]
     pub level: f64,
@@ -143,7 +148,29 @@ impl FitArgs {
             bandwidth: None,
             tune_evals: 300,
             tune_points: 0,
+            tune_method: MethodArg::Lm,
             level: 0.95,
+        }
+    }
+}
+
+/// The searches of [`TuneMethod`], as command-line values.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum MethodArg {
+    /// [`TuneMethod::LevenbergMarquardt`].
+    #[value(help = "Levenberg-Marquardt on the leave-one-out residuals, with their exact derivatives")]
+    Lm,
+    /// [`TuneMethod::Compass`].
+    #[value(help = "the derivative-free compass search (more evaluations)")]
+    Compass,
+}
+
+impl From<MethodArg> for TuneMethod {
+    fn from(m: MethodArg) -> Self {
+        match m {
+            MethodArg::Lm => TuneMethod::LevenbergMarquardt,
+            MethodArg::Compass => TuneMethod::Compass,
         }
     }
 }
@@ -434,6 +461,7 @@ pub fn fit_report_with(args: &FitArgs, progress: &mut dyn FnMut(&str)) -> Result
             .tune(&TuneSettings {
                 max_evals: args.tune_evals,
                 search_points: args.tune_points,
+                method: args.tune_method.into(),
                 ..Default::default()
             })
             .map_err(model_error("tuning the metric"))?;

@@ -46,7 +46,7 @@ pub(crate) struct LocalFit {
 
 /// Writes the design row $z$ for input `x` at query `q`.
 #[inline]
-fn design_row(degree: Degree, x: &[f64], q: &[f64], z: &mut [f64]) {
+pub(crate) fn design_row(degree: Degree, x: &[f64], q: &[f64], z: &mut [f64]) {
     z[0] = 1.0;
     if degree == Degree::Constant {
         return;
@@ -96,7 +96,7 @@ fn dz_dot(degree: Degree, delta: &[f64], j: usize, v: &[f64], stride: usize) -> 
 /// The length in input units over which coefficient `c` ($\ge 1$) of the
 /// local polynomial is penalised: $h / m_j$ for the slope of input $j$,
 /// $(h / m_a)(h / m_b)$ for a quadratic term; infinite where a scale is 0.
-fn coefficient_length(degree: Degree, metric: &Metric, h: f64, d: usize, c: usize) -> f64 {
+pub(crate) fn coefficient_length(degree: Degree, metric: &Metric, h: f64, d: usize, c: usize) -> f64 {
     let length = |j: usize| h / metric.input_scale(j);
     if c <= d {
         return length(c - 1);
@@ -155,7 +155,7 @@ fn add_slope_ridge(
 /// The kernel weight $K(u)$ at $u = \sqrt{d^2} / h$; the Gaussian's as
 /// $e^{-d^2 / (2 h^2)}$, without the square root.
 #[inline]
-fn weight(kernel: Kernel, d2: f64, h: f64) -> f64 {
+pub(crate) fn weight(kernel: Kernel, d2: f64, h: f64) -> f64 {
     match kernel {
         Kernel::Gaussian => (-0.5 * (d2 / (h * h))).exp(),
         _ => kernel.value(d2.sqrt() / h),
@@ -173,6 +173,10 @@ struct Local<'a> {
     h: f64,
     kernel: Kernel,
 }
+
+/// The most inputs of the compile-time-sized passes
+/// ([`accumulate_linear`], [`jacobian_linear`]).
+const MAX_SIZED: usize = 12;
 
 /// Signature of [`accumulate_linear`].
 type AccumulateLinear =
@@ -210,12 +214,12 @@ fn accumulate_linear<const D: usize>(
     debug_assert_eq!(b.len(), (D + 1) * o);
     let mut sum_w = 0.0;
     let mut n = 0;
-    let mut z = [1.0; 9];
+    let mut z = [1.0; MAX_SIZED + 1];
     // the sums in registers or on the stack, with every loop bound known at
-    // compile time (the triangle has (D + 1)(D + 2) / 2 <= 45 entries); the
+    // compile time (the triangle has (D + 1)(D + 2) / 2 <= 91 entries); the
     // caller's buffers are zero, so adding the sums to them is exact
-    let mut a_acc = [0.0; 45];
-    let mut b_acc = [0.0; 9];
+    let mut a_acc = [0.0; (MAX_SIZED + 1) * (MAX_SIZED + 2) / 2];
+    let mut b_acc = [0.0; MAX_SIZED + 1];
     for &(i, d2) in found {
         let k = weight(kernel, d2, h);
         if k <= 0.0 {
@@ -534,6 +538,10 @@ pub(crate) fn fit_found(
         6 => Some((accumulate_linear::<6>, jacobian_linear::<6>)),
         7 => Some((accumulate_linear::<7>, jacobian_linear::<7>)),
         8 => Some((accumulate_linear::<8>, jacobian_linear::<8>)),
+        9 => Some((accumulate_linear::<9>, jacobian_linear::<9>)),
+        10 => Some((accumulate_linear::<10>, jacobian_linear::<10>)),
+        11 => Some((accumulate_linear::<11>, jacobian_linear::<11>)),
+        12 => Some((accumulate_linear::<12>, jacobian_linear::<12>)),
         _ => None,
     };
     if let Some((accumulate, _)) = sized {

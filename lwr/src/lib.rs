@@ -16,6 +16,7 @@ mod model;
 #[cfg(feature = "nalgebra")]
 mod nalgebra_interop;
 pub mod regressor;
+mod scale_grad;
 mod scaled;
 mod settings;
 #[cfg(feature = "proptest")]
@@ -40,4 +41,4 @@ pub use loo::LooResult;
 pub use model::{FitStatus, LwrModel, Prediction, t_quantile};
 pub use regressor::FitSettings;
 pub use settings::{Degree, Kernel, LwrSettings};
-pub use tune::{TuneResult, TuneRun, TuneSettings, TuneStatus, TuneStep};
+pub use tune::{TuneMethod, TuneResult, TuneRun, TuneSettings, TuneStatus, TuneStep};

@@ -10,14 +10,18 @@ use crate::fit::{LocalFit, Scratch, Want, fit_found};
 use crate::kdtree::{KdTree, Leaf};
 use crate::metric::{FullMetric, Metric, diag_dist2};
 use crate::model::LwrModel;
+use crate::scale_grad::{GradScratch, residual_derivatives};
 use crate::scaled::ScaledMap;
 use crate::settings::LwrSettings;
 
 /// Smallest $1 - L_{ii}$ for which a leave-one-out residual is computed.
 const MIN_ONE_MINUS_LEVERAGE: f64 = 1e-8;
 
-/// Per point: fitted values, LOO residuals, leverage, undetermined, regularised.
-type PointLoo = (Vec<f64>, Vec<f64>, f64, bool, bool);
+/// Per point: fitted values, LOO residuals, leverage, undetermined,
+/// regularised, and (when asked for) the residuals' derivatives with respect
+/// to the logarithms of the scales ($o \times d$, zero for an undetermined
+/// point; empty otherwise).
+type PointLoo = (Vec<f64>, Vec<f64>, f64, bool, bool, Vec<f64>);
 
 /// Number of blocks of points between the early-stopping checks of a tuning
 /// evaluation.
@@ -189,6 +193,8 @@ struct LeafScratch {
     coords: Vec<f64>,
     /// The fit's buffers.
     fit: Scratch,
+    /// The derivatives' buffers.
+    grad: GradScratch,
 }
 
 /// An objective evaluation that may have stopped early.
@@ -212,6 +218,9 @@ struct LooContext<'a> {
     stride: usize,
     /// Their number.
     n_queries: usize,
+    /// Whether to differentiate the residuals with respect to the
+    /// logarithms of the scales (a diagonal metric only).
+    grad: bool,
     mean: Vec<f64>,
     var: Vec<f64>,
 }
@@ -249,6 +258,7 @@ impl<'a> LooContext<'a> {
             n,
             stride: stride.max(1),
             n_queries: n.div_ceil(stride.max(1)),
+            grad: false,
             o,
             mean,
             var,
@@ -256,7 +266,7 @@ impl<'a> LooContext<'a> {
     }
 
     /// Leave-one-out outcome of point `i` from its fit at $x_i$.
-    fn outcome(&self, model: &LwrModel, i: usize, fit: Result<LocalFit>) -> PointLoo {
+    fn outcome(&self, model: &LwrModel, i: usize, fit: &Result<LocalFit>) -> PointLoo {
         let o = self.o;
         let y = &model.database().outputs()[i * o..(i + 1) * o];
         let mean = &self.mean;
@@ -267,15 +277,15 @@ impl<'a> LooContext<'a> {
                 let one_minus = 1.0 - lii;
                 if one_minus >= MIN_ONE_MINUS_LEVERAGE {
                     let e = y.iter().zip(&fitted).map(|(y, f)| (y - f) / one_minus).collect();
-                    (fitted, e, lii, false, fit.regularized)
+                    (fitted, e, lii, false, fit.regularized, Vec::new())
                 } else {
                     let e = y.iter().zip(mean).map(|(y, m)| y - m).collect();
-                    (fitted, e, lii, true, fit.regularized)
+                    (fitted, e, lii, true, fit.regularized, Vec::new())
                 }
             }
             Err(_) => {
                 let e = y.iter().zip(mean).map(|(y, m)| y - m).collect();
-                (mean.clone(), e, 1.0, true, false)
+                (mean.clone(), e, 1.0, true, false, Vec::new())
             }
         }
     }
@@ -305,6 +315,7 @@ impl<'a> LooContext<'a> {
             candidates,
             coords,
             fit,
+            grad,
         } = scratch;
         candidates.clear();
         groups.candidates(leaf, candidates);
@@ -323,6 +334,10 @@ impl<'a> LooContext<'a> {
             6 => scan_fixed::<6>,
             7 => scan_fixed::<7>,
             8 => scan_fixed::<8>,
+            9 => scan_fixed::<9>,
+            10 => scan_fixed::<10>,
+            11 => scan_fixed::<11>,
+            12 => scan_fixed::<12>,
             _ => scan_any,
         };
         for &i in leaf.indices.iter().filter(|&&i| i % self.stride == 0) {
@@ -333,7 +348,26 @@ impl<'a> LooContext<'a> {
                 Metric::Full(full) => scan_full(candidates, coords, q, full, r2, &mut fit.found),
             }
             let result = fit_found(db, self.settings, &self.metric, q, Want::default(), fit);
-            out.push((i, self.outcome(model, i, result)));
+            let mut point = self.outcome(model, i, &result);
+            if self.grad {
+                let mut row = vec![0.0; self.o * d];
+                if let (Ok(local), false, Metric::Diagonal(scales)) = (&result, point.3, &self.metric) {
+                    residual_derivatives(
+                        db,
+                        self.settings,
+                        &self.metric,
+                        scales,
+                        i,
+                        local,
+                        &fit.found,
+                        &point.1,
+                        grad,
+                        &mut row,
+                    );
+                }
+                point.5 = row;
+            }
+            out.push((i, point));
         }
         out
     }
@@ -459,7 +493,7 @@ impl LwrModel {
         let mut trace = 0.0;
         for (i, point) in per_point.into_iter().enumerate() {
             debug_assert!(point.is_some(), "every point is in one leaf");
-            let Some((fitted, e, lii, undetermined, regularized)) = point else {
+            let Some((fitted, e, lii, undetermined, regularized, _)) = point else {
                 continue;
             };
             let y = &db.outputs()[i * o..(i + 1) * o];
@@ -544,9 +578,69 @@ impl LwrModel {
     }
 }
 
+/// The leave-one-out residuals of the cross-validated points, weighted so
+/// that their sum of squares is the tuning objective, and their derivatives
+/// with respect to the logarithms of the metric scales
+/// ([`LwrModel::loo_jacobian`]).
+#[derive(Debug, Clone, Default)]
+pub(crate) struct LooJacobian {
+    /// The objective ([`LooResult::normalized_mse`] over the cross-validated
+    /// points), summed as [`LwrModel::loo_objective`] sums it.
+    pub(crate) objective: f64,
+    /// $w_o e_{(-i), o}$ per cross-validated point $i$ (in index order) and
+    /// output $o$, $w_o = (n \operatorname{var} y_o\, o)^{-1/2}$.
+    pub(crate) residuals: Vec<f64>,
+    /// $\partial r / \partial \log m_j$, one row of $d$ per residual.
+    pub(crate) jacobian: Vec<f64>,
+}
+
+impl LwrModel {
+    /// The weighted leave-one-out residuals at `settings` (a diagonal
+    /// metric) and their exact derivatives with respect to $\log m_j$ (see
+    /// `scale_grad.rs`), over the points $i$ with $i \bmod$ `stride` $= 0$;
+    /// the residuals are bitwise those of [`loo_with`](Self::loo_with).
+    pub(crate) fn loo_jacobian(&self, settings: &LwrSettings, stride: usize) -> Result<LooJacobian> {
+        let mut ctx = LooContext::new(self, settings, stride)?;
+        if !matches!(ctx.metric, Metric::Diagonal(_)) {
+            return Err(LwrError::InvalidParameter {
+                name: "metric",
+                reason: "the Levenberg-Marquardt tuning differentiates a diagonal metric only; use the compass \
+                         search with a full metric"
+                    .into(),
+            });
+        }
+        ctx.grad = true;
+        let (n, o) = (ctx.n, ctx.o);
+        let d = self.database().n_inputs();
+        let groups = QueryGroups::new(self.database(), &ctx.metric, settings.support_radius());
+        let mut per_point: Vec<Option<PointLoo>> = vec![None; n];
+        for (i, point) in ctx.leaves(self, &groups, &groups.leaves()) {
+            per_point[i] = Some(point);
+        }
+        let nf = ctx.n_queries as f64;
+        let weights: Vec<f64> = ctx.var.iter().map(|&v| (1.0 / (nf * v) / o as f64).sqrt()).collect();
+        let mut press = vec![0.0; o];
+        let mut residuals = Vec::with_capacity(ctx.n_queries * o);
+        let mut jacobian = Vec::with_capacity(ctx.n_queries * o * d);
+        for (_, e, .., de) in per_point.into_iter().flatten() {
+            for (oo, (&e, p)) in e.iter().zip(press.iter_mut()).enumerate() {
+                *p += e * e;
+                residuals.push(weights[oo] * e);
+                jacobian.extend(de[oo * d..(oo + 1) * d].iter().map(|v| weights[oo] * v));
+            }
+        }
+        Ok(LooJacobian {
+            objective: ctx.normalized_mse(&press),
+            residuals,
+            jacobian,
+        })
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::settings::{Degree, Kernel};
 
     fn model(n: usize) -> LwrModel {
         let mut rand = crate::strategies::uniform(5u64);
@@ -561,6 +655,71 @@ mod tests {
             m.insert(&x, &y).expect("finite");
         }
         m
+    }
+
+    /// The derivatives of the leave-one-out residuals with respect to
+    /// $\log m_j$ against central differences, for each smooth kernel and
+    /// degree, with and without the slope ridge, two outputs.
+    #[test]
+    fn loo_jacobian_matches_central_differences() {
+        let m = model(120);
+        let mut rand = crate::strategies::uniform(11u64);
+        let mut m3 = LwrModel::new(3, 1, LwrSettings::default()).expect("valid");
+        for _ in 0..150 {
+            let x = [rand(), rand(), rand()];
+            m3.insert(&x, &[(2.0 * x[0]).sin() * x[1] + 0.1 * rand()])
+                .expect("finite");
+        }
+        let cases = [
+            (Kernel::Gaussian, Degree::Linear, 0.0, 0.3),
+            (Kernel::Gaussian, Degree::Quadratic, 0.05, 0.5),
+            (Kernel::Gaussian, Degree::Constant, 0.0, 0.2),
+            (Kernel::Tricube, Degree::Linear, 0.02, 0.8),
+            (Kernel::Bisquare, Degree::Quadratic, 0.0, 1.2),
+        ];
+        for model in [&m, &m3] {
+            let d = model.database().n_inputs();
+            for (kernel, degree, slope_ridge, bandwidth) in cases {
+                let scales: Vec<f64> = (0..d).map(|j| 0.7 + 0.4 * j as f64).collect();
+                let at = |scales: &[f64]| LwrSettings {
+                    kernel,
+                    degree,
+                    slope_ridge,
+                    bandwidth,
+                    scales: scales.to_vec(),
+                    ..Default::default()
+                };
+                let jac = model.loo_jacobian(&at(&scales), 1).expect("diagonal");
+                let exact = model.loo_with(&at(&scales)).expect("valid").normalized_mse;
+                let sum: f64 = jac.residuals.iter().map(|r| r * r).sum();
+                assert!(
+                    (jac.objective - exact).abs() <= 1e-14 * exact,
+                    "{} vs {exact}",
+                    jac.objective
+                );
+                assert!((sum - exact).abs() <= 1e-12 * exact, "{sum} vs {exact}");
+                let rows = jac.residuals.len();
+                let scale = jac.jacobian.iter().fold(0.0f64, |a, v| a.max(v.abs()));
+                assert!(scale > 0.0);
+                for j in 0..d {
+                    let step = 1e-6;
+                    let shifted = |t: f64| {
+                        let mut s = scales.clone();
+                        s[j] *= t.exp();
+                        model.loo_jacobian(&at(&s), 1).expect("diagonal").residuals
+                    };
+                    let (plus, minus) = (shifted(step), shifted(-step));
+                    for r in 0..rows {
+                        let fd = (plus[r] - minus[r]) / (2.0 * step);
+                        let an = jac.jacobian[r * d + j];
+                        assert!(
+                            (fd - an).abs() <= 1e-6 * scale,
+                            "{kernel:?} {degree:?} ridge {slope_ridge}: residual {r}, input {j}: {an} vs {fd}"
+                        );
+                    }
+                }
+            }
+        }
     }
 
     #[test]

@@ -10,7 +10,7 @@ use crate::error::{LwrError, Result};
 use crate::fit::{LocalFit, Want, local_fit};
 use crate::metric::Metric;
 use crate::scaled::ScaledIndex;
-use crate::settings::LwrSettings;
+use crate::settings::{Kernel, LwrSettings};
 
 /// How much a [`Prediction`] can be trusted, from best to worst.
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
@@ -34,6 +34,13 @@ pub enum FitStatus {
     /// it unique. Treat the mean as a guess: the noise variance and standard
     /// errors are NaN and the intervals infinite.
     TooFewPoints,
+    /// No point was within the kernel's support of the query: the
+    /// fit/predict surface ([`LwrModel::predict_many`]) fitted it with the
+    /// support widened to twice the distance of its nearest point, so the
+    /// mean comes from the nearest points alone. Treat it as an
+    /// extrapolation; [`LwrModel::predict`] refuses such a query instead
+    /// ([`LwrError::NoWeightedData`](crate::LwrError::NoWeightedData)).
+    Extrapolated,
 }
 
 /// A prediction at one query, per output $o$.
@@ -300,6 +307,38 @@ impl LwrModel {
         };
         let fit = self.fit_with(q, want)?;
         Ok(self.prediction(&fit))
+    }
+
+    /// [`predict`](Self::predict), or for a query outside the kernel's
+    /// support around every point, the fit with the support widened to twice
+    /// the distance of its nearest point (the Gaussian's cutoff, its
+    /// bandwidth too if that point is more than 20 bandwidths away; a compact
+    /// kernel's bandwidth), with the status
+    /// [`FitStatus::Extrapolated`].
+    pub(crate) fn predict_or_widen(&self, q: &[f64]) -> Result<Prediction> {
+        match self.predict(q) {
+            Err(LwrError::NoWeightedData { nearest_distance, .. }) if nearest_distance.is_finite() => {
+                let mut settings = self.settings.clone();
+                match settings.kernel {
+                    Kernel::Gaussian => {
+                        // the nearest point within 20 bandwidths, where its
+                        // weight (e^-200) is far from underflowing
+                        settings.bandwidth = settings.bandwidth.max(nearest_distance / 20.0);
+                        settings.gaussian_cutoff = 2.0 * nearest_distance / settings.bandwidth;
+                    }
+                    _ => settings.bandwidth = 2.0 * nearest_distance,
+                }
+                let want = Want {
+                    confidence: true,
+                    jacobian: false,
+                };
+                let fit = local_fit(&self.db, &self.index, &settings, &self.metric, q, want)?;
+                let mut p = self.prediction(&fit);
+                p.status = FitStatus::Extrapolated;
+                Ok(p)
+            }
+            other => other,
+        }
     }
 
     /// The prediction and its exact Jacobian $\partial \hat y / \partial q$

@@ -43,7 +43,7 @@ use serde::{Deserialize, Serialize};
 use crate::error::{LwrError, Result};
 use crate::model::{LwrModel, Prediction};
 use crate::settings::{Degree, Kernel, LwrSettings};
-use crate::tune::{TuneResult, TuneSettings};
+use crate::tune::{TuneMethod, TuneResult, TuneSettings};
 
 /// How [`LwrModel::fit_multi`] fits (see the [module docs](self)).
 #[derive(Debug, Clone, PartialEq, Serialize, Deserialize)]
@@ -60,6 +60,8 @@ pub struct FitSettings {
     /// Points cross-validated per evaluation (0: all;
     /// [`TuneSettings::search_points`]).
     pub tune_points: usize,
+    /// The tuning's search ([`TuneSettings::method`]).
+    pub tune_method: TuneMethod,
     /// The level of the confidence and prediction intervals.
     pub confidence_level: f64,
 }
@@ -72,6 +74,7 @@ impl Default for FitSettings {
             bandwidth: None,
             tune_evals: 300,
             tune_points: 0,
+            tune_method: TuneMethod::LevenbergMarquardt,
             confidence_level: 0.95,
         }
     }
@@ -155,6 +158,7 @@ impl LwrModel {
             let tuned = model.tune(&TuneSettings {
                 max_evals: settings.tune_evals,
                 search_points: settings.tune_points,
+                method: settings.tune_method,
                 ..TuneSettings::default()
             })?;
             model.set_settings(tuned.settings.clone())?;
@@ -166,13 +170,19 @@ impl LwrModel {
     }
 
     /// The predictions at the rows `xs` (in parallel), each with its
-    /// intervals.
+    /// intervals. A row outside the kernel's support around every stored
+    /// point (which [`predict`](Self::predict) refuses) is fitted with the
+    /// support widened to twice the distance of its nearest point, and its
+    /// prediction has the status [`FitStatus::Extrapolated`](crate::FitStatus::Extrapolated):
+    /// a regressor predicts every row.
     ///
     /// # Errors
-    /// The first row that cannot be predicted (no data weighted near it,
-    /// a row of the wrong length), naming its index.
+    /// The first row that cannot be predicted (a row of the wrong length or
+    /// not finite, a singular fit), naming its index.
     pub fn predict_many<X: AsRef<[f64]> + Sync>(&self, xs: &[X]) -> Result<Vec<Prediction>> {
-        self.predict_batch(xs)
+        use rayon::prelude::*;
+        let predictions: Vec<Result<Prediction>> = xs.par_iter().map(|q| self.predict_or_widen(q.as_ref())).collect();
+        predictions
             .into_iter()
             .enumerate()
             .map(|(i, p)| {
@@ -295,7 +305,8 @@ mod tests {
             }).expect("model");
             by_hand.insert_many(&xs, &ys).expect("rows");
             if evals > 0 {
-                let tuned = by_hand.tune(&TuneSettings { max_evals: evals, ..TuneSettings::default() }).expect("tunes");
+                let tune = TuneSettings { max_evals: evals, method: TuneMethod::LevenbergMarquardt, ..TuneSettings::default() };
+                let tuned = by_hand.tune(&tune).expect("tunes");
                 by_hand.set_settings(tuned.settings).expect("settings");
             }
             for q in rows(5, &[unit, 1.0], seed ^ 7) {

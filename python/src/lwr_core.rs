@@ -1,6 +1,6 @@
 //! `LwrCore`: the fitted model behind `nprl.LWRRegressor` (`lwr::LwrModel`).
 
-use lwr::{Degree, FitSettings, Kernel, LwrModel};
+use lwr::{Degree, FitSettings, Kernel, LwrModel, TuneMethod};
 use numpy::{IntoPyArray, PyArray2, PyArray3, PyArrayMethods, PyReadonlyArray2, PyUntypedArrayMethods};
 use pyo3::prelude::*;
 use pyo3::types::{PyBytes, PyDict};
@@ -64,7 +64,7 @@ impl LwrCore {
     /// Fits `y` (n x o) on `x` (n x d): scales 1/sd, bandwidth and scales
     /// tuned by leave-one-out (`lwr::LwrModel::fit_multi`), without the GIL.
     #[staticmethod]
-    #[pyo3(signature = (x, y, kernel_name, degree_name, bandwidth, tune_evals, tune_points, confidence_level))]
+    #[pyo3(signature = (x, y, kernel_name, degree_name, bandwidth, tune_evals, tune_points, confidence_level, tune_method))]
     #[allow(clippy::too_many_arguments)]
     fn fit(
         py: Python<'_>,
@@ -76,6 +76,7 @@ impl LwrCore {
         tune_evals: usize,
         tune_points: usize,
         confidence_level: f64,
+        tune_method: &str,
     ) -> PyResult<Self> {
         let settings = FitSettings {
             kernel: kernel(kernel_name)?,
@@ -84,6 +85,15 @@ impl LwrCore {
             tune_evals,
             tune_points,
             confidence_level,
+            tune_method: match tune_method {
+                "lm" => TuneMethod::LevenbergMarquardt,
+                "compass" => TuneMethod::Compass,
+                other => {
+                    return Err(pyo3::exceptions::PyValueError::new_err(format!(
+                        "tune_method must be 'lm' or 'compass', got {other:?}"
+                    )));
+                }
+            },
         };
         let xs = rows(&x, "X")?;
         let ys = rows(&y, "y")?;

@@ -100,10 +100,12 @@ def test_partial_fit_adds_rows_without_tuning_again():
 
 
 def test_errors_are_value_errors_with_the_rust_message():
-    model = LWRRegressor(kernel="tricube", tune_evals=0).fit(rows(50, 1, 13), rows(50, 1, 14)[:, 0])
-    with pytest.raises(nprl.LwrError, match="row 1: .*no data carries weight"):
-        model.predict(np.array([[0.0], [100.0]]))
+    x = np.column_stack([rows(30, 1, 13)[:, 0], np.full(30, 5.0)])
+    with pytest.raises(nprl.LwrError, match="input 1 has standard deviation 0"):
+        nprl._nprl.LwrCore.fit(x, np.ones((30, 1)), "gaussian", "linear", None, 0, 0, 0.95, "lm")
     assert issubclass(nprl.LwrError, ValueError)
+    with pytest.raises(ValueError, match="tune_method must be"):
+        nprl._nprl.LwrCore.fit(x[:, :1], np.ones((30, 1)), "gaussian", "linear", None, 0, 0, 0.95, "simplex")
     with pytest.raises(ValueError, match="1 sample"):
         LWRRegressor().fit([[1.0]], [2.0])
 
@@ -115,3 +117,23 @@ def test_pickled_and_cloned_models_predict_alike():
     again = pickle.loads(pickle.dumps(model))
     np.testing.assert_array_equal(again.predict(X), model.predict(X))
     assert clone(model).get_params() == model.get_params()
+
+
+@pytest.mark.parametrize("kernel", ["gaussian", "tricube"])
+def test_a_query_beyond_the_support_is_extrapolated_from_its_nearest_points(kernel):
+    X = rows(60, 2, 21)
+    y = 2.0 * X[:, 0] - X[:, 1] + 0.5
+    model = LWRRegressor(kernel=kernel, tune_evals=0).fit(X, y)
+    far = np.array([[0.1, 0.2], [30.0, -30.0]])
+    np.testing.assert_allclose(model.predict(far), 2.0 * far[:, 0] - far[:, 1] + 0.5, rtol=1e-6)
+
+
+@pytest.mark.parametrize("method", ["lm", "compass"])
+def test_both_tuning_methods_lower_the_loo_error(method):
+    X = rows(150, 3, 22)
+    y = np.sin(2 * X[:, 0]) + X[:, 1] ** 2
+    model = LWRRegressor(tune_method=method).fit(X, y)
+    untuned = LWRRegressor(tune_evals=0).fit(X, y)
+    assert model.tune_evals_ > 0
+    assert model.loo_mse_ < np.mean((y - untuned.predict(X)) ** 2) * 10
+    assert model.scales_[2] == 0.0  # the noise input left out of the distance

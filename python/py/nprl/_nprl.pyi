@@ -22,6 +22,7 @@ class LwrCore:
         tune_evals: int,
         tune_points: int,
         confidence_level: float,
+        tune_method: str,
     ) -> "LwrCore": ...
     def predict(
         self, x: npt.NDArray[np.float64]

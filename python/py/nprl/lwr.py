@@ -39,6 +39,11 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
     tune_points : int
         Points cross-validated per evaluation (0: all); a subset makes the
         tuning of large data sets affordable.
+    tune_method : {"lm", "compass"}
+        The tuning's search: Levenberg-Marquardt on the leave-one-out
+        residuals with their exact derivatives (the bandwidth first, then the
+        scales, inputs tried at zero, a compass sweep at the end), or the
+        derivative-free compass search (more evaluations).
     confidence_level : float
         The level of the confidence and prediction intervals.
 
@@ -58,9 +63,10 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
 
     Notes
     -----
-    The model refuses to extrapolate: a query that no stored point weighs
-    (beyond the kernel's support around every point) raises
-    :class:`nprl.LwrError` naming its row.
+    A query that no stored point weighs (beyond the kernel's support around
+    every point) is predicted from its nearest points, the support widened
+    to twice their distance: an extrapolation, with intervals from that
+    widened fit.
 
     Examples
     --------
@@ -81,6 +87,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         "bandwidth": [Interval(Real, 0, None, closed="neither"), None],
         "tune_evals": [Interval(Integral, 0, None, closed="left")],
         "tune_points": [Interval(Integral, 0, None, closed="left")],
+        "tune_method": [StrOptions({"lm", "compass"})],
         "confidence_level": [Interval(Real, 0, 1, closed="neither")],
     }
 
@@ -92,6 +99,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         tune_evals: int = 300,
         tune_points: int = 0,
         confidence_level: float = 0.95,
+        tune_method: str = "lm",
     ):
         self.kernel = kernel
         self.degree = degree
@@ -99,6 +107,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         self.tune_evals = tune_evals
         self.tune_points = tune_points
         self.confidence_level = confidence_level
+        self.tune_method = tune_method
 
     def __sklearn_tags__(self):
         tags = super().__sklearn_tags__()
@@ -142,6 +151,7 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
             int(self.tune_evals),
             int(self.tune_points),
             float(self.confidence_level),
+            self.tune_method,
         )
         self._settle()
         return self
