@@ -5,6 +5,7 @@ scikit-learn's KNeighborsRegressor (k by 5-fold GridSearchCV) and, with
 one run, on one 80/20 split.
 
     python3 scripts/lwr_diabetes.py [--seed S] [--kernelreg] [--compass] [--tune-evals N] [--tune-points P]
+    python3 scripts/lwr_diabetes.py --summarize FILE   (the tables of several seeds: means and counts)
 
 Sets up its own virtual environment (.venv-ref/, from scripts/requirements.txt)
 on first use; NPRL_ANY_PYTHON=1 runs in the current Python instead (it needs
@@ -81,14 +82,41 @@ def run_kernelreg(xtr, ytr, xte, yte):
     return {"fit_s": fit_s, "predict_s": time.perf_counter() - t, "rmse": rmse(pred, yte)}
 
 
+def summarize(path):
+    """The summary over the seeds of a file of this script's tables: per
+    method, the mean test RMSE and fit time, and the splits on which it is
+    at most KernelReg's RMSE and faster than KNN."""
+    runs = {}
+    for line in pathlib.Path(path).read_text().splitlines():
+        cells = [c.strip() for c in line.strip("|").split("|")]
+        if line.startswith("diabetes,"):
+            runs[line] = {}
+            current = runs[line]
+        elif line.startswith("| ") and len(cells) == 5 and cells[0] not in ("method", "---"):
+            current[cells[0]] = (float(cells[1]), float(cells[2]))
+    methods = list(next(iter(runs.values())))
+    print(f"over {len(runs)} splits")
+    print("| method | mean test RMSE | mean fit s | splits with RMSE <= KernelReg's | splits with fit faster than KNN |")
+    print("|---|---|---|---|---|")
+    for m in methods:
+        rmse = [r[m][0] for r in runs.values()]
+        fit = [r[m][1] for r in runs.values()]
+        le = sum(r[m][0] <= r["KernelReg ll, cv_ls"][0] for r in runs.values() if "KernelReg ll, cv_ls" in r)
+        fast = sum(r[m][1] < r["KNN, k by GridSearchCV"][1] for r in runs.values())
+        print(f"| {m} | {np.mean(rmse):.2f} | {np.mean(fit):.3f} | {le} of {len(runs)} | {fast} of {len(runs)} |")
+
+
 def main():
     parser = argparse.ArgumentParser()
+    parser.add_argument("--summarize", metavar="FILE", help="only summarise a file of this script's tables over its seeds")
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--kernelreg", action="store_true")
     parser.add_argument("--compass", action="store_true", help="also lwr tuned by the compass search (TuneMethod::Compass)")
     parser.add_argument("--tune-evals", type=int, help="lwr's tuning evaluations (default: LwrModel::fit's)")
     parser.add_argument("--tune-points", type=int, default=0, help="lwr's points per evaluation (0: all)")
     args = parser.parse_args()
+    if args.summarize:
+        return summarize(args.summarize)
     x, y = load_diabetes(return_X_y=True)
     xtr, xte, ytr, yte = train_test_split(x, y, test_size=0.2, random_state=args.seed)
     subprocess.run(["cargo", "build", "--quiet", "--release", "-p", "nprl-drivers", "--bin", "lwr_fit_timing"],

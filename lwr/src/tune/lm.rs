@@ -3,7 +3,7 @@
 //! logarithms of the scales, with an exact Jacobian
 //! ([`LwrModel::loo_jacobian`](crate::LwrModel)).
 
-use super::{Evaluator, TuneRun, TuneSettings, TuneStatus, TuneStep, halted};
+use super::{Evaluator, TuneRun, TuneStatus, TuneStep, halted};
 use crate::error::Result;
 use crate::factor::{chol_solve, cholesky};
 use crate::loo::LooJacobian;
@@ -28,11 +28,20 @@ const MIN_DECREASE: f64 = 1e-5;
 /// to improve, for about twenty evaluations.
 const FINISH_FACTOR: f64 = 1.1;
 
+/// The compass search over the bandwidth alone hands over to
+/// Levenberg-Marquardt over the scales once its factor falls below this.
+/// A coarse bandwidth suffices (the scales then move relative to it), but a
+/// global one: from a start too narrow the descent can follow the
+/// objective down towards fits that isolate every point (each then scored
+/// as predicting the mean, an objective of 1), which the compass search's
+/// factor-4 steps jump over.
+pub(super) const SWITCH_FACTOR: f64 = 1.5;
+
 /// The state of the search between iterations.
 #[derive(Debug, Clone)]
 pub(super) struct Lm {
     /// The coordinates of the search point that move: $1 + j$ for the scale
-    /// of input $j$, or 0 for the bandwidth alone.
+    /// of input $j$.
     free: Vec<usize>,
     /// The residuals and their Jacobian (in $\log m_j$) at the point.
     at: LooJacobian,
@@ -42,51 +51,27 @@ pub(super) struct Lm {
     /// The running maximum of the normal matrix's diagonal, per free
     /// coordinate (Marquardt's scaling, as MINPACK keeps it).
     diag: Vec<f64>,
-    /// Whether the descent has ended (next: from the bandwidth to the
-    /// scales, or the inputs tried at zero).
+    /// Whether the descent has ended (next: the inputs tried at zero).
     settled: bool,
-    /// Whether the scales move once the bandwidth's descent has ended
-    /// (`tune_scales` with `tune_bandwidth`).
-    scales_next: bool,
 }
 
 impl Lm {
-    /// The search from the start `x` with residuals and Jacobian `at`
-    /// (recorded as the first evaluation), and the start's objective: the
-    /// nonzero scales move (`tune_scales`), or else the bandwidth alone;
-    /// nothing moves from a start whose objective is not a number.
-    pub(super) fn start(
-        x: &[f64],
-        tune: &TuneSettings,
-        eval: &mut Evaluator<'_>,
-        at: LooJacobian,
-        history: &mut Vec<TuneStep>,
-    ) -> (f64, Self) {
-        let at = eval.record(x, Ok(at), history);
-        // the bandwidth first (it sets the scale of the neighbourhoods, and
-        // a descent over the scales from a start far too narrow or too wide
-        // ends in a poorer local minimum), then the scales
-        let free: Vec<usize> = if at.is_none() {
-            Vec::new()
-        } else if tune.tune_bandwidth {
-            vec![0]
-        } else if tune.tune_scales {
-            (1..x.len()).filter(|&c| x[c] > 0.0).collect()
-        } else {
-            Vec::new()
+    /// The search over the nonzero scales of `x` from its residuals and
+    /// Jacobian `at` (none: a point whose objective is not a number, from
+    /// which nothing moves).
+    pub(super) fn new(x: &[f64], at: Option<LooJacobian>) -> Self {
+        let free: Vec<usize> = match at {
+            Some(_) => (1..x.len()).filter(|&c| x[c] > 0.0).collect(),
+            None => Vec::new(),
         };
-        let f = at.as_ref().map_or(f64::INFINITY, |at| at.objective);
-        let at = at.unwrap_or_default();
-        let lm = Self {
+        Self {
             diag: vec![0.0; free.len()],
             free,
-            at,
+            at: at.unwrap_or_default(),
             mu: f64::NAN,
             nu: 2.0,
             settled: false,
-            scales_next: tune.tune_scales && tune.tune_bandwidth,
-        };
-        (f, lm)
+        }
     }
 
     /// A new descent over the free coordinates from the current point.
@@ -97,15 +82,9 @@ impl Lm {
         self.settled = false;
     }
 
-    /// Entry `(row, c)` of the Jacobian of the free coordinates: the column
-    /// of $\log m_j$, or for the bandwidth, $-\sum_j$ of them (only
-    /// $m_j / h$ matters).
+    /// Entry `(row, c)` of the Jacobian of the free coordinates.
     fn column(&self, d: usize, row: usize, c: usize) -> f64 {
-        let jac = &self.at.jacobian[row * d..(row + 1) * d];
-        match self.free[c] {
-            0 => -jac.iter().sum::<f64>(),
-            coord => jac[coord - 1],
-        }
+        self.at.jacobian[row * d + self.free[c] - 1]
     }
 }
 
@@ -120,7 +99,12 @@ impl Evaluator<'_> {
 
     /// Records the outcome of [`jacobian_at`](Self::jacobian_at) at `x` as
     /// [`eval_jacobian`](Self::eval_jacobian) does.
-    fn record(&mut self, x: &[f64], at: Result<LooJacobian>, history: &mut Vec<TuneStep>) -> Option<LooJacobian> {
+    pub(super) fn record(
+        &mut self,
+        x: &[f64],
+        at: Result<LooJacobian>,
+        history: &mut Vec<TuneStep>,
+    ) -> Option<LooJacobian> {
         let at = at.ok().filter(|at| !at.objective.is_nan());
         let objective = at.as_ref().map_or(f64::INFINITY, |at| at.objective);
         self.cache.insert(
@@ -144,6 +128,30 @@ impl Evaluator<'_> {
 }
 
 impl TuneRun<'_> {
+    /// From the compass search over the bandwidth to Levenberg-Marquardt
+    /// over the scales: the residuals and Jacobian at the point (one
+    /// evaluation), and every coordinate for the compass search's sweeps at
+    /// the end.
+    pub(super) fn lm_switch(&mut self, watch: &Watch<'_>) -> Option<TuneStatus> {
+        self.lm_after = false;
+        if let Some(why) = halted(self.history.len(), &self.tune, watch) {
+            return Some(why);
+        }
+        let d = self.x.len() - 1;
+        self.coords = std::iter::once(0).chain(1..=d).collect();
+        let x = self.x.clone();
+        let at = self.eval.eval_jacobian(&x, &mut self.history);
+        if let Some(step) = self.history.last_mut() {
+            step.accepted = true;
+        }
+        if let Some(at) = &at {
+            self.f = at.objective;
+        }
+        self.lm = Some(Lm::new(&x, at));
+        self.sweeps += 1;
+        None
+    }
+
     /// One iteration of the Levenberg-Marquardt search: a step accepted
     /// (after as many rejected trials as it takes), or, once a descent has
     /// ended, what follows it ([`lm_settled`](Self::lm_settled)); when it
@@ -275,14 +283,7 @@ impl TuneRun<'_> {
     /// order: converged when none is dropped, else the descent starts again
     /// over the inputs left.
     fn lm_settled(&mut self, lm: &mut Lm, watch: &Watch<'_>) -> Option<TuneStatus> {
-        if lm.free == [0] && lm.scales_next {
-            // the bandwidth has settled: the scales from here
-            lm.free = (1..self.x.len()).filter(|&c| self.x[c] > 0.0).collect();
-            lm.scales_next = false;
-            lm.restart();
-            return None;
-        }
-        if !self.tune.try_zero || lm.free == [0] {
+        if !self.tune.try_zero {
             return Some(TuneStatus::Converged);
         }
         let mut dropped = false;

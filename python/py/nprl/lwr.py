@@ -41,9 +41,9 @@ class LWRRegressor(RegressorMixin, BaseEstimator):
         tuning of large data sets affordable.
     tune_method : {"lm", "compass"}
         The tuning's search: Levenberg-Marquardt on the leave-one-out
-        residuals with their exact derivatives (the bandwidth first, then the
-        scales, inputs tried at zero, a compass sweep at the end), or the
-        derivative-free compass search (more evaluations).
+        residuals with their exact derivatives (after a compass search over
+        the bandwidth; inputs tried at zero, compass sweeps at the end), or
+        the derivative-free compass search (more evaluations).
     confidence_level : float
         The level of the confidence and prediction intervals.
 
