@@ -88,6 +88,8 @@ def summarize(path):
     at most KernelReg's RMSE and faster than KNN."""
     runs = {}
     for line in pathlib.Path(path).read_text().splitlines():
+        if line.startswith("## Summary"):
+            break
         cells = [c.strip() for c in line.strip("|").split("|")]
         if line.startswith("diabetes,"):
             runs[line] = {}
