@@ -9,8 +9,8 @@ use crate::factor::{chol_solve, cholesky};
 use crate::loo::LooJacobian;
 use solve::Watch;
 
-/// Smallest damping relative to the largest scale of the normal matrix
-/// before the search gives up on a step.
+/// Largest damping (relative to the running maximum of the normal
+/// matrix's diagonal) before the search gives up on a step.
 const MAX_DAMPING: f64 = 1e16;
 
 /// A step of the logarithms below this fraction of $\log$ `min_factor` ends
@@ -24,8 +24,7 @@ const MIN_DECREASE: f64 = 1e-5;
 /// coordinate moved by this factor (or tried at zero) lowers the objective
 /// at the end. On a rough objective (leave-one-out errors amplified by
 /// leverages near 1) the descent can stop where a move of a few percent
-/// still pays; on the diabetes and Friedman data the sweeps found nothing
-/// to improve, for about twenty evaluations.
+/// still pays (a proptest found one).
 const FINISH_FACTOR: f64 = 1.1;
 
 /// The compass search over the bandwidth alone hands over to
