@@ -15,7 +15,7 @@
 //! equally important; [`LwrModel::tune`] then tunes the bandwidth $h$
 //! and every $m_j$ by minimising the leave-one-out error on the training
 //! data (by default Levenberg-Marquardt on the leave-one-out residuals in
-//! log space, [`TuneMethod::LevenbergMarquardt`]; `--tune-method compass`
+//! log space, [`TuneMethod::LevenbergMarquardt`](crate::TuneMethod::LevenbergMarquardt); `--tune-method compass`
 //! the compass search; either can set $m_j = 0$).
 //!
 //! The summary ([`FitReport`], printed as text or with `--json` as JSON)
@@ -61,17 +61,17 @@ use std::fs;
 use std::io;
 use std::path::{Path, PathBuf};
 
-use serde::Serialize;
-
 use estimate::{duration_words, estimate_loo_seconds, tuning_plan};
 
-use crate::{Degree, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneMethod, TuneSettings, TuneStatus};
+use crate::{Degree, Kernel, LwrError, LwrModel, LwrSettings, Prediction, TuneSettings, TuneStatus};
 
+mod args;
 mod error;
 mod estimate;
 mod report;
 mod table;
 
+pub use args::{DegreeArg, KernelArg, MethodArg};
 pub use error::FitError;
 pub use report::{FitReport, InputScale, TargetError, TestReport};
 pub use table::{PROGRESS_ROWS, Table};
@@ -150,78 +150,6 @@ impl FitArgs {
             tune_points: 0,
             tune_method: MethodArg::Lm,
             level: 0.95,
-        }
-    }
-}
-
-/// The searches of [`TuneMethod`], as command-line values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum MethodArg {
-    /// [`TuneMethod::LevenbergMarquardt`].
-    #[value(help = "Levenberg-Marquardt on the leave-one-out residuals, with their exact derivatives")]
-    Lm,
-    /// [`TuneMethod::Compass`].
-    #[value(help = "the derivative-free compass search (more evaluations)")]
-    Compass,
-}
-
-impl From<MethodArg> for TuneMethod {
-    fn from(m: MethodArg) -> Self {
-        match m {
-            MethodArg::Lm => TuneMethod::LevenbergMarquardt,
-            MethodArg::Compass => TuneMethod::Compass,
-        }
-    }
-}
-
-/// The kernels of [`Kernel`], as command-line values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum KernelArg {
-    /// $e^{-u^2/2}$, truncated at 5 bandwidths.
-    #[value(help = "exp(-u^2 / 2), truncated at 5 bandwidths")]
-    Gaussian,
-    /// $(1 - u^3)^3$ on $u < 1$.
-    #[value(help = "(1 - u^3)^3 for u < 1")]
-    Tricube,
-    /// $1 - u^2$ on $u < 1$.
-    #[value(help = "1 - u^2 for u < 1")]
-    Epanechnikov,
-    /// $(1 - u^2)^2$ on $u < 1$.
-    #[value(help = "(1 - u^2)^2 for u < 1")]
-    Bisquare,
-}
-
-impl From<KernelArg> for Kernel {
-    fn from(k: KernelArg) -> Self {
-        match k {
-            KernelArg::Gaussian => Kernel::Gaussian,
-            KernelArg::Tricube => Kernel::Tricube,
-            KernelArg::Epanechnikov => Kernel::Epanechnikov,
-            KernelArg::Bisquare => Kernel::Bisquare,
-        }
-    }
-}
-
-/// The degrees of [`Degree`], as command-line values.
-#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum, Serialize)]
-#[serde(rename_all = "lowercase")]
-pub enum DegreeArg {
-    /// Local constant (Nadaraya-Watson).
-    Constant,
-    /// Local linear.
-    Linear,
-    /// Local quadratic.
-    Quadratic,
-}
-
-impl From<DegreeArg> for Degree {
-    fn from(d: DegreeArg) -> Self {
-        match d {
-            DegreeArg::Constant => Degree::Constant,
-            DegreeArg::Linear => Degree::Linear,
-            DegreeArg::Quadratic => Degree::Quadratic,
         }
     }
 }

@@ -1,10 +1,11 @@
 //! Leave-one-out cross-validation, metric tuning, save and load.
 
+mod common;
+
+use common::sample;
 use lwr::strategies::{irrelevant_input_data, smooth_data};
 use lwr::{Degree, Kernel, LwrModel, LwrSettings, TuneSettings};
 use proptest::prelude::*;
-use proptest::strategy::ValueTree;
-use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
 
 proptest! {
     #![proptest_config(ProptestConfig::with_cases(32))]
@@ -47,11 +48,6 @@ proptest! {
         prop_assert!((press0 - loo.press[0]).abs() <= 1e-12 * press0.max(1.0));
         prop_assert!(loo.gcv.iter().all(|g| *g >= 0.0));
     }
-}
-
-fn sample<T: std::fmt::Debug>(s: impl Strategy<Value = T>, seed: u8) -> T {
-    let mut runner = TestRunner::new_with_rng(Config::default(), TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]));
-    s.new_tree(&mut runner).expect("strategy generates").current()
 }
 
 #[test]

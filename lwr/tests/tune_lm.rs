@@ -1,16 +1,12 @@
 //! The Levenberg-Marquardt tuning (`TuneMethod::LevenbergMarquardt`) and the
 //! fit/predict surface's extrapolation fallback.
 
+mod common;
+
+use common::sample;
 use lwr::strategies::{irrelevant_input_data, smooth_data};
 use lwr::{FitSettings, FitStatus, Kernel, LwrError, LwrModel, LwrSettings, TuneMethod, TuneSettings};
 use proptest::prelude::*;
-use proptest::strategy::ValueTree;
-use proptest::test_runner::{Config, RngAlgorithm, TestRng, TestRunner};
-
-fn sample<T: std::fmt::Debug>(s: impl Strategy<Value = T>, seed: u8) -> T {
-    let mut runner = TestRunner::new_with_rng(Config::default(), TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]));
-    s.new_tree(&mut runner).expect("strategy generates").current()
-}
 
 fn lm() -> TuneSettings {
     TuneSettings {

@@ -6,7 +6,8 @@
 use lwr::strategies::{DataSet, check_jacobian};
 use lwr::{FitStatus, Kernel, LwrModel, LwrSettings};
 use proptest::prelude::*;
-use proptest::test_runner::TestCaseError;
+use proptest::strategy::ValueTree;
+use proptest::test_runner::{Config, RngAlgorithm, TestCaseError, TestRng, TestRunner};
 use serde_json::Value;
 
 /// A JSON array of numbers.
@@ -59,4 +60,10 @@ pub(crate) fn jacobian_matches_differences(
         c.analytic
     );
     Ok(())
+}
+
+/// The value a strategy draws from a fixed seed: one reproducible sample.
+pub(crate) fn sample<T: std::fmt::Debug>(s: impl Strategy<Value = T>, seed: u8) -> T {
+    let mut runner = TestRunner::new_with_rng(Config::default(), TestRng::from_seed(RngAlgorithm::ChaCha, &[seed; 32]));
+    s.new_tree(&mut runner).expect("strategy generates").current()
 }
